@@ -5,7 +5,11 @@ sensitivities in the loop of steps, one sparse factorization of S and k + 1 back
 Python path does with the same native call: equal to the bit through the API and the CLI on a 3D space frame of 512
 members (846 coordinates), also where every sparse pivot fails and the band LU with pivoting stands in on both paths
 (``latdyn_sensitivity_step_pivoted``: Factorization._factor_pivoted's band, the same storage and order). The discrete
-adjoint's reverse pass takes those steps in its native call too (csrc/adjoint_reverse.c), equal to the NumPy path's."""
+adjoint's reverse pass takes those steps in its native call too (csrc/adjoint_reverse.c), equal to the NumPy path's.
+Rigid links and guides above DENSE_LIMIT coordinates or on a sparse storage: M, C and K of the compiled step's
+reduction on the iteration matrix's reduced pattern (csrc/linked_matrices.c ``latdyn_linked_exact_values``), S on it,
+on both paths — a 3D deploying chain of rigid bays latching twice, its flexible boom of 24 elements (band), and the
+space frame with a line of rigid top chords (sparse)."""
 from __future__ import annotations
 
 import numpy as np
@@ -16,6 +20,7 @@ import latdyn
 from benchmarks.sparse_sensitivities_loop import space_frame
 from latdyn.analyses import step_matrix
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.test_sensitivities_in_loop_links import CHAIN
 
 
 def _text(method: str | None = None) -> str:
@@ -100,3 +105,40 @@ def test_the_cli_writes_the_sparse_space_frames_python_path_files(tmp_path):
     summary = summary_of(out)
     assert summary["sensitivity_steps_in_loop"] == summary["steps"] == 12
     the_loop_off_writes_the_same(tmp_path, out)
+
+
+#: the deploying chain of rigid bays of tests/test_sensitivities_in_loop_links.py with a boom of 24 elements (above
+#: DENSE_LIMIT on the minimum coordinates), through its first latch
+LONG_CHAIN = CHAIN.replace("section: boom, elements: 3}", "section: boom, elements: 24}").replace(
+    "t_end: 0.5", "t_end: 0.3")
+
+
+def _rigid_chords() -> str:
+    """The space frame with four top chords in a line across its middle rigid, their ρA the parameter rho."""
+    data = yaml.safe_load(_text())
+    data["parameters"]["rho"] = 0.645
+    data["solve"]["sensitivities"] = ["F0", "F300", "P", "rho"]
+    for i in range(4):
+        data["beams"][f"tx{i}_4"]["rigid"] = True
+        data["sections"][f"tx{i}_4"]["rhoA"] = "rho"
+    return yaml.safe_dump(data, sort_keys=False)
+
+
+@pytest.mark.parametrize("text, kind, events", [(LONG_CHAIN, "band", 1), (_rigid_chords(), "sparse", 0)],
+                         ids=["3D rigid chain latching, a boom of 24 elements", "space frame with rigid chords"])
+def test_large_linked_steps_in_the_loop_are_the_python_paths(text, kind, events, monkeypatch):
+    """A model with rigid links above DENSE_LIMIT coordinates: every smooth step in the loop of steps (the latch's
+    step and the landing after it from Python), S on the reduced pattern, the sensitivities the per-step path's to
+    the bit (that path's, in turn, ca1051c's to the bit on both scenes: measured)."""
+    native, kinds = _run(text, monkeypatch, True)
+    python, _ = _run(text, monkeypatch, False)
+    from latdyn.numerics.linalg import DENSE_LIMIT
+
+    assert set(kinds) == {kind} and native.summary["coordinates"] > DENSE_LIMIT
+    steps, in_loop = native.summary["steps"], native.summary["sensitivity_steps_in_loop"]
+    assert len(native.summary["events"]) == events and python.summary["sensitivity_steps_in_loop"] == 0
+    assert (in_loop == steps) if events == 0 else (steps - 3 * events <= in_loop < steps)
+    for key, values in python.sensitivities.items():
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]

@@ -45,23 +45,23 @@ parameters inside continuous controllers' outputs (their partials ∂f/∂p comp
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
 clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
-links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, with the controllers and
-the explicit time dependence above): M, C and the exact K on the minimum coordinates,
-dense, and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
-``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
-Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
-n × n pattern. Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
+links and guides too (with the controllers and the explicit time dependence above): M, C and the exact K on the
+minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
+step's own reduction (csrc/linked_matrices.c, ``latdyn_linked_exact_values`` and ``latdyn_linked_reduce_columns``
+over csrc/links.c's), which the per-step Python path calls too (``Assembler.linked_exact_matrix_values``,
+``sensitivities.reduced_columns``): up to DENSE_LIMIT free coordinates on a dense or band storage dense, S on the full
+n × n pattern; above it or on a sparse storage as values of the iteration matrix's reduced pattern
+(``Assembler.linked_exact_pattern``), S on that pattern, its factorization chosen for it (band or sparse). Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
 angular momenta) need no term in the step: their rows' sensitivities are TransientSensitivities.record's at each row
 from the carried δq, δv (``_energy_refusal``). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
-values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
-matrix is sparse (csrc/linked_matrices.c is dense), cables beside controllers or explicit time dependence beside events, controllers with states,
+values whose derivative is a law in t or an input, cables beside controllers or explicit time dependence beside events, controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
 motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
 accounts carried per step in Python: energy_sensitivities.external_work_step) and the NumPy kernels.
 
-Step matrices of every storage: where a model without rigid links or guides has S on the supernodal sparse LU (above
-DENSE_LIMIT coordinates, its bandwidth after reverse Cuthill–McKee above BAND_LIMIT: a designer's lattice), the loop
+Step matrices of every storage: where a model has S on the supernodal sparse LU (above DENSE_LIMIT coordinates, its
+bandwidth after reverse Cuthill–McKee above BAND_LIMIT: a designer's lattice, with rigid links or not), the loop
 sums, factorises and solves it by the same native call as the Python step (csrc/sensitivity_step.c
 ``latdyn_sensitivity_step``: one factorization a step, k + 1 back-substitutions), and at a step whose sparse pivot
 fails the band LU with pivoting stands in as it does in :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`
@@ -334,8 +334,7 @@ class SensitivityLoop:
     def _layout(self) -> bool:
         """The per-numbering part of the struct (the free nodes' slots, S's pattern and storage, the exact
         matrices' segments, the section and load uses, on the sparse LU the band LU that stands in where its pivot
-        fails); False where this numbering takes the Python path (no free coordinates, or rigid links or guides
-        beyond the dense reduction: Assembler.linked_exact_layout None)."""
+        fails); False where this numbering takes the Python path (no free coordinates)."""
         owner = self.owner
         model, assembler = owner.model, owner.assembler
         n, k = model.n_dofs, len(owner.names)
@@ -348,7 +347,7 @@ class SensitivityLoop:
         ok = n > 0
         linked = model.links is not None
         linked_layout = assembler.linked_exact_layout(native) if linked else None
-        ok = ok and (linked_layout is not None or not linked)   # else the reduction from Python (linked.py)
+        ok = ok and (linked_layout is not None or not linked)
         if ok:
             slots = model.node_dofs[model.free_nodes, 3:6]
             step_matrix = owner._step_matrix(slots, dense=linked)   # noqa: SLF001 - the Python step's own, per numbering
@@ -387,7 +386,8 @@ class SensitivityLoop:
             d.linked_body_D = stiffness.ctypes.data
             d.n_segments = 0
             self._keep.append(linked_layout)
-            self._mck = np.zeros((3, n * n))
+            d.linked_count = gather.size   # n², or the reduced pattern's entries (Assembler.linked_exact_pattern)
+            self._mck = np.zeros((3, gather.size))
         else:
             arguments, stiffness = assembler.exact_segments(native)
             d.n_segments, d.counts, d.first, d.second, d.indices, d.positions = arguments

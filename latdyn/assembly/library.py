@@ -231,7 +231,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("cables", P),
                 # S on the sparse LU: the band LU with pivoting that stands in where its pivot fails
                 # (csrc/sensitivity_step.c latdyn_sensitivity_step_pivoted); NULL: S not sparse
-                ("pivoted", P), ("pivoted_storage", P), ("pivoted_factor", P), ("pivoted_pivots", P)]
+                ("pivoted", P), ("pivoted_storage", P), ("pivoted_factor", P), ("pivoted_pivots", P),
+                # rigid links and guides: the entries linked_gather gathers (n², or the reduced pattern's nnz)
+                ("linked_count", I64)]
 
 
 class GeometryForcesData(ctypes.Structure):
@@ -383,6 +385,9 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_linked_exact_matrices.restype = None
         library.latdyn_linked_exact_matrices.argtypes = [model, work, configuration, ctypes.c_double, P, P, P, P, P, P,
                                                          P, P]
+        library.latdyn_linked_exact_values.restype = None
+        library.latdyn_linked_exact_values.argtypes = [model, work, configuration, ctypes.c_double, P, P, P, P, P, P,
+                                                       I64, P, P]
         library.latdyn_linked_reduce_columns.restype = None
         library.latdyn_linked_reduce_columns.argtypes = [model, P, I64, P]
         library.latdyn_linked_matrices.restype = None

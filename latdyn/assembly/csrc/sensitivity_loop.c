@@ -153,6 +153,9 @@ typedef struct SensitivityLoopTag {
     const int64_t *pivoted_storage;     /* S's entries' offsets in its storage */
     double *pivoted_factor;             /* its storage */
     int *pivoted_pivots;                /* n */
+    /* rigid links and guides: the entries linked_gather gathers (n²: the dense n × n; above DENSE_LIMIT coordinates
+     * or on a sparse storage the iteration matrix's pattern on the minimum coordinates, S on it: latdyn_linked_exact_values) */
+    int64_t linked_count;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -360,8 +363,8 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
     if (s->linked)
-        latdyn_linked_exact_matrices(m, w, c, t, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
-                                     s->linked_body_D, s->linked_gather, s->linked_storage, s->mck);
+        latdyn_linked_exact_values(m, w, c, t, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
+                                   s->linked_body_D, s->linked_gather, s->linked_count, s->linked_storage, s->mck);
     else
         exact_matrices(m, w, s, c, t);
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
