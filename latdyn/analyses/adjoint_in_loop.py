@@ -22,8 +22,10 @@ The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smoo
 that does not move with the parameters — in one call of csrc/adjoint_reverse.c (:class:`ReverseSteps`): M, C and the
 exact K at the stored state, S factorised on its held pattern and storage, w = S⁻ᵀz̄ and the bars carried back, the
 sums in NumPy's and SciPy's order; the contraction (∂r/∂p)ᵀw stays :meth:`AdjointSensitivities.residual_transposed_product`
-(every parameter kind), and the events' pieces, the steps whose size moves and the numberings whose S takes the
-sparse LU stay on the NumPy path. For the same runs (:func:`refusal`).
+(every parameter kind), and the events' pieces and the steps whose size moves stay on the NumPy path; a numbering
+whose S takes the sparse LU is taken natively too, with the band LU with pivoting where a sparse pivot fails
+(Factorization._factor_pivoted's, as the NumPy path's: sensitivities_in_loop.SensitivityLoop._pivoted). For the same
+runs (:func:`refusal`).
 
 The derivatives are those of the Python and NumPy paths to the bit (``ADJOINT_IN_LOOP`` and ``REVERSE_NATIVE`` off:
 tests/test_adjoint_in_loop.py; docs/performance.md, "The adjoint's passes in C").
@@ -157,7 +159,7 @@ class ReverseSteps:
     :func:`refusal` lets through; the contraction with ∂r/∂p stays the caller's
     (:meth:`AdjointSensitivities.residual_transposed_product`). Laid out per numbering as the forward method's loop
     lays out its struct (:class:`latdyn.analyses.sensitivities_in_loop.SensitivityLoop`, without its parameters'
-    parts); a numbering whose step matrix takes the sparse LU stays on the NumPy path."""
+    parts), on the sparse LU too (a failed pivot: the band LU that stands in, as on the NumPy path)."""
 
     def __init__(self, owner):
         from latdyn.analyses.sensitivities_in_loop import SensitivityLoop

@@ -45,12 +45,13 @@ parameters inside continuous controllers' outputs (their partials ∂f/∂p comp
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
 clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
-links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, with the controllers and
-the explicit time dependence above): M, C and the exact K on the minimum coordinates,
-dense, and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled step's own reduction (csrc/linked_matrices.c,
-``latdyn_linked_exact_matrices`` and ``latdyn_linked_reduce_columns`` over csrc/links.c's), which the per-step
-Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities.reduced_columns``), S on the full
-n × n pattern. Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
+links and guides too (with the controllers and the explicit time dependence above): M, C and the exact K on the
+minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
+step's own reduction (csrc/linked_matrices.c, ``latdyn_linked_exact_values`` and ``latdyn_linked_reduce_columns``
+over csrc/links.c's), which the per-step Python path calls too (``Assembler.linked_exact_matrix_values``,
+``sensitivities.reduced_columns``): up to DENSE_LIMIT free coordinates on a dense or band storage, dense, S on the full
+n × n pattern; above it or on a sparse storage as values of the iteration matrix's reduced pattern
+(``Assembler.linked_exact_pattern``), S on that pattern, its factorization chosen for it (band or sparse). Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
 angular momenta) need no term in the step: their rows' sensitivities are TransientSensitivities.record's at each row
 from the carried δq, δv (``_energy_refusal``). The work accounts, sums over the steps by the forward run's
 quadrature — the dissipated energy (the dampers' work) and the external work (the point loads' power, the generated
@@ -62,14 +63,19 @@ alone) tabulated per grid point, on models without rigid links, guides or prescr
 the accounts and their terms handed back at the loop's end, an event's account after it is the Python path's,
 energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
-values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
-matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
+values whose derivative is a law in t or an input, cables beside controllers or explicit time dependence beside events, controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
 motions, reels (a rest length in t) or laws of the state and t, the work accounts (energy_sensitivities.external_work_step)
 with a law of θ, θ̇ or an input in them, with rigid links or guides, or (the external work) with a prescribed motion
-(its drive's reaction), the NumPy kernels, and a numbering
-whose step matrix takes the
-sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
+(its drive's reaction), and the NumPy kernels.
+
+Step matrices of every storage: where a model has S on the supernodal sparse LU (above DENSE_LIMIT coordinates, its
+bandwidth after reverse Cuthill–McKee above BAND_LIMIT: a designer's lattice, with rigid links or not), the loop
+sums, factorises and solves it by the same native call as the Python step (csrc/sensitivity_step.c
+``latdyn_sensitivity_step``: one factorization a step, k + 1 back-substitutions), and at a step whose sparse pivot
+fails the band LU with pivoting stands in as it does in :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`
+(Factorization._factor_pivoted's band, made once a numbering at the layout: the same storage, order and right-hand
+sides, ``latdyn_sensitivity_step_pivoted``), so those steps stay in the loop too (:meth:`SensitivityLoop._pivoted`).
 
 Results: the planar models' rotations are the identity and every sum is the Python step's: the sensitivities
 are the Python path's to the bit. In 3D, R = exp(skew hΔq) and J = dexp(hΔq) are the generated ``so3_exp`` and
@@ -373,8 +379,8 @@ class SensitivityLoop:
 
     def _layout(self) -> bool:
         """The per-numbering part of the struct (the free nodes' slots, S's pattern and storage, the exact
-        matrices' segments, the section and load uses); False where this numbering takes the Python path (no
-        free coordinates, or S on the sparse LU)."""
+        matrices' segments, the section and load uses, on the sparse LU the band LU that stands in where its pivot
+        fails); False where this numbering takes the Python path (no free coordinates)."""
         owner = self.owner
         model, assembler = owner.model, owner.assembler
         n, k = model.n_dofs, len(owner.names)
@@ -387,11 +393,10 @@ class SensitivityLoop:
         ok = n > 0
         linked = model.links is not None
         linked_layout = assembler.linked_exact_layout(native) if linked else None
-        ok = ok and (linked_layout is not None or not linked)   # else the reduction from Python (linked.py)
+        ok = ok and (linked_layout is not None or not linked)
         if ok:
             slots = model.node_dofs[model.free_nodes, 3:6]
             step_matrix = owner._step_matrix(slots, dense=linked)   # noqa: SLF001 - the Python step's own, per numbering
-            ok = step_matrix.factorization.kind != "sparse"
         if not ok:
             self._for = (key, False)
             return False
@@ -427,7 +432,8 @@ class SensitivityLoop:
             d.linked_body_D = stiffness.ctypes.data
             d.n_segments = 0
             self._keep.append(linked_layout)
-            self._mck = np.zeros((3, n * n))
+            d.linked_count = gather.size   # n², or the reduced pattern's entries (Assembler.linked_exact_pattern)
+            self._mck = np.zeros((3, gather.size))
         else:
             arguments, stiffness = assembler.exact_segments(native)
             d.n_segments, d.counts, d.first, d.second, d.indices, d.positions = arguments
@@ -448,6 +454,7 @@ class SensitivityLoop:
         d.S = step_matrix._summed.ctypes.data   # noqa: SLF001
         d.factor, d.pivots = step_matrix.factorization.values.ctypes.data, step_matrix.factorization.pivots.ctypes.data
         d.solve_work = self._pointer(np.zeros(3 * n * cols))
+        self._pivoted(step_matrix)
         self._sections()
         self._loads()
         self._hinges()
@@ -519,6 +526,25 @@ class SensitivityLoop:
             setattr(a, name, self._pointer(array))
         a.scratch = self._pointer(np.zeros(H + 3 * H * k))
         d.accounts = ctypes.addressof(a)
+
+    def _pivoted(self, step_matrix) -> None:
+        """S on the sparse LU: the band LU with pivoting that stands in at a step whose sparse pivot fails, the
+        Python step's own (Factorization._factor_pivoted's, made here once a numbering and kept for it), S's entries'
+        offsets in its storage (csrc/sensitivity_step.c ``latdyn_sensitivity_step_pivoted``); else none."""
+        from latdyn.assembly.factorization import Factorization
+
+        d, factorization = self.data, step_matrix.factorization
+        d.pivoted = None
+        if factorization.kind != "sparse":
+            return
+        if factorization._band is None:   # noqa: SLF001 - the stand-in _factor_pivoted makes, made here first
+            factorization._band = Factorization(factorization.rows, factorization.cols, factorization.n, kind="band")  # noqa: SLF001
+        band = factorization._band   # noqa: SLF001
+        self._keep.append(band)
+        d.pivoted = ctypes.addressof(band.structure)
+        d.pivoted_storage = self._pointer(np.ascontiguousarray(band.position(step_matrix.rows, step_matrix.cols),
+                                                               np.int64))
+        d.pivoted_factor, d.pivoted_pivots = band.values.ctypes.data, band.pivots.ctypes.data
 
     def _hinges(self) -> None:
         """The (use, column) pairs of ParameterDerivatives._hinge_uses, in its order: hinge, column, the derivative's

@@ -564,9 +564,10 @@ class TransientSensitivities(ParameterDerivatives):
         call. Without rigid links and guides M, C and K are the values of the assembler's pattern and S is
         summed, factorised and the columns formed and solved in one native call
         (:meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`, :meth:`_step_matrix`); with them, the
-        same call with M, C and K of the compiled step's reduction dense on the full pattern
-        (``Assembler.linked_exact_matrix_values``, the loop of steps' own), or where that is None (above
-        DENSE_LIMIT coordinates, a sparse storage) the reduction's matrices (:meth:`_matrices`) summed by SciPy.
+        same call with M, C and K of the compiled step's reduction (``Assembler.linked_exact_matrix_values``, the loop
+        of steps' own: dense on the full pattern, or above DENSE_LIMIT coordinates or on a sparse storage on the
+        iteration matrix's reduced pattern), or where that is None the reduction's matrices (:meth:`_matrices`)
+        summed by SciPy.
         A singular matrix raises SolverError."""
         def singular():
             return SolverError(f"the sensitivities at t = {new.t:.6g} need the step's exact iteration matrix, "
@@ -1172,15 +1173,21 @@ class TransientSensitivities(ParameterDerivatives):
     def _step_matrix(self, slots: np.ndarray, dense: bool = False) -> "ExactStepMatrix":
         """The step's exact iteration matrix β′M + γ′C + K J on the assembler's pattern
         (:class:`latdyn.analyses.step_matrix.ExactStepMatrix`), built once per numbering; ``dense``: on the full
-        n × n pattern (rigid links and guides: the reduced M, C and K of ``Assembler.linked_exact_matrix_values``)."""
+        n × n pattern (rigid links and guides: the reduced M, C and K of ``Assembler.linked_exact_matrix_values``; above
+        DENSE_LIMIT coordinates or on a sparse storage on their pattern, ``Assembler.linked_exact_pattern``, the
+        factorization chosen for it)."""
         n = self.model.n_dofs
         if dense:   # held per numbering (the native model's links are laid out anew with it)
             key = (self.assembler.native(True), n)
+            pattern = self.assembler.linked_exact_pattern(key[0])
             held = self.__dict__.get("_held_dense_step_matrix")
             if held is None or held[0] is not key[0] or held[1] != n or not np.array_equal(held[2], slots):
-                indptr = np.arange(0, n * n + 1, max(n, 1), dtype=np.int64)[:n + 1]
-                indices = np.tile(np.arange(n, dtype=np.int64), n)
-                held = (key[0], n, slots.copy(), ExactStepMatrix(indptr, indices, n, slots, kind="dense"))
+                if pattern is not None:
+                    held = (key[0], n, slots.copy(), ExactStepMatrix(*pattern, n, slots))
+                else:
+                    indptr = np.arange(0, n * n + 1, max(n, 1), dtype=np.int64)[:n + 1]
+                    indices = np.tile(np.arange(n, dtype=np.int64), n)
+                    held = (key[0], n, slots.copy(), ExactStepMatrix(indptr, indices, n, slots, kind="dense"))
                 self._held_dense_step_matrix = held
             return held[3]
         indptr, indices = self.assembler.pattern()   # new arrays at every renumbering (Assembler.reindex)

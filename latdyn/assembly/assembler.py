@@ -333,46 +333,59 @@ class Assembler:
         step has not yet: ``latdyn.assembly.held_matrix.hold_matrix``), made once per native model: (each entry's offset in
         that storage, n² row-major, −1 off the pattern; a storage of its size other than the step's, the one
         :func:`latdyn.assembly.linked.linked_pattern` gathers from; the joint bodies' inertia
-        stiffness, 36 each); None where that matrix is sparse or the model has more than DENSE_LIMIT coordinates
-        (:meth:`exact_matrices` then: the same reduction as sparse values, latdyn/assembly/linked.py)."""
+        stiffness, 36 each). Up to DENSE_LIMIT coordinates on a dense or band storage the offsets are n², row-major,
+        −1 off the pattern (M, C and K dense n × n); above it or on a sparse storage they are the pattern's own entries
+        row by row, M, C and K values of that pattern (:meth:`linked_exact_pattern`). None without free coordinates."""
         held = self.__dict__.get("_linked_exact_layout")
         if held is not None and held[0] is native:
             return held[1]
-        layout = None
+        layout = pattern = None
         n = self.model.n_dofs
-        if self.model.links is not None and 0 < n <= DENSE_LIMIT:
+        if self.model.links is not None and 0 < n:
             from latdyn.assembly.linked import linked_pattern
             from latdyn.assembly.held_matrix import hold_matrix   # on use: the compiled step's storage, shared with it
 
-            if hold_matrix(self, native).kind in ("dense", "band"):
-                (rows, cols, _), offsets, storage = linked_pattern(self, native)   # the entries the reduction writes
+            kind = hold_matrix(self, native).kind
+            (rows, cols, indptr), offsets, storage = linked_pattern(self, native)   # the entries the reduction writes
+            if n <= DENSE_LIMIT and kind in ("dense", "band"):
                 gather = np.full(n * n, -1, np.int64)
                 gather[rows * n + cols] = offsets
-                layout = (gather, storage, np.zeros(max(36 * len(self.model.body_nodes), 1)))
+            else:   # the reduced pattern's entries: S on it (transient_sensitivities._step_matrix), sparse or band
+                gather, pattern = np.ascontiguousarray(offsets, np.int64), (indptr, np.asarray(cols, np.int64))
+            layout = (gather, storage, np.zeros(max(36 * len(self.model.body_nodes), 1)))
         self._linked_exact_layout = (native, layout)
+        self._linked_exact_pattern = pattern
         return layout
+
+    def linked_exact_pattern(self, native: NativeModel):
+        """The CSR pattern (indptr, column indices) on the minimum coordinates whose values
+        :meth:`linked_exact_matrix_values` gives for ``native`` (a model with rigid links or guides above DENSE_LIMIT
+        coordinates or on a sparse storage: the iteration matrix's, latdyn.assembly.linked.linked_pattern), or None
+        where they are dense n × n (:meth:`linked_exact_layout`)."""
+        self.linked_exact_layout(native)
+        return self._linked_exact_pattern
 
     def linked_exact_matrix_values(self, state: State):
         """(3, n²): M, C and the exact K on the minimum coordinates of a model with rigid links or guides at ``state``
         (:meth:`exact_matrices`' with the inertia, load factor 1), row-major, from the reduction the compiled step
-        uses (``latdyn_linked_exact_matrices``, csrc/linked_matrices.c: the same call the transient sensitivities'
-        step makes in the loop of steps); None where :meth:`linked_exact_layout` is None."""
+        uses (``latdyn_linked_exact_values``, csrc/linked_matrices.c: the same call the transient sensitivities'
+        step makes in the loop of steps); (3, nnz), values of :meth:`linked_exact_pattern`, where that is not None;
+        None where :meth:`linked_exact_layout` is None."""
         native = self.native(True)
         layout = self.linked_exact_layout(native)
         if layout is None:
             return None
         gather, storage, body_D = layout
         self.complete_links(state)
-        n = self.model.n_dofs
-        out = np.empty((3, n * n))
+        out = np.empty((3, gather.size))
         kernel = self._body_stiffness_kernel() if len(self.model.body_nodes) else None
         rows, gravity = self.body_stiffness_inputs(1.0) if kernel is not None else (body_D, body_D)
         scratch = np.empty(max(18 * len(self.model.body_nodes), 1))
         native.laws.bind_inputs()
-        native.library.latdyn_linked_exact_matrices(
+        native.library.latdyn_linked_exact_values(
             native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), float(state.t), kernel,
             rows.ctypes.data, gravity.ctypes.data, scratch.ctypes.data, body_D.ctypes.data, gather.ctypes.data,
-            storage.ctypes.data, out.ctypes.data)
+            gather.size, storage.ctypes.data, out.ctypes.data)
         return out
 
     def exact_segments(self, native: NativeModel) -> tuple:

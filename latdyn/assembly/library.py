@@ -230,7 +230,12 @@ class SensitivityLoopData(ctypes.Structure):
                 # ∂r/∂p of the cables' parameters (csrc/cable_forces.c); NULL: none
                 ("cables", P),
                 # the work accounts' sensitivities carried through the steps (csrc/work_accounts.c); NULL: none
-                ("accounts", P)]
+                ("accounts", P),
+                # S on the sparse LU: the band LU with pivoting that stands in where its pivot fails
+                # (csrc/sensitivity_step.c latdyn_sensitivity_step_pivoted); NULL: S not sparse
+                ("pivoted", P), ("pivoted_storage", P), ("pivoted_factor", P), ("pivoted_pivots", P),
+                # rigid links and guides: the entries linked_gather gathers (n², or the reduced pattern's nnz)
+                ("linked_count", I64)]
 
 
 class WorkAccountsData(ctypes.Structure):
@@ -398,6 +403,9 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_linked_exact_matrices.restype = None
         library.latdyn_linked_exact_matrices.argtypes = [model, work, configuration, ctypes.c_double, P, P, P, P, P, P,
                                                          P, P]
+        library.latdyn_linked_exact_values.restype = None
+        library.latdyn_linked_exact_values.argtypes = [model, work, configuration, ctypes.c_double, P, P, P, P, P, P,
+                                                       I64, P, P]
         library.latdyn_linked_reduce_columns.restype = None
         library.latdyn_linked_reduce_columns.argtypes = [model, P, I64, P]
         library.latdyn_linked_matrices.restype = None

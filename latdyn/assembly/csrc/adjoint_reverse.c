@@ -3,7 +3,8 @@
  * module docstring; AdjointSensitivities._reverse_columns), for a step with no event and a size that does not move
  * with the parameters: at the stored end state c, M, C and the exact K (latdyn_evaluate with the inertia tangent,
  * latdyn_joint_body_inertia_stiffness, latdyn_exact_matrix_values: Assembler.exact_matrix_values), S = β′M + γ′C + K J
- * summed and factorised (latdyn_sensitivity_step with no column: ExactStepMatrix.factor), then for the m output
+ * summed and factorised (latdyn_sensitivity_step with no column: ExactStepMatrix.factor; where the sparse LU's pivot
+ * fails, the band LU with pivoting that stands in for it, latdyn_sensitivity_step_pivoted), then for the m output
  * columns
  *
  *     z̄ = Jᵀq̄ + γ′v̄ + β′v̇̄ + (1 − α_f)/(1 − α_m) β′ā,      w = S⁻ᵀ z̄,
@@ -48,6 +49,14 @@ int64_t latdyn_adjoint_reverse_step(const Model *m, Work *w, SensitivityLoop *s,
     exact_matrices(m, w, s, c, t);   /* sensitivity_loop.c */
     int64_t info = latdyn_sensitivity_step(step, s->mck, tangent, beta_p, gamma_p, s->S, s->factor, s->pivots, 0,
                                            NULL, NULL, NULL, NULL, NULL);
+    const Factorization *factorization = step->factorization;
+    double *factor = s->factor;
+    int *pivots = s->pivots;
+    if (info != 0 && s->pivoted != NULL) {   /* the sparse LU's pivot failed: the band LU with pivoting, as in Python */
+        factorization = s->pivoted, factor = s->pivoted_factor, pivots = s->pivoted_pivots;
+        info = latdyn_sensitivity_step_pivoted(step, factorization, s->pivoted_storage, s->S, s->mck, factor, pivots, 0,
+                                               NULL, NULL, NULL, NULL, NULL);
+    }
     if (info != 0) return info;
     double *z = work, *x = work + size, *stiff = work + 2 * size, *damp = work + 3 * size, *u = work + 4 * size;
     /* z̄ = ((Jᵀq̄ + γ′v̄) + β′v̇̄) + ((1 − α_f)/(1 − α_m) β′)ā */
@@ -56,10 +65,10 @@ int64_t latdyn_adjoint_reverse_step(const Model *m, Work *w, SensitivityLoop *s,
     for (int64_t at = 0; at < size; ++at)
         z[at] = ((z[at] + gamma_p * v_bar[at]) + beta_p * vdot_bar[at]) + rate * a_bar[at];
     /* w = S⁻ᵀ z̄ in the factor's order (Factorization.solve_transposed) */
-    const int64_t *permutation = step->factorization->permutation;
+    const int64_t *permutation = factorization->permutation;
     for (int64_t i = 0; i < n; ++i)
         for (int64_t col = 0; col < cols; ++col) x[col * n + permutation[i]] = z[i * cols + col];
-    if (n) info = latdyn_solve_transposed(step->factorization, s->factor, s->pivots, cols, x);
+    if (n) info = latdyn_solve_transposed(factorization, factor, pivots, cols, x);
     if (info != 0) return info;
     for (int64_t i = 0; i < n; ++i)
         for (int64_t col = 0; col < cols; ++col) w_out[i * cols + col] = x[col * n + permutation[i]];

@@ -38,25 +38,36 @@ static void linked_part(const Model *m, Work *w, const Configuration *c, int par
 
 /* M, C and the exact K at c, time t (load factor 1, with inertia and the inertia tangent, the joint bodies' inertia
  * stiffness added to their K blocks where body_kernel is not NULL, the dependent rates' q-dependence in K) on the
- * minimum coordinates: each n × n, row-major, one after the other in `out` (3 n²). c's dependent nodes completed
+ * minimum coordinates, `count` entries each, one after the other in `out` (3 count). c's dependent nodes completed
  * (latdyn_complete_links). `storage`: the iteration matrix's storage size (m->factorization), a buffer other than
- * w->matrix (modified Newton's factors); `gather` (n², row-major): each entry's offset in that storage (−1: none).
- * The evaluation is left in w. */
-void latdyn_linked_exact_matrices(const Model *m, Work *w, const Configuration *c, double t,
-                                  kernel_body_stiffness body_kernel, const double *body_rows,
-                                  const double *body_gravity, double *body_scratch, double *body_D,
-                                  const int64_t *gather, double *storage, double *out)
+ * w->matrix (modified Newton's factors); `gather` (count): each entry's offset in that storage (−1: none): n²,
+ * row-major, for the dense n × n (latdyn_linked_exact_matrices), or above DENSE_LIMIT coordinates or on a sparse
+ * storage the iteration matrix's pattern on the minimum coordinates, row by row (latdyn.assembly.linked.linked_pattern;
+ * Assembler.linked_exact_pattern). The evaluation is left in w. */
+void latdyn_linked_exact_values(const Model *m, Work *w, const Configuration *c, double t,
+                                kernel_body_stiffness body_kernel, const double *body_rows, const double *body_gravity,
+                                double *body_scratch, double *body_D, const int64_t *gather, int64_t count,
+                                double *storage, double *out)
 {
-    const int64_t n = m->n_dofs;
     EvaluationControl e = {t, 1.0, 1, 1, 1, 0.0};
     latdyn_evaluate(m, w, c, &e);
     if (body_kernel != NULL)
         latdyn_joint_body_inertia_stiffness(m, c, body_kernel, body_rows, body_gravity, body_scratch, body_D);
     for (int part = 0; part < 3; ++part) {
         linked_part(m, w, c, part, 1, 1, part == 2, body_kernel != NULL ? body_D : NULL, storage);
-        double *to = out + part * n * n;
-        for (int64_t p = 0; p < n * n; ++p) to[p] = gather[p] >= 0 ? storage[gather[p]] : 0.0;
+        double *to = out + part * count;
+        for (int64_t p = 0; p < count; ++p) to[p] = gather[p] >= 0 ? storage[gather[p]] : 0.0;
     }
+}
+
+/* latdyn_linked_exact_values on the dense n × n (gather n², out 3 n²). */
+void latdyn_linked_exact_matrices(const Model *m, Work *w, const Configuration *c, double t,
+                                  kernel_body_stiffness body_kernel, const double *body_rows,
+                                  const double *body_gravity, double *body_scratch, double *body_D,
+                                  const int64_t *gather, double *storage, double *out)
+{
+    latdyn_linked_exact_values(m, w, c, t, body_kernel, body_rows, body_gravity, body_scratch, body_D, gather,
+                               m->n_dofs * m->n_dofs, storage, out);
 }
 
 /* Pᵀ total: the k columns `total` ((n_total + 1) × k, row-major: all coordinates) on the minimum coordinates into

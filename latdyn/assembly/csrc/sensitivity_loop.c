@@ -149,6 +149,16 @@ typedef struct SensitivityLoopTag {
     const CableForces *cables;
     /* the work accounts' sensitivities carried through the steps (work_accounts.c); NULL: no such probe */
     WorkAccounts *accounts;
+
+    /* S on the sparse LU (step_matrix.py): the band LU with pivoting that stands in at a step whose sparse pivot fails,
+     * as the Python step's (latdyn_sensitivity_step_pivoted: Factorization._factor_pivoted); NULL: S not sparse */
+    const Factorization *pivoted;
+    const int64_t *pivoted_storage;     /* S's entries' offsets in its storage */
+    double *pivoted_factor;             /* its storage */
+    int *pivoted_pivots;                /* n */
+    /* rigid links and guides: the entries linked_gather gathers (n²: the dense n × n; above DENSE_LIMIT coordinates
+     * or on a sparse storage the iteration matrix's pattern on the minimum coordinates, S on it: latdyn_linked_exact_values) */
+    int64_t linked_count;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -357,8 +367,8 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
     if (s->linked)
-        latdyn_linked_exact_matrices(m, w, c, t, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
-                                     s->linked_body_D, s->linked_gather, s->linked_storage, s->mck);
+        latdyn_linked_exact_values(m, w, c, t, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
+                                   s->linked_body_D, s->linked_gather, s->linked_count, s->linked_storage, s->mck);
     else
         exact_matrices(m, w, s, c, t);
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
@@ -386,6 +396,9 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     (void)da0;
     int64_t info = latdyn_sensitivity_step(s->step, s->mck, s->blocks, beta_p, gamma_p, s->S, s->factor, s->pivots,
                                            cols, s->explicit_, dq0, dv0, s->solve_work, s->z);
+    if (info != 0 && s->pivoted != NULL)   /* the sparse LU's pivot failed: the band LU with pivoting, as in Python */
+        info = latdyn_sensitivity_step_pivoted(s->step, s->pivoted, s->pivoted_storage, s->S, s->mck, s->pivoted_factor,
+                                               s->pivoted_pivots, cols, s->explicit_, dq0, dv0, s->solve_work, s->z);
     if (info != 0) {
         s->info = info;
         return info;

@@ -113,6 +113,26 @@ static void pattern_product(const SensitivityStep *s, const double *A, int64_t k
         }
 }
 
+/* z (n × k, row-major) = S⁻¹ rhs for rhs = −(explicit + K dq0 + C dv0) (each n × k, row-major) with S's factors in
+ * f's storage (factor, pivots), work holding 3 n k doubles: the products (pattern_product), each right-hand side
+ * contiguous in the factor's order, the solves. Returns latdyn_solve's info. */
+static int64_t solve_columns(const SensitivityStep *s, const Factorization *f, const double *factor, const int *pivots,
+                             const double *mck, int64_t k, const double *explicit_, const double *dq0,
+                             const double *dv0, double *work, double *z)
+{
+    const int64_t n = s->n, *permutation = f->permutation;
+    double *stiff = work, *damp = work + n * k, *x = work + 2 * n * k;
+    pattern_product(s, mck + 2 * s->nnz, k, dq0, stiff);
+    pattern_product(s, mck + s->nnz, k, dv0, damp);
+    for (int64_t i = 0; i < n; ++i)   /* each right-hand side contiguous, in the factor's order */
+        for (int64_t c = 0; c < k; ++c)
+            x[c * n + permutation[i]] = -((explicit_[i * k + c] + stiff[i * k + c]) + damp[i * k + c]);
+    int64_t info = latdyn_solve(f, factor, pivots, k, x);
+    for (int64_t i = 0; i < n; ++i)
+        for (int64_t c = 0; c < k; ++c) z[i * k + c] = x[c * n + permutation[i]];
+    return info;
+}
+
 /* Sums S into S (size doubles, kept for a caller that factorises it otherwise); with k < 0 that is all
  * (returns 0). Else loads it into the factor storage and factorises it (latdyn_factor); with k > 0 then
  * z (n × k, row-major) = S⁻¹ rhs for rhs = −(explicit + K dq0 + C dv0) (each n × k, row-major), work holding
@@ -130,17 +150,25 @@ int64_t latdyn_sensitivity_step(const SensitivityStep *s, const double *mck, con
     for (int64_t p = 0; p < s->size; ++p) factor[s->storage[p]] += S[p];
     int64_t info = latdyn_factor(f, factor, pivots);
     if (info != 0 || k <= 0 || s->n == 0) return info;
-    const int64_t n = s->n, *permutation = f->permutation;
-    double *stiff = work, *damp = work + n * k, *x = work + 2 * n * k;
-    pattern_product(s, mck + 2 * s->nnz, k, dq0, stiff);
-    pattern_product(s, mck + s->nnz, k, dv0, damp);
-    for (int64_t i = 0; i < n; ++i)   /* each right-hand side contiguous, in the factor's order */
-        for (int64_t c = 0; c < k; ++c)
-            x[c * n + permutation[i]] = -((explicit_[i * k + c] + stiff[i * k + c]) + damp[i * k + c]);
-    info = latdyn_solve(f, factor, pivots, k, x);
-    for (int64_t i = 0; i < n; ++i)
-        for (int64_t c = 0; c < k; ++c) z[i * k + c] = x[c * n + permutation[i]];
-    return info;
+    return solve_columns(s, f, factor, pivots, mck, k, explicit_, dq0, dv0, work, z);
+}
+
+/* Where the sparse LU's pivot failed in latdyn_sensitivity_step (its info nonzero), the band LU with LAPACK's
+ * partial pivoting that stands in for it (latdyn.assembly.factorization.Factorization._factor_pivoted, on S's pattern
+ * in reverse Cuthill–McKee order): S (as summed there) loaded at its entries' offsets `storage` in the band's storage
+ * `factor`, factorised, and the same k columns formed and solved (ExactStepMatrix.solve_step's fallback: the band's
+ * Factorization.solve of −(explicit + K dq0 + C dv0), the products SciPy's order). Returns latdyn_factor's info
+ * (nonzero: singular with pivoting too). */
+int64_t latdyn_sensitivity_step_pivoted(const SensitivityStep *s, const Factorization *band, const int64_t *storage,
+                                        const double *S, const double *mck, double *factor, int *pivots, int64_t k,
+                                        const double *explicit_, const double *dq0, const double *dv0, double *work,
+                                        double *z)
+{
+    memset(factor, 0, sizeof(double) * band->size);
+    for (int64_t p = 0; p < s->size; ++p) factor[storage[p]] += S[p];
+    int64_t info = latdyn_factor(band, factor, pivots);
+    if (info != 0 || k <= 0 || s->n == 0) return info;
+    return solve_columns(s, band, factor, pivots, mck, k, explicit_, dq0, dv0, work, z);
 }
 
 /* ------------------------------------------------------------- the step's derivative before and after */
