@@ -956,6 +956,34 @@ def test_a_run_shorter_than_the_bars_delay_never_imports_tqdm(tmp_path):
     assert (tmp_path / "out0" / "probes.csv").read_bytes() == (tmp_path / "out1" / "probes.csv").read_bytes()
 
 
+#: Modules a plain ``latdyn run`` has no use for (docs/performance.md, "Thirteenth pass"): the command line is read
+#: without argparse (and its gettext and locale), a traceback is printed only with ``--debug``.
+NOT_IMPORTED_BY_A_PLAIN_RUN = ("argparse", "gettext", "traceback")
+
+
+def test_a_plain_run_imports_no_argparse_and_no_traceback(tmp_path):
+    """``latdyn run SCENE -o OUT -q`` in a fresh process imports none of :data:`NOT_IMPORTED_BY_A_PLAIN_RUN`;
+    its files are those of the same run whose command line argparse read (``--backend=auto``)."""
+    scene = tmp_path / "spin.yaml"
+    scene.write_text(SPIN)
+    code = textwrap.dedent("""
+        import json, sys
+        from latdyn.cli import main
+        code = main(sys.argv[1:])
+        print(json.dumps({"code": code, "imported": [m for m in MODULES if m in sys.modules]}))
+        """).replace("MODULES", repr(NOT_IMPORTED_BY_A_PLAIN_RUN))
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    found = []
+    for k, how in enumerate((["-q"], ["-q", "--backend=auto"])):
+        done = subprocess.run([sys.executable, "-c", code, "run", str(scene), "-o", str(tmp_path / f"out{k}"), *how],
+                              capture_output=True, text=True, env=env, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        found.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert found[0] == {"code": 0, "imported": []}
+    assert found[1]["code"] == 0 and "argparse" in found[1]["imported"]
+    assert (tmp_path / "out0" / "probes.csv").read_bytes() == (tmp_path / "out1" / "probes.csv").read_bytes()
+
+
 def test_the_bar_made_after_its_delay_is_dated_from_the_runs_start(monkeypatch, capsys):
     """Past its delay the bar is tqdm's, dated from the start (its elapsed time the run's), and shows the
     value and the postfix of the update that made it; a bar closed before its delay prints nothing."""
