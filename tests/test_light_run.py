@@ -116,13 +116,7 @@ def _read_by_the_constructor(text: str):
     ``construct_document``."""
     import yaml
 
-    class Loader(yaml.cyaml.CParser, loader._yaml_loader()):
-        def __init__(self, stream):
-            yaml.cyaml.CParser.__init__(self, stream)
-            yaml.constructor.SafeConstructor.__init__(self)
-            yaml.resolver.Resolver.__init__(self)
-
-    parse = Loader(text)
+    parse = loader._c_yaml_loader()(text)
     try:
         node = parse.get_single_node()
         loader._check_duplicate_keys(node, "", "scene.yaml", set())

@@ -790,15 +790,7 @@ def _read_yaml_in_c(text: str, file: str) -> Any:
             or text.count("[") + text.count("{") > _C_YAML_LIMITS["brackets"] or _INDEX_IN_FLOW.search(text) \
             or "\t" in text or "\r" in text or "\ufeff" in text[1:]:
         return _MISSING
-    base = _yaml_loader()
-
-    class Loader(yaml.cyaml.CParser, base):
-        def __init__(self, stream):
-            yaml.cyaml.CParser.__init__(self, stream)
-            yaml.constructor.SafeConstructor.__init__(self)
-            yaml.resolver.Resolver.__init__(self)
-
-    loader = Loader(text)
+    loader = _c_yaml_loader()(text)
     try:
         node = loader.get_single_node()
         if node is None:
@@ -812,6 +804,20 @@ def _read_yaml_in_c(text: str, file: str) -> Any:
         return _MISSING
     finally:
         loader.dispose()
+
+
+def _c_yaml_loader():
+    """The loader of :func:`_yaml_loader` with libyaml's parser (``yaml.cyaml.CParser``) for its scanner,
+    parser and composer."""
+    import yaml
+
+    class Loader(yaml.cyaml.CParser, _yaml_loader()):
+        def __init__(self, stream):
+            yaml.cyaml.CParser.__init__(self, stream)
+            yaml.constructor.SafeConstructor.__init__(self)
+            yaml.resolver.Resolver.__init__(self)
+
+    return Loader
 
 
 _YAML = "tag:yaml.org,2002:"
