@@ -1328,7 +1328,7 @@ class _Reader:
         if not math.isfinite(length):
             self.fail(key, f"beam from {start.point.tolist()} to {end.point.tolist()} is too long to compute "
                            "in float64; expected coordinates below about 1e150")
-        scale = max(np.abs(start.point).max(), np.abs(end.point).max())
+        scale = max(map(abs, start.point.tolist() + end.point.tolist()))  # NumPy's max of |x|, exactly: finite here
         if length == 0.0 or length <= 1e-12 * scale:
             self.fail(key, f"zero-length beam: from and to are both at {start.point.tolist()}; "
                            "expected two distinct points")
