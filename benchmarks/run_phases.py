@@ -6,7 +6,10 @@ Each of ``--repeat`` rounds starts a fresh interpreter that runs ``python -m lat
 own code (``latdyn.cli.main``) with timers put around the functions that make up a run (below). A
 phase's time is exclusive: what a phase nested in it took is counted there, not in both. Every
 ``os.fsync`` is timed as its own phase wherever it is called. Outside the child:
-``start`` is the interpreter's start up to the first line of the child's script (Python, ``site``),
+``start`` is the interpreter's start up to the first line of the child's script (Python, ``site``; the child imports
+only ``sys``, ``time``, ``os`` and ``json`` of its own before the run, so that the modules of this script's parent part
+— argparse, statistics, subprocess, tempfile, pathlib: ≈ 20 ms — are neither counted as the start nor spared to the
+run's imports; docs/performance.md, "Thirteenth pass"),
 ``exit`` from the child's last line to the end of the process (atexit, h5py, interpreter teardown; where the
 command ends its process without the teardown, ``latdyn.cli._end_without_teardown``, the child ends as it does).
 The rows are medians over the rounds; ``other`` is what the named phases leave of the child's time.
@@ -14,17 +17,15 @@ Kernels must be in the cache (run the scene once first): a compile would show as
 """
 from __future__ import annotations
 
-import argparse
-import json
-import os
-import statistics
-import subprocess
-import sys
-import tempfile
-import time
-from pathlib import Path
+import time  # noqa: I001 - first: the child's first line
 
-ROOT = Path(__file__).resolve().parents[1]
+_FIRST = time.time(), time.process_time()
+
+import json  # noqa: E402
+import os  # noqa: E402
+import sys  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 #: (phase, module, attribute path) — the functions timed, in the order a run calls them.
 PHASES = [
@@ -62,7 +63,7 @@ PHASES = [
 
 def _child(scene: str, out: str) -> int:
     """In the timed process: the timers, then ``latdyn.cli.main`` as ``python -m latdyn run`` calls it."""
-    first_wall, first_cpu = time.time(), time.process_time()
+    first_wall, first_cpu = _FIRST
     exclusive: dict[str, list[float]] = {}
     stack: list[list[float]] = []  # [child wall, child cpu] accumulated by nested phases
 
@@ -142,6 +143,12 @@ def _child(scene: str, out: str) -> int:
 
 
 def main(argv=None) -> int:
+    import argparse
+    import statistics
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scene")
     parser.add_argument("--repeat", type=int, default=5)
@@ -151,7 +158,7 @@ def main(argv=None) -> int:
     if args.child:
         return _child(*args.child)
     environment = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    environment["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in environment.get("PYTHONPATH", "").split(
+    environment["PYTHONPATH"] = os.pathsep.join([ROOT] + [p for p in environment.get("PYTHONPATH", "").split(
         os.pathsep) if p])
     rounds = []
     loads = [os.getloadavg()[0]]
@@ -192,4 +199,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
+    if sys.argv[-3:-2] == ["--child"]:  # the timed process: no argparse (the parent gives ``x --child SCENE OUT``)
+        sys.exit(_child(*sys.argv[-2:]))
     sys.exit(main())

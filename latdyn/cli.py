@@ -21,16 +21,19 @@ Every message goes to stderr as ``latdyn: error: <message>``; no traceback unles
 """
 from __future__ import annotations
 
-import argparse
 import importlib
 import shutil
 import sys
-import traceback
 import warnings
 from pathlib import Path
+from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 from latdyn.errors import MissingExtra, SceneError, SolverError, UnboundedError
 from latdyn.version import __version__
+
+if TYPE_CHECKING:
+    import argparse
 
 __all__ = ["main", "build_parser", "default_out_dir"]
 
@@ -93,6 +96,8 @@ def _command_run(args) -> int:
         return 1
     except SolverError as exc:
         if getattr(args, "debug", False):
+            import traceback
+
             traceback.print_exc()
         _error(f"the solver failed: {exc}")
         if out_dir.is_dir():
@@ -181,7 +186,7 @@ def _positive_int(text: str) -> int:
     except ValueError:
         value = 0
     if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, not {text!r}")
+        raise _argument_type_error(f"expected a whole number >= 1, not {text!r}")
     return value
 
 
@@ -191,7 +196,7 @@ def _positive_number(text: str) -> float:
     except ValueError:
         value = float("nan")
     if not 0.0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a number > 0, not {text!r}")
+        raise _argument_type_error(f"expected a number > 0, not {text!r}")
     return value
 
 
@@ -227,11 +232,19 @@ def _seconds(text: str) -> float:
     except ValueError:
         value = float("nan")
     if not value >= 0.0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a number of seconds >= 0, not {text!r}")
+        raise _argument_type_error(f"expected a number of seconds >= 0, not {text!r}")
     return value
 
 
+def _argument_type_error(message: str) -> Exception:
+    import argparse
+
+    return argparse.ArgumentTypeError(message)
+
+
 def build_parser() -> argparse.ArgumentParser:
+    import argparse
+
     parser = argparse.ArgumentParser(
         prog=PROG,
         description="Transient dynamics of joint-dominated flexible structures (NASA CR-4402).",
@@ -476,12 +489,59 @@ def one_blas_thread() -> bool:
     return True
 
 
+#: ``latdyn run``'s options that :func:`_plain_run_arguments` reads: a flag's attribute, or an option's attribute
+#: and the values it takes (None: any).
+_RUN_FLAGS = {"-q": "quiet", "--quiet": "quiet", "--resume": "resume", "--debug": "debug"}
+_RUN_OPTIONS = {"-o": ("out", None), "--out": ("out", None), "--backend": ("backend", ("auto", "c"))}
+
+
+def _plain_run_arguments(argv: list) -> SimpleNamespace | None:
+    """The arguments of a plain ``latdyn run`` command line, read without argparse (its import and the
+    parser of the six sub-commands: ≈ 4 ms of a fresh process; docs/performance.md, "Thirteenth pass"): ``[--debug]
+    run SCENE`` with any of ``-o/--out OUT``, ``--backend auto|c``, ``-q/--quiet``, ``--resume``, ``--debug``,
+    each once and written out whole, in any order. The same attributes and values as
+    ``build_parser().parse_args(argv)`` (tests/test_cli.py). None for any other command line (another command,
+    ``--help``, ``--checkpoint-every``, an abbreviated or joined option, a value or a SCENE that starts with ``-``
+    or is empty, a second SCENE, a bad backend …): argparse reads it, as before, with its messages."""
+    debug = argv[:1] == ["--debug"]
+    words = argv[1:] if debug else argv
+    if words[:1] != ["run"]:
+        return None
+    args = {"debug": debug, "command": "run", "out": None, "backend": "auto", "quiet": False, "resume": False,
+            "checkpoint_every": None, "handler": _command_run}
+    given, scene = set(), None
+    words = iter(words[1:])
+    for word in words:
+        if not word or word.startswith("-"):
+            name = _RUN_FLAGS.get(word) or _RUN_OPTIONS.get(word, (None,))[0]
+            if name is None or name in given:
+                return None
+            given.add(name)
+            if word in _RUN_FLAGS:
+                args[name] = True
+                continue
+            value = next(words, "")
+            allowed = _RUN_OPTIONS[word][1]
+            if not value or value.startswith("-") or (allowed is not None and value not in allowed):
+                return None
+            args[name] = value
+        elif scene is None:
+            scene = word
+        else:
+            return None
+    if scene is None:
+        return None
+    return SimpleNamespace(scene=scene, **args)
+
+
 def _main(argv=None, command: bool = False) -> int:
-    parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # argparse: 2 on bad arguments, 0 for --help/--version
-        return int(exc.code or 0)
+    args = _plain_run_arguments(sys.argv[1:] if argv is None else list(argv))
+    if args is None:
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # argparse: 2 on bad arguments, 0 for --help/--version
+            return int(exc.code or 0)
     if command and args.command == "run":
         one_blas_thread()
         collect_less_often()
@@ -499,6 +559,8 @@ def _main(argv=None, command: bool = False) -> int:
         return 2
     except SolverError as exc:
         if debug:
+            import traceback
+
             traceback.print_exc()
         _error(f"the solver failed: {exc}")
         return 1

@@ -241,3 +241,45 @@ def test_plot_folder_without_results_exits_2(tmp_path, capsys):
     assert cli.main(["plot", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert str(tmp_path) in err and "probes.csv" in err
+
+
+# ----------------------------------------------------------------------------- a plain `run` without argparse
+_PLAIN_RUNS = [
+    ["run", "x.yaml"], ["run", "x.yaml", "-o", "out"], ["run", "x.yaml", "--out", "out dir", "-q"],
+    ["run", "-q", "x.yaml"], ["run", "--quiet", "--resume", "x.yaml"], ["--debug", "run", "x.yaml"],
+    ["run", "x.yaml", "--debug"], ["--debug", "run", "x.yaml", "--debug"], ["run", "--backend", "c", "x.yaml"],
+    ["run", "x.yaml", "--backend", "auto", "-o", "o", "-q", "--resume", "--debug"], ["run", "run"],
+    ["run", "-o", "run", "check"], ["run", "x.json", "-o", "ünï", "--resume"],
+]
+_OTHER_COMMAND_LINES = [
+    [], ["run"], ["check", "x.yaml"], ["plot", "out"], ["--help"], ["run", "--help"], ["run", "x.yaml", "-h"],
+    ["--version"], ["run", "x.yaml", "--ou", "o"], ["run", "x.yaml", "-qo", "o"], ["run", "x.yaml", "--out=o"],
+    ["run", "x.yaml", "-oo"], ["run", "x.yaml", "--checkpoint-every", "1"], ["run", "x.yaml", "-o", "-x"],
+    ["run", "x.yaml", "-o"], ["run", "x.yaml", "-o", ""], ["run", ""], ["run", "a.yaml", "b.yaml"],
+    ["run", "x.yaml", "--backend", "gpu"], ["run", "x.yaml", "-q", "-q"], ["run", "x.yaml", "-o", "a", "--out", "b"],
+    ["run", "--", "x.yaml"], ["run", "-x.yaml"], ["run", "-1"], ["--debug", "--debug", "run", "x.yaml"],
+    ["-q", "run", "x.yaml"], ["run", "x.yaml", "--nope"],
+]
+
+
+@pytest.mark.parametrize("argv", _PLAIN_RUNS, ids=" ".join)
+def test_a_plain_run_command_line_is_read_without_argparse_as_argparse_reads_it(argv):
+    """``latdyn run``'s plainest command lines are read without argparse (cli._plain_run_arguments;
+    docs/performance.md, "Thirteenth pass"): the same attributes and values as the parser's."""
+    plain = cli._plain_run_arguments(argv)
+    assert plain is not None
+    assert vars(plain) == vars(cli.build_parser().parse_args(argv))
+
+
+@pytest.mark.parametrize("argv", _OTHER_COMMAND_LINES, ids=lambda argv: " ".join(argv) or "(none)")
+def test_any_other_command_line_is_left_to_argparse(argv):
+    """Another command, help, an abbreviated, joined or repeated option, a value or scene that starts with
+    ``-`` or is empty, a second scene, a bad backend: argparse reads it, with its own messages."""
+    assert cli._plain_run_arguments(argv) is None
+
+
+def test_a_bad_run_command_line_still_gets_argparses_message(capsys):
+    assert cli.main(["run", "x.yaml", "--backend", "gpu"]) == 2
+    assert "invalid choice: 'gpu'" in capsys.readouterr().err
+    assert cli.main(["run", "x.yaml", "-o"]) == 2
+    assert "expected one argument" in capsys.readouterr().err

@@ -100,6 +100,96 @@ def test_a_text_read_again_keeps_the_tag_its_quotes_give():
         assert {k: [type(v) for v in data[k]] for k in data} == {k: [type(v) for v in expected[k]] for k in expected}
 
 
+def _typed(value):
+    """A value with the type of every part, floats by their bits (``-0.0``, NaN), the order of keys kept."""
+    if isinstance(value, dict):
+        return ("dict", [(_typed(k), _typed(v)) for k, v in value.items()])
+    if isinstance(value, list):
+        return ("list", [_typed(v) for v in value])
+    if isinstance(value, float):
+        return ("float", np.float64(value).tobytes())
+    return (type(value).__name__, value)
+
+
+def _read_by_the_constructor(text: str):
+    """libyaml's nodes read as before ``loader._plain_document``: the duplicate-key walk, then the loader's
+    ``construct_document``."""
+    import yaml
+
+    parse = loader._c_yaml_loader()(text)
+    try:
+        node = parse.get_single_node()
+        loader._check_duplicate_keys(node, "", "scene.yaml", set())
+        return parse.construct_document(node), node, parse
+    except (yaml.YAMLError, SceneError) as exc:
+        return type(exc), node, parse
+
+
+_PLAIN_TEXTS = [
+    "a: [1, -0.0, .inf, -.Inf, .nan, 0x1F, 0o17, 017, 0b101, 1_000, 1:30, 2.8e7, 2.8e+7, 1e400, +5, ~, null, "
+    "true, FALSE, off, 'x', \"y\", '', 3.]\n",
+    "{1: a, 1.0: b, true: c, ~: d, 2.5: f, -0.0: g}\n",
+    "x:\n  - {p: [1, 2, [3, [4, {q: r}]]]}\n  -\n  - !!str 5\n  - !!float 1\n  - !!int '7'\n",
+    "title: |\n  two\n  lines\nnext: >\n  folded\n  text\n",
+    "just a word\n", "- 1\n- [2]\n", "a: &x 1\nb: *x\nc: [*x, *x]\n",
+]
+_OTHER_TEXTS = [
+    "a: &x [1, 2]\nb: *x\n", "base: &b {k: 1}\nd:\n  <<: *b\n  j: 2\n",
+    "when: 2001-12-14\n", "s: !!set {a, b}\n", "b: !!binary aGk=\n", "o: !!omap [{a: 1}]\n",
+    "a: 1\na: 2\n", "a: 1\n'a': 2\n", "? [k]\n: v\n", "a: !!int abc\n", "a: !!bool maybe\n",
+    "a: !!str {k: v}\n", "a: !!map [1]\n", "{1: a, '1': b}\n", "= : 1\n", "a: !!python/name:os.system ''\n",
+]
+
+
+@pytest.mark.parametrize("text", _PLAIN_TEXTS + _OTHER_TEXTS)
+def test_a_plain_document_is_read_in_one_walk_as_the_constructor_reads_it(text):
+    """``loader._plain_document`` (the duplicate-key check and the construction in one walk; docs/performance.md,
+    "Thirteenth pass") gives the constructor's data, types, float bits and key order, or leaves the document to
+    the duplicate-key walk and the constructor (aliases, merge keys, other tags, duplicated or non-scalar keys,
+    a scalar its tag cannot read); ``_read_yaml_in_c`` gives the same either way."""
+    pytest.importorskip("yaml.cyaml")
+    expected, _, parse = _read_by_the_constructor(text)  # its nodes flattened by the constructor (merge keys)
+    parse.dispose()
+    parse = type(parse)(text)
+    try:
+        walked = loader._plain_document(parse, parse.get_single_node())
+    finally:
+        parse.dispose()
+    if text in _PLAIN_TEXTS:
+        assert walked is not loader._MISSING and _typed(walked) == _typed(expected)
+    else:
+        assert walked is loader._MISSING
+    try:
+        read = loader._read_yaml_in_c(text, "scene.yaml")
+    except SceneError as exc:
+        read = type(exc)
+    if isinstance(expected, type):
+        assert read is loader._MISSING or read is SceneError
+    else:
+        assert read is not loader._MISSING and _typed(read) == _typed(expected)
+
+
+def test_the_shipped_scenes_are_read_in_one_walk_as_the_constructor_reads_them():
+    pytest.importorskip("yaml.cyaml")
+    scenes = sorted((ROOT / "examples").rglob("*.yaml")) + sorted((ROOT / "tests").rglob("*.yaml"))
+    scenes += sorted((ROOT / "benchmarks").rglob("*.yaml"))
+    walked = 0
+    for path in scenes:
+        text = path.read_text(encoding="utf-8")
+        expected, _, parse = _read_by_the_constructor(text)
+        parse.dispose()
+        parse = type(parse)(text)
+        try:
+            node = parse.get_single_node()
+            data = loader._plain_document(parse, node) if node is not None else loader._MISSING
+        finally:
+            parse.dispose()
+        if data is not loader._MISSING:
+            walked += 1
+            assert _typed(data) == _typed(expected), path
+    assert walked >= 20
+
+
 def test_the_cross_product_of_two_3_vectors_is_numpys_to_the_bit():
     """``latdyn.numerics.so3.cross`` (the model's element frames, the initial velocities) gives
     ``np.cross``'s bits: magnitudes from 1e-12 to 1e12, zeros of both signs, Python floats and
@@ -953,6 +1043,34 @@ def test_a_run_shorter_than_the_bars_delay_never_imports_tqdm(tmp_path):
         assert done.returncode == 0, done.stderr[-2000:]
         found.append(json.loads(done.stdout.strip().splitlines()[-1]))
     assert found == [{"code": 0, "tqdm": False}] * 2
+    assert (tmp_path / "out0" / "probes.csv").read_bytes() == (tmp_path / "out1" / "probes.csv").read_bytes()
+
+
+#: Modules a plain ``latdyn run`` has no use for (docs/performance.md, "Thirteenth pass"): the command line is read
+#: without argparse (and its gettext and locale), a traceback is printed only with ``--debug``.
+NOT_IMPORTED_BY_A_PLAIN_RUN = ("argparse", "gettext", "traceback")
+
+
+def test_a_plain_run_imports_no_argparse_and_no_traceback(tmp_path):
+    """``latdyn run SCENE -o OUT -q`` in a fresh process imports none of :data:`NOT_IMPORTED_BY_A_PLAIN_RUN`;
+    its files are those of the same run whose command line argparse read (``--backend=auto``)."""
+    scene = tmp_path / "spin.yaml"
+    scene.write_text(SPIN)
+    code = textwrap.dedent("""
+        import json, sys
+        from latdyn.cli import main
+        code = main(sys.argv[1:])
+        print(json.dumps({"code": code, "imported": [m for m in MODULES if m in sys.modules]}))
+        """).replace("MODULES", repr(NOT_IMPORTED_BY_A_PLAIN_RUN))
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    found = []
+    for k, how in enumerate((["-q"], ["-q", "--backend=auto"])):
+        done = subprocess.run([sys.executable, "-c", code, "run", str(scene), "-o", str(tmp_path / f"out{k}"), *how],
+                              capture_output=True, text=True, env=env, timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        found.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert found[0] == {"code": 0, "imported": []}
+    assert found[1]["code"] == 0 and "argparse" in found[1]["imported"]
     assert (tmp_path / "out0" / "probes.csv").read_bytes() == (tmp_path / "out1" / "probes.csv").read_bytes()
 
 

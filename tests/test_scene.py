@@ -201,6 +201,8 @@ MALFORMED = [
     ("zero-length beam", put("beams.b.to", [2, 0, 0]), "beams.b", "zero-length"),
     ("zero-length beam by offset", put("beams.b.from", {"body": "ground", "offset": [2, 1, 0]}), "beams.b",
      "zero-length"),
+    ("beam shorter than 1e-12 of its largest coordinate", put("beams.b.to", [2, -1.5e-12, 0]), "beams.b",
+     "zero-length"),
     ("zero elements", put("beams.a.elements", 0), "beams.a.elements", ">= 1"),
     ("negative elements", put("beams.a.elements", -3), "beams.a.elements", ">= 1"),
     ("zero hinge axis", put("beams.a.start.hinge.axis", [0, 0, 0]), "beams.a.start.hinge.axis", "non-zero"),

@@ -790,25 +790,94 @@ def _read_yaml_in_c(text: str, file: str) -> Any:
             or text.count("[") + text.count("{") > _C_YAML_LIMITS["brackets"] or _INDEX_IN_FLOW.search(text) \
             or "\t" in text or "\r" in text or "\ufeff" in text[1:]:
         return _MISSING
-    base = _yaml_loader()
-
-    class Loader(yaml.cyaml.CParser, base):
-        def __init__(self, stream):
-            yaml.cyaml.CParser.__init__(self, stream)
-            yaml.constructor.SafeConstructor.__init__(self)
-            yaml.resolver.Resolver.__init__(self)
-
-    loader = Loader(text)
+    loader = _c_yaml_loader()(text)
     try:
         node = loader.get_single_node()
         if node is None:
             return None
+        data = _plain_document(loader, node)
+        if data is not _MISSING:
+            return data
         _check_duplicate_keys(node, "", file, set())
         return loader.construct_document(node)
     except yaml.YAMLError:
         return _MISSING
     finally:
         loader.dispose()
+
+
+def _c_yaml_loader():
+    """The loader of :func:`_yaml_loader` with libyaml's parser (``yaml.cyaml.CParser``) for its scanner,
+    parser and composer."""
+    import yaml
+
+    class Loader(yaml.cyaml.CParser, _yaml_loader()):
+        def __init__(self, stream):
+            yaml.cyaml.CParser.__init__(self, stream)
+            yaml.constructor.SafeConstructor.__init__(self)
+            yaml.resolver.Resolver.__init__(self)
+
+    return Loader
+
+
+_YAML = "tag:yaml.org,2002:"
+#: The tags of :func:`_plain_document`'s nodes: a scalar's (str, int, float, bool, null), a mapping's, a sequence's.
+_PLAIN_SCALAR_TAGS = frozenset(_YAML + name for name in ("str", "int", "float", "bool", "null"))
+_MAP_TAG, _SEQ_TAG = _YAML + "map", _YAML + "seq"
+
+
+def _plain_document(loader, node) -> Any:
+    """The data of a composed YAML document of plain nodes only, in one walk that also checks each mapping's
+    keys: what :func:`_check_duplicate_keys` and ``loader.construct_document`` give, made with the loader's own
+    constructors of the scalars, each distinct text of a tag once (docs/performance.md, "Thirteenth pass").
+    ``_MISSING`` for anything else, which those two then read as before, with their errors: a tag but str, int,
+    float, bool, null, map and seq (``!!set``, ``!!binary``, a timestamp, a merge key ``<<`` …), a mapping or
+    sequence met twice (an alias; a scalar's alias is the same text, read to the same value), a mapping's key
+    that is not a scalar or is given twice, a scalar its constructor cannot read, nesting too deep for the walk."""
+    import yaml
+
+    scalar_node, mapping_node, sequence_node = yaml.ScalarNode, yaml.MappingNode, yaml.SequenceNode
+    constructors = loader.yaml_constructors
+    read: dict = {}  # (tag, text) -> the value its constructor made (str, int, float, bool or None)
+    seen: set = set()
+
+    class _NotPlain(Exception):
+        pass
+
+    def scalar(node):
+        tag = node.tag
+        if tag not in _PLAIN_SCALAR_TAGS:
+            raise _NotPlain
+        found = read.get((tag, node.value), read)
+        if found is read:
+            found = read[tag, node.value] = constructors[tag](loader, node)
+        return found
+
+    def value(node):
+        kind = type(node)
+        if kind is scalar_node:
+            return scalar(node)
+        if id(node) in seen:
+            raise _NotPlain
+        seen.add(id(node))
+        if kind is mapping_node and node.tag == _MAP_TAG:
+            mapping, names = {}, set()
+            for key_node, value_node in node.value:
+                if type(key_node) is not scalar_node or key_node.value in names:
+                    raise _NotPlain
+                names.add(key_node.value)
+                key = scalar(key_node)
+                mapping[key] = value(value_node)
+            return mapping
+        if kind is sequence_node and node.tag == _SEQ_TAG:
+            return [value(item) for item in node.value]
+        raise _NotPlain
+
+    try:
+        return value(node)
+    except (_NotPlain, RecursionError, ValueError, TypeError, KeyError, AttributeError, OverflowError,
+            yaml.YAMLError):
+        return _MISSING
 
 
 def _too_deep(file: str) -> SceneError:
@@ -1259,7 +1328,7 @@ class _Reader:
         if not math.isfinite(length):
             self.fail(key, f"beam from {start.point.tolist()} to {end.point.tolist()} is too long to compute "
                            "in float64; expected coordinates below about 1e150")
-        scale = max(np.abs(start.point).max(), np.abs(end.point).max())
+        scale = max(map(abs, start.point.tolist() + end.point.tolist()))  # NumPy's max of |x|, exactly: finite here
         if length == 0.0 or length <= 1e-12 * scale:
             self.fail(key, f"zero-length beam: from and to are both at {start.point.tolist()}; "
                            "expected two distinct points")
