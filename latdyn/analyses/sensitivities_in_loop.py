@@ -12,7 +12,8 @@ takes the rows' sensitivities: a block's points' components and hinge angles at 
 Every event, jump, stick or release, landing, Newton cut and the steps after them take the Python path
 as before; so do the runs :func:`refusal` names, for the whole run (decided once, at the start).
 
-Native: ∂r/∂p of section values whose derivative laws are constants (the generated ``*_D_section`` kernels,
+Native: ∂r/∂p of section values (constants, as every section value is: latdyn/scene/loader.py refuses a law of t or
+of an input there, so their derivative laws are constants; the generated ``*_D_section`` kernels,
 csrc/parameter_forces.c), of load components (the generated ``point_load``, linear in the values, with the
 derivative laws' values at each grid point tabulated here before each call: a law in t is evaluated by the same
 law object at the same t the Python step reads), of a hinge's stiffness, damping, rest angle and torque whose
@@ -34,8 +35,9 @@ tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometr
 damping, rest length and ρA whose derivative laws are values of t alone (the generated ``cable_force`` with the
 derivative in EA's or c's place, ``cable_force_D_rest_length``, and ``joint_body`` for its lumped masses, at each
 element held taut, csrc/cable_forces.c, the laws tabulated alike: ``_cable_refusal``; a step that crosses a cable's
-change or ends near one is handed back: csrc/cable_forces.c ``cable_near_change``; not beside controllers or
-explicit time dependence beside events), and
+change or ends near one is handed back: csrc/cable_forces.c ``cable_near_change``; beside the controllers and the
+explicit time dependence below too, their columns added after the controllers' and the loads' and before ∂r/∂t δt_n,
+as the Python step adds them: tests/test_sensitivities_in_loop_cables2.py), and
 parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
 through load components and hinge and guide laws of t alone (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
@@ -53,11 +55,11 @@ Python path calls too (``Assembler.linked_exact_matrix_values``, ``sensitivities
 n × n pattern. Energy and momentum probes of a row's state alone (kinetic, strain, potential, total, linear and
 angular momenta) need no term in the step: their rows' sensitivities are TransientSensitivities.record's at each row
 from the carried δq, δv (``_energy_refusal``). Not native (the Python path): hinge and guide laws whose derivative
-names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
-values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
-matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
+names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
+a failed build or no compiler), linked models above DENSE_LIMIT free coordinates or whose step matrix is sparse,
+controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
-motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
+motions, reels (a rest length in t or an input) or laws of the state and t, the external work and the dissipated energy (work
 accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
 whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
@@ -206,8 +208,8 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
-    kinds (no parameters, NumPy kernels, cables without their C kernels or beside controllers or explicit time,
-    controllers, explicit time dependence beside events, work-account probes: :func:`_energy_refusal`), or None:
+    kinds (no parameters, NumPy kernels, cables without their C kernels, controllers, explicit time dependence
+    beside events, work-account probes: :func:`_energy_refusal`), or None:
     :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
     which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
@@ -221,8 +223,6 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
     if model.cables is not None:
-        if scene.controllers or owner.explicit_time is not None:
-            return "cables beside controllers or explicit time dependence beside events"
         why = _cable_refusal(owner)
         if why is not None:
             return why
