@@ -6,7 +6,10 @@ TransientSensitivities._add_time_columns), so the sensitivities are that path's 
 ``SENSITIVITIES_IN_LOOP`` off) to the bit: a 3D mast hinged at its base, braced by three pretensioned cables, its hinge
 driven by a PD controller (by the gains, the set point and the cables' and mast's values; with the controller's output
 clipped; with a controller without parameters reading a cable's length); the shipped cable truss (its rest length held)
-under a tip load of t, latching and its cables going taut and slack; a mass dropped on a slack cable under a load of t.
+under a tip load of t, latching and its cables going taut and slack; a mass dropped on a slack cable under a load of t;
+the PD mast under a push of t, its hinge torque the controller's output plus a torque of t, and (without cables) the
+PD-driven 3D gimbal latching under a load of t: a hinge law that names a controller's output or an input takes the
+loop beside explicit time dependence where its rate in t names t alone (``_rate_in_time_alone``).
 Through the API and ``latdyn run``; the PD mast from the loop against Richardson central differences. And a guard: a
 section value is a constant (no law of t or of an input, loader.py), so that a section parameter's derivative law is a
 constant and the loop's section rows are too."""
@@ -21,6 +24,7 @@ from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_cables import DROP
 from tests.test_sensitivities_in_loop_cables import MAST, truss
+from tests.test_sensitivities_in_loop_linked_control import GIMBAL_PD
 
 #: the 3D mast of test_sensitivities_in_loop_cables hinged at its base about y, braced by its three cables, a PD
 #: controller driving the hinge towards ``ref`` (reading its angle and rate); by the gains, the set point, the
@@ -43,6 +47,20 @@ MAST_PD_CLIPPED = MAST_PD.replace('pd: {output: "Kp*(ref - ang) - Kd*om"}',
 MAST_BY_LENGTH = (MAST_PD.replace('pd: {output: "Kp*(ref - ang) - Kd*om"}', 'hold: {output: "-40*(span - 2.5) - 2*om"}')
                   .replace("    ang: {hinge", "    span: {cable: g1, quantity: length}\n    ang: {hinge")
                   .replace('torque: "pd"', 'torque: "hold"').replace("[Kp, Kd, ref, EA", "[EA"))
+#: the PD mast under a push of t at its top, its hinge torque the controller's output plus a torque of t (a hinge law of
+#: t and a controller's output whose rate in t names t alone: tabulated as a law of t's; the cables make events, so
+#: ∂r/∂t enters the steps)
+MAST_PD_PUSHED = (MAST_PD.replace("- {at: top, force: [40, 25, 0]}",
+                                  '- {at: top, force: ["40*(1 + 0.5*sin(15*t))", "25*cos(9*t)", 0]}')
+                  .replace('torque: "pd"', 'torque: "pd + 0.3*sin(9*t)"'))
+#: the same torque naming an input whose rate in t (u) reads it: stays on the Python path
+MAST_PD_INPUT = (MAST_PD_PUSHED.replace('torque: "pd + 0.3*sin(9*t)"', 'torque: "pd + u*t"')
+                 .replace("gravity:", "inputs: {u: 0.2}\ngravity:"))
+#: the 3D gimbal of rigid links, PD-driven, latching, under a tip load of t (no cables: a controller's torque beside
+#: explicit time dependence and a latch)
+GIMBAL_PD_PUSHED = GIMBAL_PD.replace('force: [0, "P", "-0.5*P"]', 'force: [0, "P*(1 + sin(12*t))", "-0.5*P*cos(7*t)"]')
+assert "0.3*sin(9*t)" in MAST_PD_PUSHED and "15*t" in MAST_PD_PUSHED and '"pd + u*t"' in MAST_PD_INPUT
+assert "sin(12*t)" in GIMBAL_PD_PUSHED
 assert 'torque: "pd"' in MAST_PD and "om: {hinge" in MAST_PD and "[Kp, Kd, ref, EA, L, EI, rho]" in MAST_PD
 assert "limits: [-3.0, 3.0]" in MAST_PD_CLIPPED and 'torque: "hold"' in MAST_BY_LENGTH and "span: {cable" in MAST_BY_LENGTH
 
@@ -85,8 +103,8 @@ def _same(native, python) -> None:
     assert native.summary.get("event_sensitivities") == python.summary.get("event_sensitivities")
 
 
-@pytest.mark.parametrize("text", [MAST_PD, MAST_PD_CLIPPED, MAST_BY_LENGTH],
-                         ids=["PD", "PD clipped", "a controller reading a cable's length"])
+@pytest.mark.parametrize("text", [MAST_PD, MAST_PD_CLIPPED, MAST_BY_LENGTH, MAST_PD_PUSHED],
+                         ids=["PD", "PD clipped", "a controller reading a cable's length", "PD and laws of t"])
 def test_a_cable_braced_mast_with_a_controlled_hinge_takes_every_step_in_the_loop(text, monkeypatch):
     """Every step in the loop of steps (in C), the sensitivities the per-step Python path's to the bit."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
@@ -107,6 +125,24 @@ def test_cables_beside_a_load_of_t_and_events_are_the_python_paths(text, kinds, 
     assert kinds <= {event["kind"] for event in native.summary["events"]}
     assert native.summary["event_sensitivities"]
     _same(native, python)
+
+
+def test_a_controlled_gimbal_latching_under_a_load_of_t_is_the_python_paths(monkeypatch):
+    """A hinge torque that is a controller's output beside explicit time dependence and events (its rate in t, 0, a
+    value of t alone): the smooth steps in the loop, the sensitivities and the latch's time derivative the Python
+    path's to the bit."""
+    native, python = _run(GIMBAL_PD_PUSHED, monkeypatch, True), _run(GIMBAL_PD_PUSHED, monkeypatch, False)
+    steps, in_loop = native.summary["steps"], native.summary["sensitivity_steps_in_loop"]
+    assert 0.9 * steps < in_loop < steps and python.summary["sensitivity_steps_in_loop"] == 0
+    assert [event["kind"] for event in native.summary["events"]] == ["latch"]
+    _same(native, python)
+
+
+def test_a_hinge_law_whose_rate_in_t_reads_an_input_keeps_the_python_path(monkeypatch):
+    """Guard: a torque ``pd + u*t`` (its rate in t, u, reads an input: not tabulated) keeps every step on the Python
+    path, whichever the switch."""
+    native = _run(MAST_PD_INPUT, monkeypatch, True)
+    assert native.summary["sensitivity_steps_in_loop"] == 0 and native.summary["time_loop"] == "python"
 
 
 @pytest.mark.parametrize("name", ["Kp", "L"])

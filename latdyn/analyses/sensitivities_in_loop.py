@@ -39,7 +39,9 @@ change or ends near one is handed back: csrc/cable_forces.c ``cable_near_change`
 explicit time dependence below too, their columns added after the controllers' and the loads' and before ∂r/∂t δt_n,
 as the Python step adds them: tests/test_sensitivities_in_loop_cables2.py), and
 parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
-through load components and hinge and guide laws of t alone (∂r/∂t at the step's end through the same point_load and
+through load components and hinge and guide laws whose rate in t is a value of t alone (laws of t alone, and laws
+naming a controller's output or an input whose derivative by t names neither: a PD torque ``pd + 0.3*sin(9*t)``;
+``_rate_in_time_alone``) (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
@@ -59,7 +61,8 @@ names θ, θ̇ or an input and does not compile (every form of the expression la
 a failed build or no compiler), linked models above DENSE_LIMIT free coordinates or whose step matrix is sparse,
 controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
-motions, reels (a rest length in t or an input) or laws of the state and t, the external work and the dissipated energy (work
+motions, reels (a rest length in t or an input), controllers' outputs that name t, or laws of the state and t (a
+rate in t that names θ, θ̇ or an input), the external work and the dissipated energy (work
 accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
 whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
@@ -153,6 +156,24 @@ def _in_time_alone(law) -> bool:
     """Whether a law's value is one of t alone (a number, a table, an expression in t): tabulated at the grid points
     by the law object itself, as the Python step reads it (at the hinge's θ, θ̇, which it does not name)."""
     return not {"theta", "theta_dot"} & set(law.depends_on) and not law.input_names
+
+
+def _rate_in_time_alone(law) -> bool:
+    """Whether a hinge or guide law's rate in t (transient_sensitivities._TimeRate, ExplicitTime's) is a value of t
+    alone, tabulated per grid point as :func:`_in_time_alone`'s: a law of t alone, or a law that names inputs or a
+    controller's output (a torque ``pd`` or ``pd + 0.3*sin(9*t)`` of a PD controller pd) whose derivative by t, as
+    _TimeRate takes it (SymPy's, deltas dropped), names none of them nor θ, θ̇ (the rate then reads no input: the same
+    value whatever they hold when it is tabulated)."""
+    if _in_time_alone(law):
+        return True
+    if law.time_function is not None:   # a law of t and inputs: its rate, TimeFunction.rate, reads them
+        return False
+    import sympy as sp
+
+    from latdyn.scene.expressions import _drop_deltas
+
+    symbols, (expr, *_) = law.expressions   # (θ, θ̇, t, the inputs and controllers it names)
+    return _drop_deltas(sp.diff(expr, symbols[2])).free_symbols <= {symbols[2]}
 
 
 def _hinge_refusal(owner, key: str, laws: dict) -> str | None:
@@ -285,18 +306,22 @@ def _controller_refusal(owner) -> str | None:
 def _time_refusal(owner) -> str | None:
     """Why the explicit time dependence beside events of ``owner`` (its ExplicitTime: ∂r/∂t δt, latdyn/analyses/
     transient_sensitivities.py ``_add_time_columns``) keeps the run on the Python path, or None: the loop takes
-    ∂r/∂t of load components and hinge and guide laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
-    per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`); prescribed motions
-    (a difference in t of the residual in Python), reels and laws of the state and t (a SymPy rate in NumPy) not."""
+    ∂r/∂t of load components and hinge and guide laws whose rate in t is one of t alone (:func:`_rate_in_time_alone`),
+    their exact rates (the same ``_TimeRate`` objects) tabulated per grid point through the same generated point_load
+    and hinge_force (:class:`_TimeRates`); prescribed motions (a difference in t of the residual in Python), reels,
+    controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's ``controllers``, not in C) and
+    laws of the state and t (a SymPy rate in NumPy that reads θ, θ̇ or an input) not."""
     rates = owner.explicit_time
     if rates.prescribed or rates.reels:
         return "explicit time dependence beside events through prescribed motions or a reel"
+    if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): not in C
+        return "explicit time dependence beside events through a controller's output"
     model = owner.model
     for key in rates.laws.derivatives:
         hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
         if hinge is not None:
             law = getattr(model.hinges[model.hinge_index(hinge["beam"], hinge["end"])], hinge["law"])
-            if not _in_time_alone(law):
+            if not _rate_in_time_alone(law):
                 return f"explicit time dependence beside events: {key} is a law of the state and t"
         elif not _LOAD_KEY.match(key):
             return f"explicit time dependence beside events: {key}"
