@@ -15,7 +15,6 @@ section value is a constant (no law of t or of an input, loader.py), so that a s
 constant and the loop's section rows are too."""
 from __future__ import annotations
 
-import numpy as np
 import pytest
 import yaml
 
@@ -23,7 +22,8 @@ import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_cables import DROP
-from tests.test_sensitivities_in_loop_cables import MAST, truss
+from tests.test_sensitivities_events import _agree
+from tests.test_sensitivities_in_loop_cables import MAST, _run, _same, truss
 from tests.test_sensitivities_in_loop_linked_control import GIMBAL_PD
 
 #: the 3D mast of test_sensitivities_in_loop_cables hinged at its base about y, braced by its three cables, a PD
@@ -86,23 +86,6 @@ DROP_PULLED = (DROP.replace("parameters: {L: 1.0,", "parameters: {F: 2.0, L: 1.0
 assert "F*sin(9*t)" in DROP_PULLED and "[L, EA, F]" in DROP_PULLED
 
 
-def _run(text: str, monkeypatch, in_loop: bool):
-    """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
-    with monkeypatch.context() as patch:
-        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
-        return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
-
-
-def _same(native, python) -> None:
-    """The sensitivities, the probes' and the events' time derivatives of ``native`` are ``python``'s to the bit."""
-    assert native.sensitivities.keys() == python.sensitivities.keys()
-    for key, values in python.sensitivities.items():
-        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
-    assert max(np.abs(values).max() for values in python.sensitivities.values()) > 0.0
-    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
-    assert native.summary.get("event_sensitivities") == python.summary.get("event_sensitivities")
-
-
 @pytest.mark.parametrize("text", [MAST_PD, MAST_PD_CLIPPED, MAST_BY_LENGTH, MAST_PD_PUSHED],
                          ids=["PD", "PD clipped", "a controller reading a cable's length", "PD and laws of t"])
 def test_a_cable_braced_mast_with_a_controlled_hinge_takes_every_step_in_the_loop(text, monkeypatch):
@@ -149,23 +132,10 @@ def test_a_hinge_law_whose_rate_in_t_reads_an_input_keeps_the_python_path(monkey
 def test_the_pd_mast_from_the_loop_agrees_with_richardson_central_differences(name, monkeypatch):
     """The PD mast's sensitivities by a gain (the controller's compiled partial) and by the cables' rest length (the
     generated cable_force_D_rest_length), from the loop of steps, against Richardson-extrapolated central differences
-    of whole runs."""
+    of whole runs, to 1e-6 of each probe's largest."""
     native = _run(MAST_PD, monkeypatch, True)
     assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"]
-    data = yaml.safe_load(MAST_PD)
-    data["solve"].pop("sensitivities")
-    p0 = data["parameters"][name]
-    central = []
-    for step in (1e-4 * p0, 0.5e-4 * p0):
-        runs = []
-        for sign in (1, -1):
-            data["parameters"][name] = p0 + sign * step
-            runs.append(latdyn.run(latdyn.load_scene(data)).probes)
-        central.append({probe: (runs[0][probe] - runs[1][probe]) / (2 * step) for probe in runs[0]})
-    for probe in central[0]:
-        expected = (4 * central[1][probe] - central[0][probe]) / 3
-        error = np.abs(native.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max()
-        assert error < 1e-6, (probe, error)
+    _agree(native, MAST_PD, name)
 
 
 def test_the_cli_writes_the_python_paths_files(tmp_path):
