@@ -12,7 +12,8 @@ takes the rows' sensitivities: a block's points' components and hinge angles at 
 Every event, jump, stick or release, landing, Newton cut and the steps after them take the Python path
 as before; so do the runs :func:`refusal` names, for the whole run (decided once, at the start).
 
-Native: ∂r/∂p of section values whose derivative laws are constants (the generated ``*_D_section`` kernels,
+Native: ∂r/∂p of section values (constants, as every section value is: latdyn/scene/loader.py refuses a law of t or
+of an input there, so their derivative laws are constants; the generated ``*_D_section`` kernels,
 csrc/parameter_forces.c), of load components (the generated ``point_load``, linear in the values, with the
 derivative laws' values at each grid point tabulated here before each call: a law in t is evaluated by the same
 law object at the same t the Python step reads), of a hinge's stiffness, damping, rest angle and torque whose
@@ -34,10 +35,13 @@ tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometr
 damping, rest length and ρA whose derivative laws are values of t alone (the generated ``cable_force`` with the
 derivative in EA's or c's place, ``cable_force_D_rest_length``, and ``joint_body`` for its lumped masses, at each
 element held taut, csrc/cable_forces.c, the laws tabulated alike: ``_cable_refusal``; a step that crosses a cable's
-change or ends near one is handed back: csrc/cable_forces.c ``cable_near_change``; not beside controllers or
-explicit time dependence beside events), and
+change or ends near one is handed back: csrc/cable_forces.c ``cable_near_change``; beside the controllers and the
+explicit time dependence below too, their columns added after the controllers' and the loads' and before ∂r/∂t δt_n,
+as the Python step adds them: tests/test_sensitivities_in_loop_cables2.py), and
 parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
-through load components and hinge and guide laws of t alone (∂r/∂t at the step's end through the same point_load and
+through load components and hinge and guide laws whose rate in t is a value of t alone (laws of t alone, and laws
+naming a controller's output or an input whose derivative by t names neither: a PD torque ``pd + 0.3*sin(9*t)``;
+``_rate_in_time_alone``) (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
@@ -62,10 +66,12 @@ laws' values (damping laws, load values, applied torques and springs, and their 
 alone) tabulated per grid point, on models without rigid links, guides or prescribed motions (``_account_refusal``;
 the accounts and their terms handed back at the loop's end, an event's account after it is the Python path's,
 energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
-names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
-values whose derivative is a law in t or an input, cables beside controllers or explicit time dependence beside events, controllers with states,
+names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
+a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
+values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
-motions, reels (a rest length in t) or laws of the state and t, the work accounts (energy_sensitivities.external_work_step)
+motions, reels (a rest length in t or an input), controllers' outputs that name t, or laws of the state and t (a
+rate in t that names θ, θ̇ or an input), the work accounts (energy_sensitivities.external_work_step)
 with a law of θ, θ̇ or an input in them, with rigid links or guides, or (the external work) with a prescribed motion
 (its drive's reaction), and the NumPy kernels.
 
@@ -168,6 +174,24 @@ def _in_time_alone(law) -> bool:
     return not {"theta", "theta_dot"} & set(law.depends_on) and not law.input_names
 
 
+def _rate_in_time_alone(law) -> bool:
+    """Whether a hinge or guide law's rate in t (transient_sensitivities._TimeRate, ExplicitTime's) is a value of t
+    alone, tabulated per grid point as :func:`_in_time_alone`'s: a law of t alone, or a law that names inputs or a
+    controller's output (a torque ``pd`` or ``pd + 0.3*sin(9*t)`` of a PD controller pd) whose derivative by t, as
+    _TimeRate takes it (SymPy's, deltas dropped), names none of them nor θ, θ̇ (the rate then reads no input: the same
+    value whatever they hold when it is tabulated)."""
+    if _in_time_alone(law):
+        return True
+    if law.time_function is not None:   # a law of t and inputs: its rate, TimeFunction.rate, reads them
+        return False
+    import sympy as sp
+
+    from latdyn.scene.expressions import _drop_deltas
+
+    symbols, (expr, *_) = law.expressions   # (θ, θ̇, t, the inputs and controllers it names)
+    return _drop_deltas(sp.diff(expr, symbols[2])).free_symbols <= {symbols[2]}
+
+
 def _hinge_refusal(owner, key: str, laws: dict) -> str | None:
     """Why a hinge law's parameter (``key``, its derivative laws ``laws``) keeps the run on the Python path, or None:
     its ∂r/∂p is the generated hinge_force's at the derivative law's value (ParameterDerivatives._hinge_force), which
@@ -221,7 +245,7 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
 
 def model_refusal(owner, differentiated: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
-    kinds (no parameters, NumPy kernels, cables without their C kernels or beside controllers or explicit time,
+    kinds (no parameters, NumPy kernels, cables without their C kernels,
     controllers, explicit time dependence beside events, the work accounts' probes that :func:`_account_refusal`
     names: :func:`_energy_refusal`), or None:
     :func:`refusal`'s part that the discrete
@@ -237,8 +261,6 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
     if model.cables is not None:
-        if scene.controllers or owner.explicit_time is not None:
-            return "cables beside controllers or explicit time dependence beside events"
         why = _cable_refusal(owner)
         if why is not None:
             return why
@@ -337,18 +359,22 @@ def _controller_refusal(owner) -> str | None:
 def _time_refusal(owner) -> str | None:
     """Why the explicit time dependence beside events of ``owner`` (its ExplicitTime: ∂r/∂t δt, latdyn/analyses/
     transient_sensitivities.py ``_add_time_columns``) keeps the run on the Python path, or None: the loop takes
-    ∂r/∂t of load components and hinge and guide laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
-    per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`); prescribed motions
-    (a difference in t of the residual in Python), reels and laws of the state and t (a SymPy rate in NumPy) not."""
+    ∂r/∂t of load components and hinge and guide laws whose rate in t is one of t alone (:func:`_rate_in_time_alone`),
+    their exact rates (the same ``_TimeRate`` objects) tabulated per grid point through the same generated point_load
+    and hinge_force (:class:`_TimeRates`); prescribed motions (a difference in t of the residual in Python), reels,
+    controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's ``controllers``, not in C) and
+    laws of the state and t (a SymPy rate in NumPy that reads θ, θ̇ or an input) not."""
     rates = owner.explicit_time
     if rates.prescribed or rates.reels:
         return "explicit time dependence beside events through prescribed motions or a reel"
+    if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): not in C
+        return "explicit time dependence beside events through a controller's output"
     model = owner.model
     for key in rates.laws.derivatives:
         hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
         if hinge is not None:
             law = getattr(model.hinges[model.hinge_index(hinge["beam"], hinge["end"])], hinge["law"])
-            if not _in_time_alone(law):
+            if not _rate_in_time_alone(law):
                 return f"explicit time dependence beside events: {key} is a law of the state and t"
         elif not _LOAD_KEY.match(key):
             return f"explicit time dependence beside events: {key}"
