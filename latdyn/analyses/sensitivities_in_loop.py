@@ -289,8 +289,11 @@ def _time_refusal(owner) -> str | None:
     per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`); prescribed motions
     (a difference in t of the residual in Python), reels and laws of the state and t (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
-    if rates.prescribed or rates.reels:
-        return "explicit time dependence beside events through prescribed motions or a reel"
+    if rates.reels:
+        return "explicit time dependence beside events through a reel"
+    if rates.prescribed and not rates.motions.exact():
+        return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
+                "guides, or read by a controller (a difference in t of the residual in Python)")
     model = owner.model
     for key in rates.laws.derivatives:
         hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
@@ -780,8 +783,40 @@ class _TimeRates(SensitivityLoop):
         d.total = self._pointer(self._total)
         self._loads()
         self._hinges()
+        self._motions()
         self._for = (None, True)
         return True
+
+    def _motions(self) -> None:
+        """The prescribed motions' part (ExplicitTime.through_prescribed, latdyn/analyses/prescribed_rates.py): the
+        mask of the prescribed coordinates, the loads' block columns, the coordinates the motion laws move, scratch
+        for their dense rates and the result; their values tabulated per grid point (:meth:`_tabulate`)."""
+        d, motions = self.data, self.owner.motions
+        d.n_motions = 0
+        if motions is None:
+            return
+        coordinates = motions.motion_coordinates()
+        d.n_motions = len(coordinates)
+        if not d.n_motions:
+            return
+        size = self.owner.model.n_total + 1
+        d.prescribed_mask = self._pointer(motions.mask())
+        d.load_columns = self._pointer(motions.load_columns())
+        d.motion_coordinates = self._pointer(coordinates)
+        d.motion_rates = self._pointer(np.zeros(3 * size))
+        self._through = np.zeros(size)
+        d.through_prescribed = self._pointer(self._through)
+
+    def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
+        """The laws' rates (SensitivityLoop._tabulate) and the motion laws' rate, acceleration and jerk at each grid
+        point from ``grid_index`` + 1 through ``stop_index`` (PrescribedRates.values)."""
+        super()._tabulate(grid_index, stop_index, control)
+        d = self.data
+        if d.n_motions:
+            motions = self.owner.motions
+            self._motion_table = np.ascontiguousarray([motions.values(control.grid_time(grid))
+                                                       for grid in range(grid_index + 1, stop_index + 1)], float)
+            d.motion_values, d.motions_from = self._motion_table.ctypes.data, grid_index + 1
 
 
 class _AtTime:

@@ -76,9 +76,10 @@ Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescrib
 t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
 the grid), and the step's derivative adds ∂r/∂t δt_{n+1}: ∂r/∂t δt_n in the parameters' columns and ∂r/∂t in
 the step size's (:meth:`TransientSensitivities._add_time_columns`); the impulse and the restart at the event
-are taken at t_e + δt_e (:attr:`TransientSensitivities.time_shift`). ∂r/∂t is exact for the laws and a reel,
-a five-point difference in t for prescribed motions (docs/parameters.md, "Sensitivities through events",
-"Laws in time").
+are taken at t_e + δt_e (:attr:`TransientSensitivities.time_shift`). ∂r/∂t is exact for the laws, a reel and
+prescribed motions (the coupling blocks times the motions' exact rates: latdyn/analyses/prescribed_rates.py), a
+five-point difference in t for prescribed motions on a model with rigid links or guides (docs/parameters.md,
+"Sensitivities through events", "Laws in time").
 
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
@@ -1465,18 +1466,26 @@ class ExplicitTime:
       (:meth:`latdyn.analyses.sensitivities.ParameterDerivatives.residual_derivatives`: point_load,
       hinge_force, linear in those values), one column;
     - a reel (a cable's rest length L0(t)): :meth:`CableSensitivities.reel_forces`;
-    - prescribed motions (a body's translation and rotation, a hinge's angle): the free coordinates'
-      residual through the prescribed nodes' positions, rates and accelerations at t, by a five-point
-      central difference in t with step :data:`PRESCRIBED_TIME_STEP` · dt of the residual evaluated with
-      the motion applied at t ± η (the evaluation assembles no coupling block to prescribed coordinates:
-      the one difference of this part; its truncation (ηω)⁴/30 and round-off ε|r|/η are both below 1e-9
-      of ∂r/∂t for a motion the step resolves)."""
+    - prescribed motions (a body's translation and rotation, a hinge's angle): exactly, the blocks of M, C and
+      the exact K coupling every row to the prescribed coordinates times the motion laws' exact first, second
+      and third time derivatives (:class:`latdyn.analyses.prescribed_rates.PrescribedRates`, one native call,
+      csrc/prescribed_rates.c); on a model with rigid links or guides, or a controller coupling on a prescribed
+      coordinate, where those blocks are not the evaluation's buffers, still a five-point central difference in
+      t with step :data:`PRESCRIBED_TIME_STEP` · dt of the residual evaluated with the motion applied at t ± η
+      (its truncation (ηω)⁴/30 and round-off ε|r|/η are both below 1e-9 of ∂r/∂t for a motion the step
+      resolves)."""
 
     def __init__(self, owner, laws: dict, prescribed: bool, reels: bool):
         import copy
 
         self.owner = owner
         self.prescribed, self.reels = prescribed, reels
+        #: ∂r/∂t through the prescribed motions, exactly (None without prescribed motions)
+        self.motions = None
+        if prescribed:
+            from latdyn.analyses.prescribed_rates import PrescribedRates
+
+            self.motions = PrescribedRates(owner)
         # the parameters' machinery, with one column: t (the controllers' outputs' explicit ∂y/∂t through
         # their actuators, as ∂y/∂p: :func:`_controller_time_rates`)
         self.laws = copy.copy(owner)
@@ -1486,6 +1495,7 @@ class ExplicitTime:
             self.laws.__dict__.pop(cache, None)
         self.laws._values_at = (float("nan"), {})
         self.laws.geometry = None   # the one column is t: no start moved by geometry parameters (k columns)
+        self.laws.motions = self.motions   # the loop's ∂r/∂t struct reads them (sensitivities_in_loop._TimeRates)
 
     @classmethod
     def of(cls, owner) -> "ExplicitTime | None":
@@ -1543,8 +1553,18 @@ class ExplicitTime:
 
     def through_prescribed(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) through the prescribed motions alone (class docstring): the loads, laws and rest
-        lengths read the state's own time, the prescribed nodes and angles move to t ± η, ± 2η; ``on_all``:
-        of the assembled residual and the reactions (n_total + 1,), before the reduction."""
+        lengths read the state's own time; exactly (:class:`latdyn.analyses.prescribed_rates.PrescribedRates`)
+        where the model allows, else the prescribed nodes and angles moved to t ± η, ± 2η; ``on_all``: of the
+        assembled residual and the reactions (n_total + 1,), before the reduction."""
+        if self.motions is not None and self.motions.exact():
+            total = self.motions(state, inertia)
+            return total if on_all else self.owner._on_free_coordinates(state, total[:, None])[:, 0]
+        return self.difference_in_t(state, inertia, on_all)
+
+    def difference_in_t(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
+        """:meth:`through_prescribed` by a five-point central difference in t of the residual (class docstring):
+        the prescribed nodes and angles moved to t ± η, ± 2η (models where the exact coupling is not assembled;
+        the check of the exact one, tests/test_sensitivities_in_loop_prescribed.py)."""
         assembler = self.owner.assembler
         eta = PRESCRIBED_TIME_STEP * float(self.owner.scene.solve.dt)
 

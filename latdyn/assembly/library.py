@@ -228,7 +228,10 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_hinge_actuators", I64), ("actuator_hinge", P), ("actuator_of", P), ("actuator_factor", P),
                 ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P),
                 # ∂r/∂p of the cables' parameters (csrc/cable_forces.c); NULL: none
-                ("cables", P)]
+                ("cables", P),
+                # ∂r/∂t through the prescribed motions, in the time_rates struct (csrc/prescribed_rates.c); 0: none
+                ("prescribed_mask", P), ("load_columns", P), ("n_motions", I64), ("motion_coordinates", P),
+                ("motion_values", P), ("motions_from", I64), ("motion_rates", P), ("through_prescribed", P)]
 
 
 class GeometryForcesData(ctypes.Structure):
@@ -386,6 +389,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_linked_matrices.argtypes = [model, work, configuration, I64, I64, I64, I64, P, P, I64, P, P]
         library.latdyn_linked_reduce_total.restype = None
         library.latdyn_linked_reduce_total.argtypes = [model, P]
+        library.latdyn_prescribed_time_rate.restype = None
+        library.latdyn_prescribed_time_rate.argtypes = [model, work, P, P, I64, P, P, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None
