@@ -40,7 +40,11 @@ parameters of ``initial_velocity`` (they move the start only), and explicit time
 through load components and hinge and guide laws of t alone (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
-every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
+every step the loop takes in the runs measured, the landing on the grid before it having cancelled it) and through
+prescribed motions on a model without rigid links or guides whose controllers read no prescribed coordinate (the
+blocks of M, C and the exact K coupling every row to the prescribed coordinates times the motion laws' exact rate,
+acceleration and jerk tabulated per grid point: csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``, which the
+Python path's ExplicitTime.through_prescribed calls too; :class:`_TimeRates` ``_motions``), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
 clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
@@ -57,7 +61,8 @@ names θ, θ̇ or an input and does not compile, cable parameters whose derivati
 values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
 matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
-motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
+motions on a model with rigid links or guides or read by a controller, reels (a rest length in t) or laws of the state
+and t, the external work and the dissipated energy (work
 accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
 whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
@@ -221,7 +226,8 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
     if model.cables is not None:
-        if scene.controllers or owner.explicit_time is not None:
+        reels_alone = differentiated and _reels_alone(owner.explicit_time)
+        if scene.controllers or (owner.explicit_time is not None and not reels_alone):
             return "cables beside controllers or explicit time dependence beside events"
         why = _cable_refusal(owner)
         if why is not None:
@@ -238,6 +244,13 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if why is not None:
         return why
     return None
+
+
+def _reels_alone(rates) -> bool:
+    """Whether ``rates`` (an ExplicitTime, or None) moves in t through reels alone (a cable's rest length in t, no
+    law, prescribed motion or controller of t): ∂r/∂t the reels' rest-length columns (_TimeRates ``_reels``)."""
+    return (rates is not None and rates.reels and not rates.prescribed and not rates.laws.derivatives
+            and rates.laws.controllers is None)
 
 
 def _energy_refusal(owner) -> str | None:
@@ -286,11 +299,12 @@ def _time_refusal(owner) -> str | None:
     """Why the explicit time dependence beside events of ``owner`` (its ExplicitTime: ∂r/∂t δt, latdyn/analyses/
     transient_sensitivities.py ``_add_time_columns``) keeps the run on the Python path, or None: the loop takes
     ∂r/∂t of load components and hinge and guide laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
-    per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`); prescribed motions
-    (a difference in t of the residual in Python), reels and laws of the state and t (a SymPy rate in NumPy) not."""
+    per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`), and of prescribed
+    motions where they are exact (latdyn/analyses/prescribed_rates.py ``PrescribedRates.exact``: the coupling blocks
+    times the motion laws' rates, csrc/prescribed_rates.c on both paths); prescribed motions on a model with rigid
+    links or guides or read by a controller (a difference in t of the residual in Python), reels and laws of the
+    state and t (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
-    if rates.reels:
-        return "explicit time dependence beside events through a reel"
     if rates.prescribed and not rates.motions.exact():
         return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
                 "guides, or read by a controller (a difference in t of the residual in Python)")
@@ -418,8 +432,19 @@ class SensitivityLoop:
             self._rates._layout()   # noqa: SLF001
             d.time_rates = ctypes.addressof(self._rates.data)
         self._cables()
+        if self._rates is not None and self._rates.data.cables and not d.cables:
+            self._near_changes()
         self._for = (key, True)
         return True
+
+    def _near_changes(self) -> None:
+        """A reel without cable parameters: the cables' struct with no use, so that the loop hands a step ending near
+        a cable element's change to the caller as with them (csrc/cable_forces.c ``cable_near_change``)."""
+        from latdyn.assembly.library import CableForcesData
+
+        c = self._cable_data = CableForcesData()
+        c.n_uses = 0
+        self.data.cables = ctypes.addressof(c)
 
     def _hinges(self) -> None:
         """The (use, column) pairs of ParameterDerivatives._hinge_uses, in its order: hinge, column, the derivative's
@@ -783,9 +808,35 @@ class _TimeRates(SensitivityLoop):
         d.total = self._pointer(self._total)
         self._loads()
         self._hinges()
+        self._reels()
         self._motions()
         self._for = (None, True)
         return True
+
+    def _reels(self) -> None:
+        """The reels' part (ExplicitTime.of_laws: CableSensitivities.reel_forces): each cable whose rest length is a
+        law in t as a rest-length use of csrc/cable_forces.c (the generated cable_force_D_rest_length times the
+        element's share and L0′(t), at each element held taut), its rate tabulated per grid point (:meth:`_tabulate`)."""
+        from latdyn.assembly.library import CableForcesData
+
+        d, owner = self.data, self.owner
+        d.cables = None
+        terms = owner.cables
+        if terms is None or not owner.reels:
+            return
+        self._reeled = [k for k, rest in enumerate(terms.cables.rest_length) if not rest.is_constant]
+        c = self._cable_data = CableForcesData()
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        uses = len(self._reeled)
+        c.n_uses = uses
+        c.cable, c.column, c.value = ints(self._reeled), ints([0] * uses), ints([2] * uses)
+        c.element_cable = ints(terms.cables.cable)
+        c.force_kernel, c.rest_kernel = (owner.kernels.address(name) for name in CABLE_KERNELS[:2])
+        c.mass_row, c.mass_rows, c.mass_from = ints([0] * uses), ints([0] * uses), ints([0] * uses)
+        c.mass_blocks, c.mass_gravity = self._pointer(np.zeros((1, 13))), self._pointer(np.zeros((1, 3)))
+        c.body_kernel = None
+        c.scratch = self._pointer(np.zeros(337))
+        d.cables = ctypes.addressof(c)
 
     def _motions(self) -> None:
         """The prescribed motions' part (ExplicitTime.through_prescribed, latdyn/analyses/prescribed_rates.py): the
@@ -812,6 +863,11 @@ class _TimeRates(SensitivityLoop):
         point from ``grid_index`` + 1 through ``stop_index`` (PrescribedRates.values)."""
         super()._tabulate(grid_index, stop_index, control)
         d = self.data
+        if d.cables:   # the reels' L0′(t) (CableSensitivities.reel_forces: the rest length's rate)
+            rest = self.owner.cables.cables.rest_length
+            self._reel_table = np.array([[rest[k].rate(control.grid_time(grid)) for k in self._reeled]
+                                         for grid in range(grid_index + 1, stop_index + 1)], float)
+            self._cable_data.values, self._cable_data.values_from = self._reel_table.ctypes.data, grid_index + 1
         if d.n_motions:
             motions = self.owner.motions
             self._motion_table = np.ascontiguousarray([motions.values(control.grid_time(grid))

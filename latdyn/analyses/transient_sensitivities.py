@@ -1495,7 +1495,7 @@ class ExplicitTime:
             self.laws.__dict__.pop(cache, None)
         self.laws._values_at = (float("nan"), {})
         self.laws.geometry = None   # the one column is t: no start moved by geometry parameters (k columns)
-        self.laws.motions = self.motions   # the loop's ∂r/∂t struct reads them (sensitivities_in_loop._TimeRates)
+        self.laws.motions, self.laws.reels = self.motions, reels   # the loop's ∂r/∂t struct reads them (_TimeRates)
 
     @classmethod
     def of(cls, owner) -> "ExplicitTime | None":

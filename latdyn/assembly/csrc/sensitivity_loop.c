@@ -126,7 +126,9 @@ typedef struct SensitivityLoopTag {
     const int64_t *hinge_law_index;     /* n_hinge_uses × 2: the derivative law's and (rest angle) the stiffness
                                          * law's number among them; −1: hinge_values' tabulated value */
     /* explicit time dependence beside events (ExplicitTime, latdyn/analyses/transient_sensitivities.py): ∂r/∂t's
-     * struct, one column of the hinge laws' and loads' uses with their rates in t; NULL: nothing moves in t */
+     * struct, one column of the hinge laws' and loads' uses with their rates in t, of the reels (its `cables`: each
+     * reeled cable's rest-length use with L0′(t)) and of the prescribed motions (its n_motions); NULL: nothing moves
+     * in t */
     struct SensitivityLoopTag *time_rates;
     /* continuous controllers' parameters (ControllerTerms.add, latdyn/analyses/sensitivities.py): each use (controller,
      * column) its compiled ∂f/∂p (derivative_laws.py ControllerPartials: law number u), at t and its controller's
@@ -336,6 +338,7 @@ static void explicit_time_columns(const Model *m, Work *w, const Configuration *
     memset(r->total, 0, sizeof(double) * (size_t)(m->n_total + 1));
     if (r->n_hinge_uses) hinge_parameter_forces(m, c, r, grid, t);
     load_parameter_forces(m, c, r, grid);
+    if (r->cables != NULL) cable_parameter_forces(m, w, c, r->cables, 1, grid, r->total);   /* reels: ExplicitTime.of_laws */
     if (s->linked) latdyn_linked_reduce_columns(m, r->total, 1, r->total);   /* Pᵀ, as the parameters' columns */
     if (r->n_motions) prescribed_time_rate(m, w, c, s, r, grid, t);   /* ExplicitTime.through_prescribed, added after */
     for (int64_t i = 0; i < n; ++i) {
