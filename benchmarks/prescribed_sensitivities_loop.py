@@ -2,10 +2,11 @@
 and reels in the sensitivity loop (issue 34)"): the scenes of tests/test_sensitivities_in_loop_prescribed.py.
 
     python benchmarks/prescribed_sensitivities_loop.py --write DIR
-        the scenes as YAML files in DIR (boom.yaml, angle.yaml; *-plain.yaml without sensitivities)
-    python benchmarks/prescribed_sensitivities_loop.py --scene FILE --repeats 7
+        the scenes as YAML files in DIR (boom.yaml, angle.yaml, truss.yaml; *-plain.yaml without sensitivities)
+    python benchmarks/prescribed_sensitivities_loop.py --scene FILE --repeats 7 [--off]
         in this process (the tree on PYTHONPATH): one warm-up run, then the runs timed (wall and
-        time.process_time); prints the minimum and the median of each
+        time.process_time); prints the minimum and the median of each; --off: the sensitivities' loop of steps
+        off (the private switch SENSITIVITIES_IN_LOOP: every step from Python)
     python benchmarks/prescribed_sensitivities_loop.py --user 5 --trees A,B --scenes DIR
         as a user runs it: fresh ``python -m latdyn run FILE -o OUT -q`` per tree (its root on PYTHONPATH), the trees
         alternating in each round, under ``chrt -f 10`` where it is allowed; medians of wall and of the child's CPU
@@ -29,21 +30,24 @@ def write(folder: Path) -> None:
     import yaml
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from tests.test_sensitivities_in_loop_prescribed import ANGLE_LATCH, BOOM_SLEW
+    from tests.test_sensitivities_in_loop_prescribed import ANGLE_LATCH, BOOM_SLEW, REEL_TRUSS
 
     folder.mkdir(parents=True, exist_ok=True)
-    for name, text in (("boom", BOOM_SLEW), ("angle", ANGLE_LATCH)):
+    for name, text in (("boom", BOOM_SLEW), ("angle", ANGLE_LATCH), ("truss", REEL_TRUSS)):
         (folder / f"{name}.yaml").write_text(text)
         plain = yaml.safe_load(text)
         plain["solve"].pop("sensitivities")
         (folder / f"{name}-plain.yaml").write_text(yaml.safe_dump(plain, sort_keys=False))
 
 
-def in_process(scene: Path, repeats: int) -> None:
+def in_process(scene: Path, repeats: int, off: bool = False) -> None:
     import yaml
 
     import latdyn
+    import latdyn.analyses.sensitivities_in_loop as loop
 
+    if off:
+        loop.SENSITIVITIES_IN_LOOP = False
     data = yaml.safe_load(scene.read_text())
     latdyn.run(latdyn.load_scene(data))
     walls, cpus, result = [], [], None
@@ -86,6 +90,7 @@ def main() -> None:
     parser.add_argument("--write", type=Path)
     parser.add_argument("--scene", type=Path)
     parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--off", action="store_true")
     parser.add_argument("--user", type=int)
     parser.add_argument("--trees")
     parser.add_argument("--scenes", type=Path)
@@ -93,7 +98,7 @@ def main() -> None:
     if args.write:
         write(args.write)
     elif args.scene:
-        in_process(args.scene, args.repeats)
+        in_process(args.scene, args.repeats, args.off)
     elif args.user:
         as_user(args.trees.split(","), args.scenes, args.user)
     else:

@@ -25,23 +25,34 @@ import ctypes
 
 import numpy as np
 
-from latdyn.scene.expressions import TimeFunction, _drop_deltas
+from latdyn.scene.expressions import _PROBES, TimeFunction, _drop_deltas, cached_entry, keep_entry
 
 __all__ = ["PrescribedRates", "third_derivative"]
 
 
 def third_derivative(law):
     """d³g/dt³ of a :class:`TimeFunction` as a function of t: SymPy's derivative of the law's second (deltas
-    dropped, as its first two); 0 for a constant and a table (piecewise linear)."""
+    dropped, as its first two); 0 for a constant and a table (piecewise linear). Kept in the package's cache of
+    what is derived from a text (``keep_entry``, kind "jerk"), so that a later process imports no SymPy for it, as
+    the law's own value, rate and acceleration."""
     if law is None or not isinstance(law, TimeFunction) or law.kind != "expression":
         return lambda t: 0.0
+    if not law._input_names:   # noqa: SLF001 - a law of t alone: the cache
+        cached = cached_entry("jerk", law.source)
+        if cached is not None and cached.get("numpy"):
+            third = cached["numpy"][0]
+            return lambda t: float(third(float(t)))
     import sympy as sp
 
     if getattr(law, "_derivative_cache", None) is None:
         law._symbolic()   # noqa: SLF001 - the law's own parse (its cache holds the lambdas alone)
     symbol, (_, _, second) = law._derivative_cache   # noqa: SLF001
-    third = sp.lambdify([symbol, *law._input_symbols()], _drop_deltas(sp.diff(second, symbol)),   # noqa: SLF001
-                        modules="numpy")
+    expression = _drop_deltas(sp.diff(second, symbol))
+    if not law._input_names:   # noqa: SLF001
+        third = sp.lambdify([symbol], expression, modules="numpy")
+        keep_entry("jerk", law.source, {}, {"numpy": (third,)}, [(t,) for t in _PROBES])
+        return lambda t: float(third(float(t)))
+    third = sp.lambdify([symbol, *law._input_symbols()], expression, modules="numpy")   # noqa: SLF001
     return lambda t: float(third(float(t), *law._input_values()))   # noqa: SLF001
 
 
