@@ -13,7 +13,13 @@ element held taut, the generated ``cable_force_D_rest_length`` (CableSensitiviti
 csrc/cable_forces.c's rest-length use with L0′(t) tabulated per grid point in the loop): the shipped 3D cable truss
 (examples/cable_deploying_truss.yaml, its reel paying out, its cables taut and slack again) cut to 0.3 s and the
 damped reel of tests/test_sensitivities_time_laws.py take the loop, bit for bit; the steps of the events and those
-ending near a cable's change from Python."""
+ending near a cable's change from Python.
+
+Laws of the state and t beside events (a hinge torque in θ, θ̇ and t): their ∂f/∂t at fixed θ, θ̇ a law of the state
+itself (transient_sensitivities._time_rate_law: SymPy's derivative's text), compiled with the parameters' derivative
+laws of the state (latdyn/analyses/derivative_laws.py) and called from C on both paths: the planar arm driven open
+by a torque 0.5 t (1 + 0.2 sin θ) and the 3D wheel driven by 0.3 sin 4t cos θ + 0.1 t θ̇, each latching, take the
+loop, bit for bit, and agree with Richardson differences."""
 from __future__ import annotations
 
 import math
@@ -26,7 +32,7 @@ import latdyn
 import tests.test_sensitivities_events as events
 from tests.cli_runs import latdyn_run, summary_of
 from tests.test_sensitivities_in_loop_cables import truss
-from tests.test_sensitivities_time_laws import ANGLE_LATCH, DAMPED_REEL, HUB_STOP
+from tests.test_sensitivities_time_laws import ANGLE_LATCH, DAMPED_REEL, HUB_STOP, TORQUE_LATCH
 
 #: the 3D wheel latching of tests/test_sensitivities_events.py on a boom whose root is prescribed: a slew
 #: 0.5 t² − 0.1 t³ about a skew axis and a translation in t (sin and t²: every rate, acceleration and jerk nonzero);
@@ -91,6 +97,45 @@ def test_reels_beside_cable_events_take_the_loop(text, monkeypatch):
         np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
     assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
     assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
+
+
+#: the planar arm of tests/test_sensitivities_time_laws.py driven open by a torque of the state and t, latching
+STATE_TIME_LATCH = TORQUE_LATCH.replace('torque: "0.5*t"', 'torque: "0.5*t*(1 + 0.2*sin(theta))"')
+assert "sin(theta))" in STATE_TIME_LATCH
+#: the 3D wheel latching of tests/test_sensitivities_events.py driven by a torque in θ, θ̇ and t as well
+STATE_TIME_3D = events.LATCH_3D.replace(
+    'damping: "c",', 'damping: "c", torque: "0.3*sin(4*t)*cos(theta) + 0.1*t*theta_dot",').replace(
+    "sensitivities: [k, c, J, m, EI, rho]", "sensitivities: [k, J]")
+assert "cos(theta)" in STATE_TIME_3D and "[k, J]" in STATE_TIME_3D
+
+
+@pytest.mark.parametrize("text, name, tolerance", [(STATE_TIME_LATCH, "k", 1e-8), (STATE_TIME_3D, "J", 1e-8)],
+                         ids=["planar arm, torque in theta and t", "3D wheel, torque in theta, theta_dot and t"])
+def test_laws_of_the_state_and_t_beside_a_latch_take_the_loop(text, name, tolerance, monkeypatch):
+    """Every step in the loop but the latch's and the landing after it, the Python path's to the bit, and against
+    Richardson differences of whole runs (measured 3.2e-9 for the planar arm's k, 8.1e-10 for the wheel's J)."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert [e["kind"] for e in native.summary["events"]] == ["latch"]
+    assert python.summary["sensitivity_steps_in_loop"] == 0
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] - 2 > 0
+    for key, values in python.sensitivities.items():
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
+    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
+    assert events._agree(native, text, name) <= tolerance
+
+
+def test_a_law_of_the_state_and_t_s_rate_is_exact():
+    """_time_rate_law's compiled-form law against the derivative written out, and against _TimeRate's lambda."""
+    from latdyn.analyses.transient_sensitivities import _time_rate_law, _TimeRate
+    from latdyn.scene.expressions import HingeLaw
+
+    scene = latdyn.load_scene(yaml.safe_load(STATE_TIME_3D))
+    law = HingeLaw("0.3*sin(4*t)*cos(theta) + 0.1*t*theta_dot")
+    rate = _time_rate_law(law, scene, "torque")
+    theta, theta_dot, t = 0.3, -0.7, 0.45
+    expected = 1.2 * math.cos(4 * t) * math.cos(theta) + 0.1 * theta_dot
+    assert rate.value(theta, theta_dot, t) == pytest.approx(expected, rel=1e-14)
+    assert _TimeRate(law).value(theta, theta_dot, t) == pytest.approx(expected, rel=1e-14)
 
 
 def test_the_boom_slewing_to_its_latch_agrees_with_richardson_differences(monkeypatch):

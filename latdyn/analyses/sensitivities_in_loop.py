@@ -309,12 +309,14 @@ def _time_refusal(owner) -> str | None:
         return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
                 "guides, or read by a controller (a difference in t of the residual in Python)")
     model = owner.model
-    for key in rates.laws.derivatives:
+    compiled = rates.laws.derivative_laws   # the rates of laws of the state and t, compiled (ExplicitTime)
+    for key, by_column in rates.laws.derivatives.items():
         hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
         if hinge is not None:
             law = getattr(model.hinges[model.hinge_index(hinge["beam"], hinge["end"])], hinge["law"])
-            if not _in_time_alone(law):
-                return f"explicit time dependence beside events: {key} is a law of the state and t"
+            if not _in_time_alone(law) and (compiled is None or compiled.index(by_column[0]) < 0):
+                return (f"explicit time dependence beside events: {key} is a law of the state and t whose rate did "
+                        "not compile")
         elif not _LOAD_KEY.match(key):
             return f"explicit time dependence beside events: {key}"
     return None

@@ -1439,6 +1439,10 @@ class _TimeRate:
     (SymPy's derivative; a table's slope), of a :class:`latdyn.scene.expressions.HingeLaw` in θ, θ̇ and t
     the SymPy derivative of its expression by t (deltas dropped as for its other derivatives)."""
 
+    #: read as a law of t alone where laws of the state are compiled (derivative_laws.of_the_state): a law of the
+    #: state and t takes :func:`_time_rate_law`'s compiled rate, and keeps the Python path where it has none
+    depends_on, input_names = ("t",), ()
+
     def __init__(self, law):
         self.function = None
         time = law if isinstance(law, TimeFunction) else law.time_function
@@ -1455,6 +1459,35 @@ class _TimeRate:
     def value(self, theta: float, rate: float, t: float) -> float:
         with np.errstate(all="ignore"):
             return float(self.function(theta, rate, t))
+
+
+def _time_rate_law(law, scene, key: str):
+    """∂f/∂t at fixed θ, θ̇ of a hinge or guide law of the state and t as a law of the state itself (a
+    :class:`latdyn.scene.expressions.HingeLaw` of SymPy's derivative's text, deltas dropped as :class:`_TimeRate`
+    drops them), which :class:`latdyn.analyses.derivative_laws.DerivativeLaws` compiles as the parameters' derivative
+    laws (the same C on the per-step path and in the loop of steps); the text kept in the expression cache (kind
+    "time_rate"). None where the law has no SymPy expression or its derivative does not parse."""
+    import re
+
+    from latdyn.scene import expressions as scene_expressions
+
+    source = repr((str(law.source), "d/dt"))
+    cached = scene_expressions.cached_entry("time_rate", source)
+    text = cached.get("text") if cached is not None else None
+    if not isinstance(text, str):
+        held = law.expressions
+        if held is None:
+            return None
+        import sympy as sp
+
+        symbols, (expr, *_) = held
+        text = re.sub(r"\bAbs\(", "abs(", str(_drop_deltas(sp.diff(expr, symbols[2]))))
+        scene_expressions.keep_entry("time_rate", source, {"text": text}, {}, ())
+    try:
+        with scene_expressions.reading_inputs(scene.inputs):
+            return scene_expressions.parse_hinge_law(text, scene.file, f"{key} (its rate in t)")
+    except SceneError:
+        return None
 
 
 class ExplicitTime:
@@ -1496,6 +1529,9 @@ class ExplicitTime:
         self.laws._values_at = (float("nan"), {})
         self.laws.geometry = None   # the one column is t: no start moved by geometry parameters (k columns)
         self.laws.motions, self.laws.reels = self.motions, reels   # the loop's ∂r/∂t struct reads them (_TimeRates)
+        # the rates of laws of the state and t (HingeLaws of ∂f/∂t: _time_rate_law) compiled as the parameters'
+        # derivative laws of the state, the same C on both paths (latdyn/analyses/derivative_laws.py); none: None
+        self.laws.derivative_laws = DerivativeLaws.of(self.laws)
 
     @classmethod
     def of(cls, owner) -> "ExplicitTime | None":
@@ -1514,7 +1550,9 @@ class ExplicitTime:
 
         def add(key, law):
             if law is not None and not isinstance(law, (int, float)) and "t" in _depends(law):
-                laws[key] = {0: _TimeRate(law)}
+                of_the_state = not isinstance(law, TimeFunction) and law.time_function is None
+                rate = _time_rate_law(law, scene, key) if of_the_state else None
+                laws[key] = {0: rate if rate is not None else _TimeRate(law)}
 
         for i, load in enumerate(scene.loads):
             for kind in ("force", "moment"):
