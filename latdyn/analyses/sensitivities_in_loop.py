@@ -44,7 +44,10 @@ every step the loop takes in the runs measured, the landing on the grid before i
 prescribed motions on a model without rigid links or guides whose controllers read no prescribed coordinate (the
 blocks of M, C and the exact K coupling every row to the prescribed coordinates times the motion laws' exact rate,
 acceleration and jerk tabulated per grid point: csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``, which the
-Python path's ExplicitTime.through_prescribed calls too; :class:`_TimeRates` ``_motions``), and the
+Python path's ExplicitTime.through_prescribed calls too; :class:`_TimeRates` ``_motions``), through reels (a cable's
+rest length in t: each a rest-length use of csrc/cable_forces.c with L0′(t) tabulated, ``_TimeRates._reels``; beside
+no other explicit time dependence or controller, ``_reels_alone``) and through hinge and guide laws of the state and
+t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
 clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
@@ -61,8 +64,8 @@ names θ, θ̇ or an input and does not compile, cable parameters whose derivati
 values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
 matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
-motions on a model with rigid links or guides or read by a controller, reels (a rest length in t) or laws of the state
-and t, the external work and the dissipated energy (work
+motions on a model with rigid links or guides or read by a controller, reels beside other explicit time dependence
+or controllers, or laws of the state and t whose rate does not compile, the external work and the dissipated energy (work
 accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
 whose step matrix takes the
 sparse LU (whose failed pivot falls back to SciPy: :meth:`latdyn.analyses.step_matrix.ExactStepMatrix.solve_step`).
@@ -301,9 +304,10 @@ def _time_refusal(owner) -> str | None:
     ∂r/∂t of load components and hinge and guide laws of t alone, their exact rates (the same ``_TimeRate`` objects) tabulated
     per grid point through the same generated point_load and hinge_force (:class:`_TimeRates`), and of prescribed
     motions where they are exact (latdyn/analyses/prescribed_rates.py ``PrescribedRates.exact``: the coupling blocks
-    times the motion laws' rates, csrc/prescribed_rates.c on both paths); prescribed motions on a model with rigid
-    links or guides or read by a controller (a difference in t of the residual in Python), reels and laws of the
-    state and t (a SymPy rate in NumPy) not."""
+    times the motion laws' rates, csrc/prescribed_rates.c on both paths), of reels (``model_refusal``: alone), and of
+    hinge and guide laws of the state and t whose rate compiled (transient_sensitivities._time_rate_law, the same C
+    on both paths); prescribed motions on a model with rigid links or guides or read by a controller (a difference in
+    t of the residual in Python) and laws of the state and t whose rate did not compile (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
     if rates.prescribed and not rates.motions.exact():
         return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
