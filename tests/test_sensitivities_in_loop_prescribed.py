@@ -148,13 +148,15 @@ def test_the_boom_slewing_to_its_latch_agrees_with_richardson_differences(monkey
     assert events._agree(result, BOOM_SLEW, "k") <= 2e-8
 
 
-def test_the_cli_writes_the_python_paths_files_for_the_boom(tmp_path):
-    """``latdyn run`` on the slewing boom takes the loop; the same command with the switch off (a process of its own)
-    writes the same sensitivities.csv and probes.csv, byte for byte, and summary.json's sensitivities."""
-    completed, out = latdyn_run(tmp_path, BOOM_SLEW)
+@pytest.mark.parametrize("text, beside", [(BOOM_SLEW, 2), (REEL_TRUSS, 6)], ids=["slewing boom", "truss with its reel"])
+def test_the_cli_writes_the_python_paths_files(text, beside, tmp_path):
+    """``latdyn run`` on the slewing boom and on the truss with its reel takes the loop; the same command with the switch
+    off (a process of its own) writes the same sensitivities.csv and probes.csv, byte for byte, and summary.json's
+    sensitivities."""
+    completed, out = latdyn_run(tmp_path, text)
     assert completed.returncode == 0, completed.stderr
     summary = summary_of(out)
-    assert summary["sensitivity_steps_in_loop"] == summary["steps"] - 2
+    assert summary["sensitivity_steps_in_loop"] == summary["steps"] - beside
     from tests.cli_runs import the_loop_off_writes_the_same
 
     the_loop_off_writes_the_same(tmp_path, out)
