@@ -6,8 +6,8 @@ mass, a mass dropped on a slack cable and the shipped cable truss (its reel held
 take their smooth steps in the loop, and the sensitivities and the events' time derivatives are the per-step Python
 path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the API and through ``latdyn run``; the
 slack/taut changes and the steps that end near one from Python; the mast from the loop against Richardson central
-differences; the shipped truss with its reel (a rest length in t beside the cables' events) stays on the Python
-path."""
+differences. The shipped truss with its reel (a rest length in t beside the cables' events) takes the loop too:
+tests/test_sensitivities_in_loop_prescribed.py."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -183,14 +183,6 @@ def test_the_mast_from_the_loop_agrees_with_richardson_central_differences(name,
         expected = (4 * central[1][probe] - central[0][probe]) / 3
         error = np.abs(native.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max()
         assert error < 1e-6, (probe, error)
-
-
-def test_the_shipped_truss_with_its_reel_keeps_the_python_path(monkeypatch):
-    """A reel (the rest length in t) beside the cables' events is explicit time dependence, which the loop does not
-    take: every step from Python, whichever the switch."""
-    native = _run(truss(reel=True), monkeypatch, True)
-    assert native.summary["sensitivity_steps_in_loop"] == 0 and native.summary["events"]
-    assert native.summary["time_loop"] == "python"
 
 
 def test_the_cli_writes_the_python_paths_files(tmp_path):

@@ -44,7 +44,14 @@ naming a controller's output or an input whose derivative by t names neither: a 
 ``_rate_in_time_alone``) (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
-every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
+every step the loop takes in the runs measured, the landing on the grid before it having cancelled it) and through
+prescribed motions on a model without rigid links or guides whose controllers read no prescribed coordinate (the
+blocks of M, C and the exact K coupling every row to the prescribed coordinates times the motion laws' exact rate,
+acceleration and jerk tabulated per grid point: csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``, which the
+Python path's ExplicitTime.through_prescribed calls too; :class:`_TimeRates` ``_motions``), through reels (a cable's
+rest length in t: each a rest-length use of csrc/cable_forces.c with L0′(t) tabulated, ``_TimeRates._reels``; beside
+no other explicit time dependence or controller, ``_reels_alone``) and through hinge and guide laws of the state and
+t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
 clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
@@ -70,8 +77,9 @@ names θ, θ̇ or an input and does not compile (every form of the expression la
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
 sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
-motions, reels (a rest length in t or an input), controllers' outputs that name t, or laws of the state and t (a
-rate in t that names θ, θ̇ or an input), the work accounts (energy_sensitivities.external_work_step)
+motions on a model with rigid links or guides or read by a controller, reels beside other explicit time dependence
+or controllers, controllers' outputs that name t, or laws of the state and t whose rate in t is not a value of t alone
+and does not compile, the work accounts (energy_sensitivities.external_work_step)
 with a law of θ, θ̇ or an input in them, with rigid links or guides, or (the external work) with a prescribed motion
 (its drive's reaction), and the NumPy kernels.
 
@@ -261,6 +269,9 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if getattr(owner.kernels, "backend", None) != "c":
         return "kernels without C libraries"
     if model.cables is not None:
+        rates = owner.explicit_time
+        if differentiated and rates is not None and rates.reels and (scene.controllers or not _reels_alone(rates)):
+            return "reels beside controllers or other explicit time dependence beside events"
         why = _cable_refusal(owner)
         if why is not None:
             return why
@@ -276,6 +287,13 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if why is not None:
         return why
     return None
+
+
+def _reels_alone(rates) -> bool:
+    """Whether ``rates`` (an ExplicitTime, or None) moves in t through reels alone (a cable's rest length in t, no
+    law, prescribed motion or controller of t): ∂r/∂t the reels' rest-length columns (_TimeRates ``_reels``)."""
+    return (rates is not None and rates.reels and not rates.prescribed and not rates.laws.derivatives
+            and rates.laws.controllers is None)
 
 
 def _energy_refusal(owner) -> str | None:
@@ -361,21 +379,28 @@ def _time_refusal(owner) -> str | None:
     transient_sensitivities.py ``_add_time_columns``) keeps the run on the Python path, or None: the loop takes
     ∂r/∂t of load components and hinge and guide laws whose rate in t is one of t alone (:func:`_rate_in_time_alone`),
     their exact rates (the same ``_TimeRate`` objects) tabulated per grid point through the same generated point_load
-    and hinge_force (:class:`_TimeRates`); prescribed motions (a difference in t of the residual in Python), reels,
-    controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's ``controllers``, not in C) and
-    laws of the state and t (a SymPy rate in NumPy that reads θ, θ̇ or an input) not."""
+    and hinge_force (:class:`_TimeRates`), and of prescribed
+    motions where they are exact (latdyn/analyses/prescribed_rates.py ``PrescribedRates.exact``: the coupling blocks
+    times the motion laws' rates, csrc/prescribed_rates.c on both paths), of reels (``model_refusal``: alone), and of
+    hinge and guide laws of the state and t whose rate compiled (transient_sensitivities._time_rate_law, the same C
+    on both paths); prescribed motions on a model with rigid links or guides or read by a controller (a difference in
+    t of the residual in Python), controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's
+    ``controllers``, not in C) and laws of the state and t whose rate did not compile (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
-    if rates.prescribed or rates.reels:
-        return "explicit time dependence beside events through prescribed motions or a reel"
+    if rates.prescribed and not rates.motions.exact():
+        return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
+                "guides, or read by a controller (a difference in t of the residual in Python)")
     if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): not in C
         return "explicit time dependence beside events through a controller's output"
     model = owner.model
-    for key in rates.laws.derivatives:
+    compiled = rates.laws.derivative_laws   # the rates of laws of the state and t, compiled (ExplicitTime)
+    for key, by_column in rates.laws.derivatives.items():
         hinge = owner._key_kinds(key)[1]   # noqa: SLF001 - a guide's law read as the hinge law it is, on its slide
         if hinge is not None:
             law = getattr(model.hinges[model.hinge_index(hinge["beam"], hinge["end"])], hinge["law"])
-            if not _rate_in_time_alone(law):
-                return f"explicit time dependence beside events: {key} is a law of the state and t"
+            if not _rate_in_time_alone(law) and (compiled is None or compiled.index(by_column[0]) < 0):
+                return (f"explicit time dependence beside events: {key} is a law of the state and t whose rate did "
+                        "not compile")
         elif not _LOAD_KEY.match(key):
             return f"explicit time dependence beside events: {key}"
     return None
@@ -495,6 +520,8 @@ class SensitivityLoop:
             d.time_rates = ctypes.addressof(self._rates.data)
         self._cables()
         self._accounts()
+        if self._rates is not None and self._rates.data.cables and not d.cables:
+            self._near_changes()
         self._for = (key, True)
         return True
 
@@ -571,6 +598,15 @@ class SensitivityLoop:
         d.pivoted_storage = self._pointer(np.ascontiguousarray(band.position(step_matrix.rows, step_matrix.cols),
                                                                np.int64))
         d.pivoted_factor, d.pivoted_pivots = band.values.ctypes.data, band.pivots.ctypes.data
+
+    def _near_changes(self) -> None:
+        """A reel without cable parameters: the cables' struct with no use, so that the loop hands a step ending near
+        a cable element's change to the caller as with them (csrc/cable_forces.c ``cable_near_change``)."""
+        from latdyn.assembly.library import CableForcesData
+
+        c = self._cable_data = CableForcesData()
+        c.n_uses = 0
+        self.data.cables = ctypes.addressof(c)
 
     def _hinges(self) -> None:
         """The (use, column) pairs of ParameterDerivatives._hinge_uses, in its order: hinge, column, the derivative's
@@ -1021,8 +1057,71 @@ class _TimeRates(SensitivityLoop):
         d.total = self._pointer(self._total)
         self._loads()
         self._hinges()
+        self._reels()
+        self._motions()
         self._for = (None, True)
         return True
+
+    def _reels(self) -> None:
+        """The reels' part (ExplicitTime.of_laws: CableSensitivities.reel_forces): each cable whose rest length is a
+        law in t as a rest-length use of csrc/cable_forces.c (the generated cable_force_D_rest_length times the
+        element's share and L0′(t), at each element held taut), its rate tabulated per grid point (:meth:`_tabulate`)."""
+        from latdyn.assembly.library import CableForcesData
+
+        d, owner = self.data, self.owner
+        d.cables = None
+        terms = owner.cables
+        if terms is None or not owner.reels:
+            return
+        self._reeled = [k for k, rest in enumerate(terms.cables.rest_length) if not rest.is_constant]
+        c = self._cable_data = CableForcesData()
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        uses = len(self._reeled)
+        c.n_uses = uses
+        c.cable, c.column, c.value = ints(self._reeled), ints([0] * uses), ints([2] * uses)
+        c.element_cable = ints(terms.cables.cable)
+        c.force_kernel, c.rest_kernel = (owner.kernels.address(name) for name in CABLE_KERNELS[:2])
+        c.mass_row, c.mass_rows, c.mass_from = ints([0] * uses), ints([0] * uses), ints([0] * uses)
+        c.mass_blocks, c.mass_gravity = self._pointer(np.zeros((1, 13))), self._pointer(np.zeros((1, 3)))
+        c.body_kernel = None
+        c.scratch = self._pointer(np.zeros(337))
+        d.cables = ctypes.addressof(c)
+
+    def _motions(self) -> None:
+        """The prescribed motions' part (ExplicitTime.through_prescribed, latdyn/analyses/prescribed_rates.py): the
+        mask of the prescribed coordinates, the loads' block columns, the coordinates the motion laws move, scratch
+        for their dense rates and the result; their values tabulated per grid point (:meth:`_tabulate`)."""
+        d, motions = self.data, self.owner.motions
+        d.n_motions = 0
+        if motions is None:
+            return
+        coordinates = motions.motion_coordinates()
+        d.n_motions = len(coordinates)
+        if not d.n_motions:
+            return
+        size = self.owner.model.n_total + 1
+        d.prescribed_mask = self._pointer(motions.mask())
+        d.load_columns = self._pointer(motions.load_columns())
+        d.motion_coordinates = self._pointer(coordinates)
+        d.motion_rates = self._pointer(np.zeros(3 * size))
+        self._through = np.zeros(size)
+        d.through_prescribed = self._pointer(self._through)
+
+    def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
+        """The laws' rates (SensitivityLoop._tabulate) and the motion laws' rate, acceleration and jerk at each grid
+        point from ``grid_index`` + 1 through ``stop_index`` (PrescribedRates.values)."""
+        super()._tabulate(grid_index, stop_index, control)
+        d = self.data
+        if d.cables:   # the reels' L0′(t) (CableSensitivities.reel_forces: the rest length's rate)
+            rest = self.owner.cables.cables.rest_length
+            self._reel_table = np.array([[rest[k].rate(control.grid_time(grid)) for k in self._reeled]
+                                         for grid in range(grid_index + 1, stop_index + 1)], float)
+            self._cable_data.values, self._cable_data.values_from = self._reel_table.ctypes.data, grid_index + 1
+        if d.n_motions:
+            motions = self.owner.motions
+            self._motion_table = np.ascontiguousarray([motions.values(control.grid_time(grid))
+                                                       for grid in range(grid_index + 1, stop_index + 1)], float)
+            d.motion_values, d.motions_from = self._motion_table.ctypes.data, grid_index + 1
 
 
 class _AtRest:

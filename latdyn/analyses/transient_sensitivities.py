@@ -76,9 +76,10 @@ Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescrib
 t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
 the grid), and the step's derivative adds ∂r/∂t δt_{n+1}: ∂r/∂t δt_n in the parameters' columns and ∂r/∂t in
 the step size's (:meth:`TransientSensitivities._add_time_columns`); the impulse and the restart at the event
-are taken at t_e + δt_e (:attr:`TransientSensitivities.time_shift`). ∂r/∂t is exact for the laws and a reel,
-a five-point difference in t for prescribed motions (docs/parameters.md, "Sensitivities through events",
-"Laws in time").
+are taken at t_e + δt_e (:attr:`TransientSensitivities.time_shift`). ∂r/∂t is exact for the laws, a reel and
+prescribed motions (the coupling blocks times the motions' exact rates: latdyn/analyses/prescribed_rates.py), a
+five-point difference in t for prescribed motions on a model with rigid links or guides (docs/parameters.md,
+"Sensitivities through events", "Laws in time").
 
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
@@ -1445,6 +1446,10 @@ class _TimeRate:
     (SymPy's derivative; a table's slope), of a :class:`latdyn.scene.expressions.HingeLaw` in θ, θ̇ and t
     the SymPy derivative of its expression by t (deltas dropped as for its other derivatives)."""
 
+    #: read as a law of t alone where laws of the state are compiled (derivative_laws.of_the_state): a law of the
+    #: state and t takes :func:`_time_rate_law`'s compiled rate, and keeps the Python path where it has none
+    depends_on, input_names = ("t",), ()
+
     def __init__(self, law):
         self.function = None
         time = law if isinstance(law, TimeFunction) else law.time_function
@@ -1463,6 +1468,35 @@ class _TimeRate:
             return float(self.function(theta, rate, t))
 
 
+def _time_rate_law(law, scene, key: str):
+    """∂f/∂t at fixed θ, θ̇ of a hinge or guide law of the state and t as a law of the state itself (a
+    :class:`latdyn.scene.expressions.HingeLaw` of SymPy's derivative's text, deltas dropped as :class:`_TimeRate`
+    drops them), which :class:`latdyn.analyses.derivative_laws.DerivativeLaws` compiles as the parameters' derivative
+    laws (the same C on the per-step path and in the loop of steps); the text kept in the expression cache (kind
+    "time_rate"). None where the law has no SymPy expression or its derivative does not parse."""
+    import re
+
+    from latdyn.scene import expressions as scene_expressions
+
+    source = repr((str(law.source), "d/dt"))
+    cached = scene_expressions.cached_entry("time_rate", source)
+    text = cached.get("text") if cached is not None else None
+    if not isinstance(text, str):
+        held = law.expressions
+        if held is None:
+            return None
+        import sympy as sp
+
+        symbols, (expr, *_) = held
+        text = re.sub(r"\bAbs\(", "abs(", str(_drop_deltas(sp.diff(expr, symbols[2]))))
+        scene_expressions.keep_entry("time_rate", source, {"text": text}, {}, ())
+    try:
+        with scene_expressions.reading_inputs(scene.inputs):
+            return scene_expressions.parse_hinge_law(text, scene.file, f"{key} (its rate in t)")
+    except SceneError:
+        return None
+
+
 class ExplicitTime:
     """∂r/∂t of the equations of motion at fixed free coordinates, rates and accelerations (module
     docstring, "Laws in time"): what moves the residual when a step's end moves in time.
@@ -1472,18 +1506,26 @@ class ExplicitTime:
       (:meth:`latdyn.analyses.sensitivities.ParameterDerivatives.residual_derivatives`: point_load,
       hinge_force, linear in those values), one column;
     - a reel (a cable's rest length L0(t)): :meth:`CableSensitivities.reel_forces`;
-    - prescribed motions (a body's translation and rotation, a hinge's angle): the free coordinates'
-      residual through the prescribed nodes' positions, rates and accelerations at t, by a five-point
-      central difference in t with step :data:`PRESCRIBED_TIME_STEP` · dt of the residual evaluated with
-      the motion applied at t ± η (the evaluation assembles no coupling block to prescribed coordinates:
-      the one difference of this part; its truncation (ηω)⁴/30 and round-off ε|r|/η are both below 1e-9
-      of ∂r/∂t for a motion the step resolves)."""
+    - prescribed motions (a body's translation and rotation, a hinge's angle): exactly, the blocks of M, C and
+      the exact K coupling every row to the prescribed coordinates times the motion laws' exact first, second
+      and third time derivatives (:class:`latdyn.analyses.prescribed_rates.PrescribedRates`, one native call,
+      csrc/prescribed_rates.c); on a model with rigid links or guides, or a controller coupling on a prescribed
+      coordinate, where those blocks are not the evaluation's buffers, still a five-point central difference in
+      t with step :data:`PRESCRIBED_TIME_STEP` · dt of the residual evaluated with the motion applied at t ± η
+      (its truncation (ηω)⁴/30 and round-off ε|r|/η are both below 1e-9 of ∂r/∂t for a motion the step
+      resolves)."""
 
     def __init__(self, owner, laws: dict, prescribed: bool, reels: bool):
         import copy
 
         self.owner = owner
         self.prescribed, self.reels = prescribed, reels
+        #: ∂r/∂t through the prescribed motions, exactly (None without prescribed motions)
+        self.motions = None
+        if prescribed:
+            from latdyn.analyses.prescribed_rates import PrescribedRates
+
+            self.motions = PrescribedRates(owner)
         # the parameters' machinery, with one column: t (the controllers' outputs' explicit ∂y/∂t through
         # their actuators, as ∂y/∂p: :func:`_controller_time_rates`)
         self.laws = copy.copy(owner)
@@ -1493,6 +1535,10 @@ class ExplicitTime:
             self.laws.__dict__.pop(cache, None)
         self.laws._values_at = (float("nan"), {})
         self.laws.geometry = None   # the one column is t: no start moved by geometry parameters (k columns)
+        self.laws.motions, self.laws.reels = self.motions, reels   # the loop's ∂r/∂t struct reads them (_TimeRates)
+        # the rates of laws of the state and t (HingeLaws of ∂f/∂t: _time_rate_law) compiled as the parameters'
+        # derivative laws of the state, the same C on both paths (latdyn/analyses/derivative_laws.py); none: None
+        self.laws.derivative_laws = DerivativeLaws.of(self.laws)
 
     @classmethod
     def of(cls, owner) -> "ExplicitTime | None":
@@ -1511,7 +1557,9 @@ class ExplicitTime:
 
         def add(key, law):
             if law is not None and not isinstance(law, (int, float)) and "t" in _depends(law):
-                laws[key] = {0: _TimeRate(law)}
+                of_the_state = not isinstance(law, TimeFunction) and law.time_function is None
+                rate = _time_rate_law(law, scene, key) if of_the_state else None
+                laws[key] = {0: rate if rate is not None else _TimeRate(law)}
 
         for i, load in enumerate(scene.loads):
             for kind in ("force", "moment"):
@@ -1550,8 +1598,18 @@ class ExplicitTime:
 
     def through_prescribed(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) through the prescribed motions alone (class docstring): the loads, laws and rest
-        lengths read the state's own time, the prescribed nodes and angles move to t ± η, ± 2η; ``on_all``:
-        of the assembled residual and the reactions (n_total + 1,), before the reduction."""
+        lengths read the state's own time; exactly (:class:`latdyn.analyses.prescribed_rates.PrescribedRates`)
+        where the model allows, else the prescribed nodes and angles moved to t ± η, ± 2η; ``on_all``: of the
+        assembled residual and the reactions (n_total + 1,), before the reduction."""
+        if self.motions is not None and self.motions.exact():
+            total = self.motions(state, inertia)
+            return total if on_all else self.owner._on_free_coordinates(state, total[:, None])[:, 0]
+        return self.difference_in_t(state, inertia, on_all)
+
+    def difference_in_t(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
+        """:meth:`through_prescribed` by a five-point central difference in t of the residual (class docstring):
+        the prescribed nodes and angles moved to t ± η, ± 2η (models where the exact coupling is not assembled;
+        the check of the exact one, tests/test_sensitivities_in_loop_prescribed.py)."""
         assembler = self.owner.assembler
         eta = PRESCRIBED_TIME_STEP * float(self.owner.scene.solve.dt)
 

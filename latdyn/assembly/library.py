@@ -235,7 +235,10 @@ class SensitivityLoopData(ctypes.Structure):
                 # (csrc/sensitivity_step.c latdyn_sensitivity_step_pivoted); NULL: S not sparse
                 ("pivoted", P), ("pivoted_storage", P), ("pivoted_factor", P), ("pivoted_pivots", P),
                 # rigid links and guides: the entries linked_gather gathers (n², or the reduced pattern's nnz)
-                ("linked_count", I64)]
+                ("linked_count", I64),
+                # ∂r/∂t through the prescribed motions, in the time_rates struct (csrc/prescribed_rates.c); 0: none
+                ("prescribed_mask", P), ("load_columns", P), ("n_motions", I64), ("motion_coordinates", P),
+                ("motion_values", P), ("motions_from", I64), ("motion_rates", P), ("through_prescribed", P)]
 
 
 class WorkAccountsData(ctypes.Structure):
@@ -412,6 +415,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_linked_matrices.argtypes = [model, work, configuration, I64, I64, I64, I64, P, P, I64, P, P]
         library.latdyn_linked_reduce_total.restype = None
         library.latdyn_linked_reduce_total.argtypes = [model, P]
+        library.latdyn_prescribed_time_rate.restype = None
+        library.latdyn_prescribed_time_rate.argtypes = [model, work, P, P, I64, P, P, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None

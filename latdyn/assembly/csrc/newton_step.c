@@ -28,6 +28,8 @@
 #include "linked_matrices.c" /* rigid links: M, C, K and ∂r/∂p on the minimum coordinates for the sensitivities */
 #include "cable_forces.c" /* ∂r/∂p of the cables' parameters for the sensitivities */
 #include "work_accounts.c" /* the work accounts' sensitivities carried through the steps */
+
+#include "prescribed_rates.c" /* ∂r/∂t through the prescribed motions, exactly, for the sensitivities */
 #include "sensitivity_loop.c" /* the transient sensitivities' smooth step in the loop of steps */
 #include "adjoint_trajectory.c" /* the discrete adjoint's forward pass: the accepted steps stored */
 #include "adjoint_reverse.c" /* the discrete adjoint's reverse pass: a smooth step in one call */

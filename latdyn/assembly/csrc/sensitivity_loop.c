@@ -126,7 +126,9 @@ typedef struct SensitivityLoopTag {
     const int64_t *hinge_law_index;     /* n_hinge_uses × 2: the derivative law's and (rest angle) the stiffness
                                          * law's number among them; −1: hinge_values' tabulated value */
     /* explicit time dependence beside events (ExplicitTime, latdyn/analyses/transient_sensitivities.py): ∂r/∂t's
-     * struct, one column of the hinge laws' and loads' uses with their rates in t; NULL: nothing moves in t */
+     * struct, one column of the hinge laws' and loads' uses with their rates in t, of the reels (its `cables`: each
+     * reeled cable's rest-length use with L0′(t)) and of the prescribed motions (its n_motions); NULL: nothing moves
+     * in t */
     struct SensitivityLoopTag *time_rates;
     /* continuous controllers' parameters (ControllerTerms.add, latdyn/analyses/sensitivities.py): each use (controller,
      * column) its compiled ∂f/∂p (derivative_laws.py ControllerPartials: law number u), at t and its controller's
@@ -159,6 +161,18 @@ typedef struct SensitivityLoopTag {
     /* rigid links and guides: the entries linked_gather gathers (n²: the dense n × n; above DENSE_LIMIT coordinates
      * or on a sparse storage the iteration matrix's pattern on the minimum coordinates, S on it: latdyn_linked_exact_values) */
     int64_t linked_count;
+
+    /* ∂r/∂t through the prescribed motions (csrc/prescribed_rates.c, latdyn/analyses/prescribed_rates.py), read in
+     * the time_rates struct (n_motions 0: none): 1 on each prescribed coordinate (n_total + 1), each load block's
+     * columns (n_loads × 6), the coordinates the motion laws move (n_motions) and their rate, acceleration and
+     * jerk at each grid point ((grid points) × 3 × n_motions, from motions_from), the dense rates 3 (n_total + 1)
+     * (zero off them) and the result (n_total + 1) */
+    const int64_t *prescribed_mask, *load_columns;
+    int64_t n_motions;
+    const int64_t *motion_coordinates;
+    const double *motion_values;
+    int64_t motions_from;
+    double *motion_rates, *through_prescribed;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -307,20 +321,42 @@ static void controller_parameter_forces(const Model *m, const Configuration *c, 
     }
 }
 
+/* ∂r/∂t through the prescribed motions at c into r->through_prescribed (ExplicitTime.through_prescribed,
+ * PrescribedRates.__call__): the evaluation with the inertia tangent at c, the joint bodies' inertia stiffness
+ * (exact_matrices left it in s->body_stiffness at c), the motion laws' rates at grid point `grid` made dense, then
+ * latdyn_prescribed_time_rate (csrc/prescribed_rates.c), as the Python path calls them. */
+static void prescribed_time_rate(const Model *m, Work *w, const Configuration *c, const SensitivityLoop *s,
+                                 SensitivityLoop *r, int64_t grid, double t)
+{
+    const int64_t size = m->n_total + 1, P = r->n_motions;
+    EvaluationControl e = {t, 1.0, 1, 1, 1, 0.0};
+    latdyn_evaluate(m, w, c, &e);
+    memset(r->motion_rates, 0, sizeof(double) * (size_t)(3 * size));
+    const double *table = r->motion_values + 3 * P * (grid - r->motions_from);
+    for (int part = 0; part < 3; ++part)
+        for (int64_t q = 0; q < P; ++q) r->motion_rates[part * size + r->motion_coordinates[q]] = table[part * P + q];
+    latdyn_prescribed_time_rate(m, w, r->prescribed_mask, r->motion_rates, 1,
+                                s->body_kernel != NULL ? s->body_stiffness : NULL, r->load_columns,
+                                r->through_prescribed);
+}
+
 /* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
  * laws' then the loads' rates in t through the same calls as their parameters', ExplicitTime.of_laws; with rigid
  * links or guides reduced by Pᵀ as ExplicitTime's _on_free_coordinates reduces it) times the
  * carried δt_n added to the parameters' columns of explicit_, and ∂r/∂t itself to the step size's. */
-static void explicit_time_columns(const Model *m, const Configuration *c, SensitivityLoop *s, int64_t grid, double t)
+static void explicit_time_columns(const Model *m, Work *w, const Configuration *c, SensitivityLoop *s, int64_t grid,
+                                  double t)
 {
     SensitivityLoop *r = s->time_rates;
     const int64_t n = m->n_dofs, k = s->k, cols = k + 1;
     memset(r->total, 0, sizeof(double) * (size_t)(m->n_total + 1));
     if (r->n_hinge_uses) hinge_parameter_forces(m, c, r, grid, t);
     load_parameter_forces(m, c, r, grid);
+    if (r->cables != NULL) cable_parameter_forces(m, w, c, r->cables, 1, grid, r->total);   /* reels: ExplicitTime.of_laws */
     if (s->linked) latdyn_linked_reduce_columns(m, r->total, 1, r->total);   /* Pᵀ, as the parameters' columns */
+    if (r->n_motions) prescribed_time_rate(m, w, c, s, r, grid, t);   /* ExplicitTime.through_prescribed, added after */
     for (int64_t i = 0; i < n; ++i) {
-        const double rate = r->total[i];
+        const double rate = r->n_motions ? r->total[i] + r->through_prescribed[i] : r->total[i];
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] += rate * s->dt[col];
         s->explicit_[i * cols + k] += rate;
     }
@@ -390,7 +426,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
         s->explicit_[i * cols + k] = 0.0;
     }
-    if (s->time_rates != NULL) explicit_time_columns(m, c, s, grid, t);
+    if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t);
     const int64_t size = n * cols;
     const double *da0 = s->predicted, *dq0 = s->predicted + size, *dv0 = s->predicted + 2 * size;
     (void)da0;

@@ -1,0 +1,159 @@
+"""∂r/∂t through the prescribed motions, exactly (docs/parameters.md, "Sensitivities through events", "Laws in
+time"; :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`).
+
+A prescribed body's translation x₀ + g(t) and rotation exp(skew(a g(t))) about its fixed axis a, and a prescribed
+hinge angle or slide g(t), move the residual at fixed free coordinates, rates and accelerations through the
+prescribed coordinates' values, rates and accelerations:
+
+    ∂r/∂t = K_·p q̇_p + C_·p q̈_p + M_·p q⃛_p,
+
+K (exact: the inertia tangent and the joint bodies' inertia stiffness with the inertia), C and M the blocks of one
+native evaluation, their columns of the prescribed coordinates, and q̇_p, q̈_p, q⃛_p the motion laws' exact first,
+second and third derivatives at t (SymPy's, as :class:`latdyn.scene.expressions.TimeFunction` takes the first two;
+a table's slope and zeros). A rotation about a fixed axis moves T by exp(skew(a Δg)) T: its coordinates in the
+spatial tangent space that K's rotation columns use are a ġ, a g̈, a g⃛. The products are one native call
+(csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``), which the sensitivities' loop of steps makes too.
+
+Not here (:meth:`PrescribedRates.exact` False; ExplicitTime keeps its five-point difference in t of the residual
+there): models with rigid links or guides (a dependent node moves with a prescribed one through the link) and
+continuous controllers whose sensors read a prescribed coordinate (their couplings are not blocks of the
+evaluation's buffers).
+"""
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+
+from latdyn.scene.expressions import _PROBES, TimeFunction, _drop_deltas, cached_entry, keep_entry
+
+__all__ = ["PrescribedRates", "third_derivative"]
+
+
+def third_derivative(law):
+    """d³g/dt³ of a :class:`TimeFunction` as a function of t: SymPy's derivative of the law's second (deltas
+    dropped, as its first two); 0 for a constant and a table (piecewise linear). Kept in the package's cache of
+    what is derived from a text (``keep_entry``, kind "jerk"), so that a later process imports no SymPy for it, as
+    the law's own value, rate and acceleration."""
+    if law is None or not isinstance(law, TimeFunction) or law.kind != "expression":
+        return lambda t: 0.0
+    if not law._input_names:   # noqa: SLF001 - a law of t alone: the cache
+        cached = cached_entry("jerk", law.source)
+        if cached is not None and cached.get("numpy"):
+            third = cached["numpy"][0]
+            return lambda t: float(third(float(t)))
+    import sympy as sp
+
+    if getattr(law, "_derivative_cache", None) is None:
+        law._symbolic()   # noqa: SLF001 - the law's own parse (its cache holds the lambdas alone)
+    symbol, (_, _, second) = law._derivative_cache   # noqa: SLF001
+    expression = _drop_deltas(sp.diff(second, symbol))
+    if not law._input_names:   # noqa: SLF001
+        third = sp.lambdify([symbol], expression, modules="numpy")
+        keep_entry("jerk", law.source, {}, {"numpy": (third,)}, [(t,) for t in _PROBES])
+        return lambda t: float(third(float(t)))
+    third = sp.lambdify([symbol, *law._input_symbols()], expression, modules="numpy")   # noqa: SLF001
+    return lambda t: float(third(float(t), *law._input_values()))   # noqa: SLF001
+
+
+class PrescribedRates:
+    """∂r/∂t through the prescribed motions of ``owner``'s model (a TransientSensitivities; module docstring)."""
+
+    def __init__(self, owner):
+        self.owner = owner
+        model = owner.model
+        scene = model.scene
+        #: (node, slot, law, its third derivative, factor): each prescribed coordinate's law, in the model's order
+        self.motions = []
+        for i in model.prescribed_nodes():
+            body = scene.bodies[model.nodes[i].body]
+            if body.translation is not None:
+                for axis, law in enumerate(body.translation):
+                    if isinstance(law, TimeFunction) and not law.is_constant:
+                        self.motions.append(("node", i, axis, law, third_derivative(law), 1.0))
+            angle = body.rotation_angle
+            if isinstance(angle, TimeFunction) and not angle.is_constant:
+                jerk = third_derivative(angle)
+                for axis, factor in enumerate(np.asarray(body.rotation_axis, float)):
+                    if factor != 0.0:
+                        self.motions.append(("node", i, 3 + axis, angle, jerk, float(factor)))
+        for j, hinge in enumerate(model.hinges):
+            if isinstance(hinge.angle, TimeFunction) and not hinge.angle.is_constant:
+                self.motions.append(("hinge", j, 0, hinge.angle, third_derivative(hinge.angle), 1.0))
+
+    def exact(self) -> bool:
+        """Whether :meth:`__call__` holds for this model (module docstring): no rigid links or guides, and no
+        controller coupling on a prescribed coordinate."""
+        model, assembler = self.owner.model, self.owner.assembler
+        if model.links is not None:
+            return False
+        control = assembler.control
+        cols = np.asarray(getattr(control, "coupling_cols", np.zeros(0)), np.int64)
+        return not np.isin(cols, self.coordinates()).any()
+
+    def coordinates(self) -> np.ndarray:
+        """Every prescribed coordinate (the numbering now), laws or none."""
+        model = self.owner.model
+        return model.prescribed_coordinates()
+
+    def _moved(self) -> list:
+        """The motions whose coordinate is one (a planar model's out-of-plane slots are not), in their order."""
+        model = self.owner.model
+        out = []
+        for kind, index, slot, law, jerk, factor in self.motions:
+            d = model.node_dofs[index, slot] if kind == "node" else model.hinge_dofs[index]
+            if d < model.n_total:
+                out.append((int(d), law, jerk, factor))
+        return out
+
+    def motion_coordinates(self) -> np.ndarray:
+        """(n_motions,) int64: the coordinate each motion law moves (the numbering now)."""
+        return np.array([d for d, *_ in self._moved()], np.int64)
+
+    def values(self, t: float) -> np.ndarray:
+        """(3, n_motions): each motion law's rate, acceleration and jerk at t, times its axis's factor."""
+        moved = self._moved()
+        out = np.zeros((3, len(moved)))
+        for q, (_, law, jerk, factor) in enumerate(moved):
+            out[0, q] = factor * law.rate(t)
+            out[1, q] = factor * law.accel(t)
+            out[2, q] = factor * jerk(t)
+        return out
+
+    def rates(self, t: float) -> np.ndarray:
+        """(3, n_total + 1): q̇_p, q̈_p, q⃛_p at t on the prescribed coordinates, zero elsewhere (:meth:`values`
+        scattered, as csrc/sensitivity_loop.c prescribed_time_rate scatters its table's row)."""
+        out = np.zeros((3, self.owner.model.n_total + 1))
+        out[:, self.motion_coordinates()] = self.values(t)
+        return out
+
+    def mask(self) -> np.ndarray:
+        """(n_total + 1,) int64: 1 on the prescribed coordinates."""
+        model = self.owner.model
+        out = np.zeros(model.n_total + 1, np.int64)
+        out[self.coordinates()] = 1
+        return out
+
+    def load_columns(self) -> np.ndarray:
+        """(n_loads, 6) int64: each load block's columns (Assembler._load_columns), contiguous."""
+        columns = self.owner.assembler._load_columns()   # noqa: SLF001
+        return np.ascontiguousarray(np.asarray(columns, np.int64).reshape(-1, 6) if len(columns) else
+                                    np.zeros((1, 6), np.int64))
+
+    def __call__(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> np.ndarray:
+        """∂r/∂t (n_total + 1,) through the prescribed motions at ``state`` (every coordinate's row; the caller
+        takes the free ones or reduces): one native evaluation with the blocks, then latdyn_prescribed_time_rate."""
+        owner = self.owner
+        assembler, model = owner.assembler, owner.model
+        native = assembler.native(True)
+        native.evaluate(state, True, 1.0, inertia, inertia)
+        body = None
+        if inertia and len(model.body_nodes):
+            body = np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), float)
+        rates = np.ascontiguousarray(self.rates(float(state.t)) if rates is None else rates, float)
+        mask, columns = self.mask(), self.load_columns()
+        out = np.empty(model.n_total + 1)
+        native.library.latdyn_prescribed_time_rate(
+            native.model_ref, native.work_ref, mask.ctypes.data, rates.ctypes.data, int(bool(inertia)),
+            body.ctypes.data if body is not None else None, columns.ctypes.data, out.ctypes.data)
+        return out
