@@ -259,26 +259,45 @@ def _energy_refusal(owner) -> str | None:
 
 def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
-    without states and sampled ones, whose parameters' partials compiled (derivative_laws.ControllerPartials) and whose
-    controllers with a partial (their limits decided by their compiled output) read no earlier controller and only
-    hinge angles and rates, and drive hinge torques (:func:`controller_parameter_forces` of csrc/sensitivity_loop.c; ControllerTerms.add)."""
-    from latdyn.assembly.control import ANGLE, RATE
+    without states (sampled ones, states: the Python path) whose parameters' partials compiled
+    (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
+    controller reads (derivative_laws.chained_outputs) reads only probes and earlier continuous controllers (no input:
+    its reads are its wiring's sensors) — hinge and guide angles and rates, and on a model without rigid links or guides
+    also the global components of a point's position, displacement or velocity and their components in a body's axes
+    (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
+    controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
+    torques, guide forces or, without rigid links or guides, load components (:func:`controller_parameter_forces` of
+    csrc/sensitivity_loop.c; ControllerTerms.add)."""
+    from latdyn.analyses.derivative_laws import chained_outputs
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CONTROLLER, OFFSET_POSITION, \
+        OFFSET_VELOCITY, POSITION, RATE, VELOCITY
 
     terms = owner.controllers
     if terms.states is not None or terms.sampled is not None:
         return "controllers with states, or sampled controllers"
     if terms.partials and terms.compiled is None:
         return "controllers' parameters whose derivatives did not compile"
+    if not terms.partials:
+        return None
+    linked = owner.model.links is not None
+    kinds = (ANGLE, RATE) if linked else (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY,
+                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER)
+    chained = set(chained_outputs(terms))
+    if any(name not in terms.compiled.outputs for name in chained):
+        return "controllers of a chain whose outputs did not compile"
     wiring = owner.assembler.control
     for k, c in enumerate(wiring.controllers):
-        if c.name not in terms.partials:
+        if c.name not in terms.partials and c.name not in chained:
             continue
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
-        if terms.chained[c.name] or tuple(c.reads) != wiring.sensor_names(k) \
-                or any(int(wiring.sensor_kind[i]) not in (ANGLE, RATE) for i in sensors):
-            return f"controller {c.name}: a parameter inside an output that reads other than hinge angles and rates"
-        if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
-            return f"controller {c.name}: a parameter inside an output that drives a load"
+        if tuple(c.reads) != wiring.sensor_names(k) or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
+            return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
+                    + ("other than hinge angles and rates (a model with rigid links or guides)" if linked else
+                       "an input or a probe other than joint coordinates and rates and points' positions and "
+                       "velocities"))
+        if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
+                          if int(of) == k):
+            return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
     return None
 
 
@@ -522,6 +541,8 @@ class SensitivityLoop:
         """The continuous controllers' parameter uses (ControllerTerms.add), in its order: each use's controller (its
         place in the wiring) and column, its law's number its place (ControllerPartials); the sensors of each
         controller; the hinge actuators in the wiring's order."""
+        from latdyn.assembly.control import ANGLE, CONTROLLER, RATE
+
         owner, d = self.owner, self.data
         terms = owner.controllers
         d.n_partials = 0
@@ -537,7 +558,8 @@ class SensitivityLoop:
         d.partial_column = ints([column for _, column, _ in uses])
         d.n_partial_controllers = wiring.n
         d.read_start = ints(wiring.sensor_start[:wiring.n + 1])
-        d.read_kind = ints([0 if int(kind) == 0 else 1 for kind in wiring.sensor_kind[:wiring.n_sensors]])
+        d.read_kind = ints([{ANGLE: 0, RATE: 1, CONTROLLER: 3}.get(int(kind), 2)
+                            for kind in wiring.sensor_kind[:wiring.n_sensors]])
         d.read_index = ints(wiring.sensor_index[:wiring.n_sensors])
         hinges = [(int(index), int(of), float(gain) if gain else 1.0) for kind, index, of, gain in zip(
             wiring.actuator_kind, wiring.actuator_index, wiring.actuator_controller, wiring.actuator_gain) if kind == 0]
@@ -550,6 +572,24 @@ class SensitivityLoop:
         d.output_law = ints([terms.compiled.outputs.get(c.name, -1) for c in wiring.controllers])
         d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)
                                                   for c in wiring.controllers], float).reshape(-1))
+        # chains and load actuators (ControllerTerms.add's outputs, the chain rule and its loads' point_load calls)
+        d.output_limited = ints([int(c.limits is not None) for c in wiring.controllers])
+        d.held_outputs = self._pointer(np.zeros(wiring.n))
+        d.output_gradient = self._pointer(np.zeros(width + 1))
+        loads = [(int(index), int(component), int(of), float(gain) if gain else 1.0) for kind, index, component, of, gain
+                 in zip(wiring.actuator_kind, wiring.actuator_index, wiring.actuator_component,
+                        wiring.actuator_controller, wiring.actuator_gain) if kind != 0]
+        d.n_load_actuators = len(loads)
+        if loads:
+            order = list(dict.fromkeys(index for index, *_ in loads))   # the loads in their first actuator's order
+            node, offset, frame = owner._load_points()   # noqa: SLF001
+            d.load_actuator_load = ints([order.index(index) for index, *_ in loads])
+            d.load_actuator_component, d.load_actuator_of = ints([a[1] for a in loads]), ints([a[2] for a in loads])
+            d.load_actuator_factor = self._pointer(np.array([a[3] for a in loads], float))
+            d.n_actuated_loads = len(order)
+            d.actuated_load_node, d.actuated_load_frame = ints(node[order]), ints(frame[order])
+            d.actuated_load_offset = self._pointer(np.ascontiguousarray(offset[order], np.float64))
+            d.actuated_load_scratch = self._pointer(np.zeros(6 * len(owner.names) + 77 * len(owner.names)))
 
     def _cables(self) -> None:
         """The cables' parameters' part (csrc/cable_forces.c): the uses of CableSensitivities in its order (cable,

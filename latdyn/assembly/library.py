@@ -228,7 +228,12 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_hinge_actuators", I64), ("actuator_hinge", P), ("actuator_of", P), ("actuator_factor", P),
                 ("controller_slopes", P), ("controller_scratch", P), ("output_law", P), ("output_limits", P),
                 # ∂r/∂p of the cables' parameters (csrc/cable_forces.c); NULL: none
-                ("cables", P)]
+                ("cables", P),
+                # controllers' chains and load actuators (ControllerTerms.add: outputs, the chain rule, point_load)
+                ("output_limited", P), ("held_outputs", P), ("output_gradient", P), ("n_load_actuators", I64),
+                ("load_actuator_load", P), ("load_actuator_component", P), ("load_actuator_of", P),
+                ("load_actuator_factor", P), ("n_actuated_loads", I64), ("actuated_load_node", P),
+                ("actuated_load_frame", P), ("actuated_load_offset", P), ("actuated_load_scratch", P)]
 
 
 class GeometryForcesData(ctypes.Structure):

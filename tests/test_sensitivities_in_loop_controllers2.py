@@ -1,0 +1,118 @@
+"""More controllers in the sensitivities' loop of steps (issue 34 item 2; csrc/sensitivity_loop.c
+``controller_parameter_forces``, latdyn/analyses/sensitivities_in_loop.py ``_controller_refusal``): continuous
+controllers without states that read points' positions and velocities (global, and in a body's axes), that read earlier
+controllers (chains, through their compiled outputs' derivatives) and that drive load components, as well as hinge
+torques, take the loop, and the results are the per-step Python path's (the private switch ``SENSITIVITIES_IN_LOOP``
+off) to the bit, through the API and the CLI. Controllers with states and sampled ones keep the Python path."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.test_sensitivities_controllers import WHEEL
+from tests.test_sensitivities_native_parts import ARM
+
+#: a 3D arm (a flexible first beam to a knee body, a hinged second beam) slewed about the knee's skew hinge by a PD
+#: controller on the hinge's angle and the tip's velocity (in the knee's axes and globally), which drives the hinge's
+#: torque and a force and moment at the tip in the knee's axes; its gains, set point and a section value as parameters
+SLEW = (ARM.replace("angular: [0, 0, 2.0]", "angular: [0, 0, 3.0]").replace("t_end: 0.04", "t_end: 0.3")
+        .replace("parameters: {E: 1.0, rho: 0.5, F: 2.0}",
+                 "parameters: {E: 1.0, rho: 0.5, F: 2.0, Kp: 20.0, Kd: 1.5, ref: 0.4}")
+        .replace("stiffness: 30.0, damping: 0.2}", 'stiffness: 2.0, damping: 0.2, torque: "pd"}')
+        .replace('  - {at: knee, force: [0, 0, "-2*F*t"], frame: knee}\n',
+                 '  - {at: knee, force: [0, 0, "-2*F*t"], frame: knee}\n'
+                 '  - {at: b.end, force: [0, "0.3*pd", 0], moment: ["0.05*pd", 0, 0], frame: knee}\n')
+        .replace("solve: {", 'controllers:\n  pd: {output: "Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip_w"}\nsolve: {')
+        .replace("    hinge: {hinge: b.start, quantity: angle}\n",
+                 "    angle: {hinge: b.start, quantity: angle}\n"
+                 "    tip_vy: {point: b.end, quantity: velocity, frame: knee, component: y}\n"
+                 "    tip_w: {point: b.end, quantity: velocity, component: z}\n"
+                 "    tip_y: {point: b.end, quantity: position, frame: knee, component: y}\n")
+        .replace("sensitivities: [E, rho, F]", "sensitivities: [E, Kp, Kd, ref]"))
+#: the arm with a chain: an estimator of the angle from the hinge and the tip's place and velocity in the knee's axes
+#: feeding a PD controller clipped at ±3 (saturated on the way), which feeds a controller that pushes the tip
+CHAIN = (SLEW.replace('  pd: {output: "Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip_w"}',
+                      '  est: {output: "angle + 0.1*tip_y + 0.02*tip_vy"}\n'
+                      '  pd: {output: "Kp*(ref - est) - Kd*tip_vy", limits: [-3, 3]}\n'
+                      '  push: {output: "0.5*pd + 0.2*tip_z"}')
+         .replace('force: [0, "0.3*pd", 0]', 'force: [0, "0.3*push", 0]'))
+#: the arm's controller on positions with an integral state (PI), and sampled at 200 Hz (a state or a sample may
+#: not read a rate for sensitivities): both keep the Python path
+SLEW_PI = (SLEW.replace("ref: 0.4}", "ref: 0.4, Ki: 5.0}")
+           .replace('"Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip_w"}',
+                    '"Kp*(ref - angle) + Ki*I - Kd*tip_y", states: {I: "ref - angle"}}')
+           .replace("[E, Kp, Kd, ref]", "[E, Kp, Kd, ref, Ki]"))
+SLEW_SAMPLED = SLEW.replace('"Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip_w"}', '"Kp*(ref - angle) - Kd*tip_y", rate: 200}')
+assert all(part in SLEW for part in ('torque: "pd"', '"0.3*pd"', "frame: knee, component: y", "[E, Kp, Kd, ref]"))
+assert "est:" in CHAIN and '"0.3*push"' in CHAIN and "limits: [-3, 3]" in CHAIN
+assert "states: {I:" in SLEW_PI and "rate: 200}" in SLEW_SAMPLED
+
+
+def _run(text: str, monkeypatch, in_loop: bool):
+    """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
+    with monkeypatch.context() as patch:
+        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
+        return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+
+
+def _same(native, python) -> None:
+    """The two runs' sensitivities and the summary's, to the bit; every column nonzero."""
+    assert python.summary["time_loop"] == "python" and python.summary["sensitivity_steps_in_loop"] == 0
+    assert native.sensitivities.keys() == python.sensitivities.keys()
+    for key, values in python.sensitivities.items():
+        assert np.abs(values).max() > 0.0, key
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+
+
+@pytest.mark.parametrize("text", [SLEW, CHAIN], ids=["PD on velocities driving a load", "estimator, clipped PD, push"])
+def test_a_3d_arm_whose_controllers_read_points_and_drive_a_load_takes_the_loop(text, monkeypatch):
+    """The 3D arm's PD controller reading the tip's velocity in the knee's axes and globally and driving the hinge and a
+    load in the knee's axes, and the chain estimator → clipped PD → push: every step in the loop of steps, the Python
+    path's sensitivities to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 60
+    _same(native, python)
+
+
+def test_the_controllers_tests_wheel_takes_the_loop(monkeypatch):
+    """tests/test_sensitivities_controllers.py's 3D wheel on a skew hinge: a set point of t feeding a clipped controller
+    (on the hinge's angle and the wheel's place) feeding a controller that pushes the wheel with a force and a moment in
+    its own axes, five parameters among them the hinge's stiffness: every step in the loop, the Python path's to the
+    bit."""
+    native, python = _run(WHEEL, monkeypatch, True), _run(WHEEL, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 50
+    _same(native, python)
+
+
+def test_the_cli_writes_the_python_paths_files_for_the_chain(tmp_path):
+    """``latdyn run`` on the arm's chain of controllers takes the loop; the same command with the switch off (a process
+    of its own) writes the same sensitivities.csv and probes.csv, byte for byte, and summary.json's sensitivities."""
+    completed, out = latdyn_run(tmp_path, CHAIN)
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] == summary["steps"] == 60
+    the_loop_off_writes_the_same(tmp_path, out)
+
+
+@pytest.mark.parametrize("text", [SLEW_PI, SLEW_SAMPLED], ids=["a state", "sampled"])
+def test_controllers_with_states_and_sampled_ones_keep_the_python_path(text, monkeypatch):
+    """The arm's controller with an integral state, and sampled: every step from Python (a guard: their states'
+    sensitivities and held outputs are carried by the Python step)."""
+    result = _run(text, monkeypatch, True)
+    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
+    assert np.abs(result.sensitivities[("tip_z", "Kp")]).max() > 0.0
+
+
+def test_a_controller_reading_an_input_in_a_chain_keeps_the_python_path(monkeypatch):
+    """The chain with the estimator reading an input besides the probes: every step from Python (the loop reads only
+    probes and earlier controllers)."""
+    text = CHAIN.replace("parameters: {", "inputs: {u: 0.1}\nparameters: {").replace('"angle + 0.1*tip_y', '"angle + u*tip_y')
+    assert "u*tip_y" in text
+    result = _run(text, monkeypatch, True)
+    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
