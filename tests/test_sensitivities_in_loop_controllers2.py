@@ -2,8 +2,9 @@
 ``controller_parameter_forces``, latdyn/analyses/sensitivities_in_loop.py ``_controller_refusal``): continuous
 controllers without states that read points' positions and velocities (global, and in a body's axes), that read earlier
 controllers (chains, through their compiled outputs' derivatives) and that drive load components, as well as hinge
-torques, take the loop, and the results are the per-step Python path's (the private switch ``SENSITIVITIES_IN_LOOP``
-off) to the bit, through the API and the CLI. Controllers with states and sampled ones keep the Python path."""
+torques, take the loop, and so do sampled controllers between their samples (each instant handed back to Python); the
+results are the per-step Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the API
+and the CLI. Controllers with states keep the Python path."""
 from __future__ import annotations
 
 import numpy as np
@@ -39,16 +40,24 @@ CHAIN = (SLEW.replace('  pd: {output: "Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip
                       '  pd: {output: "Kp*(ref - est) - Kd*tip_vy", limits: [-3, 3]}\n'
                       '  push: {output: "0.5*pd + 0.2*tip_z"}')
          .replace('force: [0, "0.3*pd", 0]', 'force: [0, "0.3*push", 0]'))
-#: the arm's controller on positions with an integral state (PI), and sampled at 200 Hz (a state or a sample may
-#: not read a rate for sensitivities): both keep the Python path
+#: the arm's PD controller sampled at 50 Hz (every fourth step; on the angle and the tip's place in the knee's axes: a
+#: sample may not read a rate for sensitivities), driving the hinge and the load at the tip
+SAMPLED = SLEW.replace('"Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip_w"}', '"Kp*(ref - angle) - Kd*tip_y", rate: 50}')
+#: the continuous PD controller on the hinge beside a digital one at 40 Hz clipped at ±4 (reached on the way) that
+#: drives the load at the tip
+SAMPLED_BESIDE = (SLEW.replace('  pd: {output: "Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip_w"}',
+                               '  pd: {output: "Kp*(ref - angle) - Kd*tip_vy"}\n'
+                               '  dig: {output: "0.5*Kp*(0.2 - tip_y)", rate: 40, limits: [-4, 4]}')
+                  .replace('force: [0, "0.3*pd", 0]', 'force: [0, "0.3*dig", 0]'))
+#: the arm's controller on positions with an integral state (PI): it keeps the Python path
 SLEW_PI = (SLEW.replace("ref: 0.4}", "ref: 0.4, Ki: 5.0}")
            .replace('"Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip_w"}',
                     '"Kp*(ref - angle) + Ki*I - Kd*tip_y", states: {I: "ref - angle"}}')
            .replace("[E, Kp, Kd, ref]", "[E, Kp, Kd, ref, Ki]"))
-SLEW_SAMPLED = SLEW.replace('"Kp*(ref - angle) - Kd*tip_vy - 0.5*Kd*tip_w"}', '"Kp*(ref - angle) - Kd*tip_y", rate: 200}')
 assert all(part in SLEW for part in ('torque: "pd"', '"0.3*pd"', "frame: knee, component: y", "[E, Kp, Kd, ref]"))
 assert "est:" in CHAIN and '"0.3*push"' in CHAIN and "limits: [-3, 3]" in CHAIN
-assert "states: {I:" in SLEW_PI and "rate: 200}" in SLEW_SAMPLED
+assert "rate: 50}" in SAMPLED and "rate: 40, limits: [-4, 4]" in SAMPLED_BESIDE and '"0.3*dig"' in SAMPLED_BESIDE
+assert "states: {I:" in SLEW_PI
 
 
 def _run(text: str, monkeypatch, in_loop: bool):
@@ -100,13 +109,24 @@ def test_the_cli_writes_the_python_paths_files_for_the_chain(tmp_path):
     the_loop_off_writes_the_same(tmp_path, out)
 
 
-@pytest.mark.parametrize("text", [SLEW_PI, SLEW_SAMPLED], ids=["a state", "sampled"])
-def test_controllers_with_states_and_sampled_ones_keep_the_python_path(text, monkeypatch):
-    """The arm's controller with an integral state, and sampled: every step from Python (a guard: their states'
-    sensitivities and held outputs are carried by the Python step)."""
-    result = _run(text, monkeypatch, True)
+@pytest.mark.parametrize("text", [SAMPLED, SAMPLED_BESIDE], ids=["sampled PD", "sampled beside a continuous PD"])
+def test_sampled_controllers_take_the_loop_between_their_samples(text, monkeypatch):
+    """The arm's PD controller sampled at 50 Hz, and a clipped digital controller at 40 Hz driving the tip's load beside
+    the continuous PD on the hinge: every step in the loop of steps, which hands each sample instant back to Python
+    (the sample and its restart differentiated there: TransientSensitivities.after_sample) and carries the held
+    outputs' δy between them; the Python path's sensitivities to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 60
+    _same(native, python)
+
+
+def test_a_controller_with_a_state_keeps_the_python_path(monkeypatch):
+    """The arm's controller with an integral state: every step from Python (a guard: its states' sensitivities are
+    carried by the Python step)."""
+    result = _run(SLEW_PI, monkeypatch, True)
     assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
-    assert np.abs(result.sensitivities[("tip_z", "Kp")]).max() > 0.0
+    assert np.abs(result.sensitivities[("tip_z", "Ki")]).max() > 0.0
 
 
 def test_a_controller_reading_an_input_in_a_chain_keeps_the_python_path(monkeypatch):

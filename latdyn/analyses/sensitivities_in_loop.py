@@ -43,7 +43,13 @@ the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitiviti
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
-clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
+clip) for controllers without states that read hinge angles and rates alone and drive hinge torques, and on a model
+without rigid links or guides also for those that read points' positions, displacements and velocities (global, or in a
+body's axes: the values the evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
+Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c), that read earlier
+controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
+laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
+load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add)
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
 links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, with the controllers and
 the explicit time dependence above): M, C and the exact K on the minimum coordinates,
@@ -56,7 +62,9 @@ from the carried δq, δv (``_energy_refusal``). Not native (the Python path): h
 names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
 matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
-sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
+sampled ones, those that read an input (or whose output a controller with a parameter reads and that reads one),
+chains, sensors other than hinge and guide angles and rates and load actuators on a model with rigid links or guides,
+controllers reading cables', elements' or joints' forces, explicit time dependence beside events through prescribed
 motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
 accounts carried per step in Python: energy_sensitivities.external_work_step), the NumPy kernels, and a numbering
 whose step matrix takes the
@@ -273,13 +281,16 @@ def _controller_refusal(owner) -> str | None:
         OFFSET_VELOCITY, POSITION, RATE, VELOCITY
 
     terms = owner.controllers
-    if terms.states is not None or terms.sampled is not None:
-        return "controllers with states, or sampled controllers"
-    if terms.partials and terms.compiled is None:
-        return "controllers' parameters whose derivatives did not compile"
-    if not terms.partials:
-        return None
     linked = owner.model.links is not None
+    if terms.states is not None:
+        return "controllers with states"
+    if terms.sampled is not None and linked:
+        return "sampled controllers on a model with rigid links or guides"
+    continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
+    if continuous and terms.compiled is None:
+        return "controllers' parameters whose derivatives did not compile"
+    if not continuous:
+        return None
     kinds = (ANGLE, RATE) if linked else (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY,
                                           BODY_FRAME, BODY_VELOCITY, CONTROLLER)
     chained = set(chained_outputs(terms))
@@ -545,7 +556,10 @@ class SensitivityLoop:
 
         owner, d = self.owner, self.data
         terms = owner.controllers
-        d.n_partials = 0
+        d.n_partials, d.sampled_held, d.n_actuated_loads, d.n_sampled_loads = 0, None, 0, 0
+        loads = self._actuated_loads(terms)
+        if terms is not None and terms.sampled is not None:
+            self._sampled(terms.sampled, loads)
         if terms is None or terms.compiled is None:
             return
         wiring = owner.assembler.control
@@ -576,20 +590,59 @@ class SensitivityLoop:
         d.output_limited = ints([int(c.limits is not None) for c in wiring.controllers])
         d.held_outputs = self._pointer(np.zeros(wiring.n))
         d.output_gradient = self._pointer(np.zeros(width + 1))
-        loads = [(int(index), int(component), int(of), float(gain) if gain else 1.0) for kind, index, component, of, gain
-                 in zip(wiring.actuator_kind, wiring.actuator_index, wiring.actuator_component,
-                        wiring.actuator_controller, wiring.actuator_gain) if kind != 0]
-        d.n_load_actuators = len(loads)
-        if loads:
-            order = list(dict.fromkeys(index for index, *_ in loads))   # the loads in their first actuator's order
+        actuators, order = loads[0]
+        d.n_load_actuators = len(actuators)
+        if actuators:
+            d.load_actuator_load = ints([order.index(index) for index, *_ in actuators])
+            d.load_actuator_component = ints([a[1] for a in actuators])
+            d.load_actuator_of = ints([a[2] for a in actuators])
+            d.load_actuator_factor = self._pointer(np.array([a[3] for a in actuators], float))
+
+    def _actuated_loads(self, terms) -> tuple:
+        """The load actuators of the continuous controllers (load, component, controller's place in the wiring,
+        ∂(component)/∂y) in the wiring's order and their loads in their first actuator's order, and the sampled
+        controllers' (SampledTerms.actuators: controller's place among the sampled ones) likewise; the actuated loads'
+        points laid out in the struct (the continuous controllers' loads, then the sampled ones')."""
+        owner, d = self.owner, self.data
+        continuous, sampled = [], []
+        if terms is not None:
+            wiring = owner.assembler.control
+            continuous = [(int(index), int(component), int(of), float(gain) if gain else 1.0) for kind, index,
+                          component, of, gain in zip(wiring.actuator_kind, wiring.actuator_index,
+                                                     wiring.actuator_component, wiring.actuator_controller,
+                                                     wiring.actuator_gain) if kind != 0]
+            if terms.sampled is not None:
+                sampled = [(int(index), int(component), int(i), float(gain))
+                           for kind, index, component, i, gain in terms.sampled.actuators if kind != 0]
+        orders = [list(dict.fromkeys(index for index, *_ in a)) for a in (continuous, sampled)]
+        everything = orders[0] + orders[1]
+        d.n_actuated_loads, d.n_sampled_loads = len(everything), len(orders[1])
+        if everything:
             node, offset, frame = owner._load_points()   # noqa: SLF001
-            d.load_actuator_load = ints([order.index(index) for index, *_ in loads])
-            d.load_actuator_component, d.load_actuator_of = ints([a[1] for a in loads]), ints([a[2] for a in loads])
-            d.load_actuator_factor = self._pointer(np.array([a[3] for a in loads], float))
-            d.n_actuated_loads = len(order)
-            d.actuated_load_node, d.actuated_load_frame = ints(node[order]), ints(frame[order])
-            d.actuated_load_offset = self._pointer(np.ascontiguousarray(offset[order], np.float64))
-            d.actuated_load_scratch = self._pointer(np.zeros(6 * len(owner.names) + 77 * len(owner.names)))
+            ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+            d.actuated_load_node, d.actuated_load_frame = ints(node[everything]), ints(frame[everything])
+            d.actuated_load_offset = self._pointer(np.ascontiguousarray(offset[everything], np.float64))
+            d.actuated_load_scratch = self._pointer(np.zeros(83 * len(owner.names)))
+        return (continuous, orders[0]), (sampled, orders[1])
+
+    def _sampled(self, sampled, loads) -> None:
+        """The sampled controllers' part (SampledTerms.add): their hinge and guide actuators, their load actuators
+        (places after the continuous controllers' loads), and the held δy's buffer, filled before each call
+        (:meth:`prepared`)."""
+        d = self.data
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        hinges = [(int(index), int(i), float(gain)) for kind, index, _, i, gain in sampled.actuators if kind == 0]
+        d.n_sampled_hinge_actuators = len(hinges)
+        d.sampled_hinge, d.sampled_hinge_of = ints([h[0] for h in hinges]), ints([h[1] for h in hinges])
+        d.sampled_hinge_gain = self._pointer(np.array([h[2] for h in hinges], float))
+        actuators, order = loads[1]
+        first = d.n_actuated_loads - d.n_sampled_loads
+        d.n_sampled_load_actuators = len(actuators)
+        d.sampled_load = ints([first + order.index(index) for index, *_ in actuators])
+        d.sampled_load_component, d.sampled_load_of = ints([a[1] for a in actuators]), ints([a[2] for a in actuators])
+        d.sampled_load_gain = self._pointer(np.array([a[3] for a in actuators], float))
+        self._sampled_held = np.zeros(sampled.held.shape)
+        d.sampled_held = self._pointer(self._sampled_held)
 
     def _cables(self) -> None:
         """The cables' parameters' part (csrc/cable_forces.c): the uses of CableSensitivities in its order (cable,
@@ -698,6 +751,8 @@ class SensitivityLoop:
         self._tabulate(grid_index, stop_index, control)
         if d.n_partials:   # the inputs and controllers' outputs the controllers' partials read, bound for this call
             owner.controllers.compiled.bind()
+        if d.sampled_held:   # the sampled controllers' held δy, constant up to the next sample (handed back to Python)
+            np.copyto(self._sampled_held, owner.controllers.sampled.held)
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
         return d

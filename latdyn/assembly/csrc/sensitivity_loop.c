@@ -163,6 +163,17 @@ typedef struct SensitivityLoopTag {
     const int64_t *actuated_load_node, *actuated_load_frame; /* frame: the node of its body, −1 global */
     const double *actuated_load_offset; /* n_actuated_loads × 3 */
     double *actuated_load_scratch;      /* 83 k */
+    /* sampled controllers (SampledTerms.add): their held δy (controllers × k, set before each call of the loop, which
+     * hands every sample instant back to Python: TransientSensitivities.after_sample), NULL: none; their hinge and
+     * guide actuators (hinge, controller, ∂τ/∂y) and load actuators (as the continuous ones') */
+    const double *sampled_held;
+    int64_t n_sampled_hinge_actuators;
+    const int64_t *sampled_hinge, *sampled_hinge_of;
+    const double *sampled_hinge_gain;
+    int64_t n_sampled_load_actuators;
+    const int64_t *sampled_load, *sampled_load_component, *sampled_load_of;
+    const double *sampled_load_gain;
+    int64_t n_sampled_loads;            /* the last of the actuated loads: the sampled controllers' */
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -282,11 +293,14 @@ static void joint_law_parameter_forces(const Model *m, const Configuration *c, c
     }
 }
 
-/* The load actuators' part of ControllerTerms.add: per actuated load (in its first actuator's order) its six
- * components' derivatives (each actuator's factor times its controller's slope, summed in the wiring's order), then
- * one call of the generated point_load for the columns where any is nonzero, added at its node's coordinates. */
-static void controller_load_forces(const Model *m, const Configuration *c, const SensitivityLoop *s,
-                                   const double *slopes)
+/* The load actuators' part of ControllerTerms.add (and of SampledTerms.add): per actuated load (in its first
+ * actuator's order) its six components' derivatives (each actuator's factor times its controller's slope, summed in
+ * the order of the actuators), then one call of the generated point_load for the columns where any is nonzero, added at
+ * its node's coordinates. `a`: the actuators' load places, components, controllers and factors (n of them); their
+ * loads' places first … last − 1 among the actuated loads (the continuous controllers' then the sampled ones'). */
+static void actuated_load_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t n,
+                                 const int64_t *const a[3], const double *factors, const double *slopes,
+                                 int64_t first, int64_t last)
 {
     static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
     const int64_t k = s->k;
@@ -294,35 +308,54 @@ static void controller_load_forces(const Model *m, const Configuration *c, const
     double *velocity = frames + 9 * k, *offsets = velocity + 6 * k, *force = offsets + 3 * k, *power = force + 6 * k;
     double *by_node = power + k, *by_frame = by_node + 18 * k;
     int64_t columns[k > 0 ? k : 1];
-    for (int64_t load = 0; load < s->n_actuated_loads; ++load) {
+    for (int64_t load = first; load < last; ++load) {
         memset(moved, 0, sizeof(double) * (size_t)(6 * k));
-        for (int64_t a = 0; a < s->n_load_actuators; ++a) {
-            if (s->load_actuator_load[a] != load) continue;
-            const double factor = s->load_actuator_factor[a], *slope = slopes + s->load_actuator_of[a] * k;
-            double *row = moved + s->load_actuator_component[a] * k;
+        for (int64_t i = 0; i < n; ++i) {
+            if (a[0][i] != load) continue;
+            const double factor = factors[i], *slope = slopes + a[2][i] * k;
+            double *row = moved + a[1][i] * k;
             for (int64_t col = 0; col < k; ++col) row[col] += factor * slope[col];
         }
-        const int64_t i = s->actuated_load_node[load], frame = s->actuated_load_frame[load];
+        const int64_t node = s->actuated_load_node[load], frame = s->actuated_load_frame[load];
         int64_t P = 0;
         for (int64_t col = 0; col < k; ++col) {
             int any = 0;
             for (int j = 0; j < 6; ++j) any |= moved[j * k + col] != 0.0;
             if (!any) continue;
             columns[P] = col;
-            memcpy(T + 9 * P, c->T + 9 * i, 9 * sizeof(double));
+            memcpy(T + 9 * P, c->T + 9 * node, 9 * sizeof(double));
             for (int j = 0; j < 6; ++j) values[6 * P + j] = moved[j * k + col];
             memcpy(frames + 9 * P, frame >= 0 ? c->T + 9 * frame : identity, 9 * sizeof(double));
-            memcpy(velocity + 6 * P, c->v + 3 * i, 3 * sizeof(double));
-            memcpy(velocity + 6 * P + 3, c->w + 3 * i, 3 * sizeof(double));
+            memcpy(velocity + 6 * P, c->v + 3 * node, 3 * sizeof(double));
+            memcpy(velocity + 6 * P + 3, c->w + 3 * node, 3 * sizeof(double));
             memcpy(offsets + 3 * P, s->actuated_load_offset + 3 * load, 3 * sizeof(double));
             ++P;
         }
         if (!P) continue;
         m->point_load(P, T, offsets, values, frames, velocity, force, power, by_node, by_frame);
-        const int64_t *d = m->node_dofs + 6 * i;
+        const int64_t *d = m->node_dofs + 6 * node;
         for (int64_t p = 0; p < P; ++p)
             for (int j = 0; j < 6; ++j) s->total[d[j] * k + columns[p]] += force[6 * p + j];
     }
+}
+
+/* The sampled controllers' held outputs' ∂r/∂p (SampledTerms.add, before the continuous controllers'): each hinge or
+ * guide actuator's row less its gain times its controller's held δy where that is nonzero, then the loads'. */
+static void sampled_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s)
+{
+    const int64_t k = s->k;
+    for (int64_t a = 0; a < s->n_sampled_hinge_actuators; ++a) {
+        const double *held = s->sampled_held + s->sampled_hinge_of[a] * k, gain = s->sampled_hinge_gain[a];
+        int any = 0;
+        for (int64_t col = 0; col < k; ++col) any |= gain * held[col] != 0.0;
+        if (!any) continue;
+        double *row = s->total + m->hinge_dofs[s->sampled_hinge[a]] * k;
+        for (int64_t col = 0; col < k; ++col) row[col] -= gain * held[col];
+    }
+    const int64_t *const loads[3] = {s->sampled_load, s->sampled_load_component, s->sampled_load_of};
+    if (s->n_sampled_load_actuators)
+        actuated_load_forces(m, c, s, s->n_sampled_load_actuators, loads, s->sampled_load_gain, s->sampled_held,
+                             s->n_actuated_loads - s->n_sampled_loads, s->n_actuated_loads);
 }
 
 /* ∂r/∂p through the continuous controllers at c (time t) into total (ControllerTerms.add: no states): in the wiring's
@@ -334,6 +367,8 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
 {
     const int64_t k = s->k;
     double *slopes = s->controller_slopes, *args = s->controller_scratch, *gradient = s->output_gradient;
+    if (s->sampled_held != NULL) sampled_parameter_forces(m, c, s);
+    if (!s->n_partials) return;
     memset(slopes, 0, sizeof(double) * (size_t)(s->n_partial_controllers * k));
     for (int64_t ctl = 0; ctl < s->n_partial_controllers; ++ctl) {
         const int64_t output = s->output_law[ctl], first = s->read_start[ctl];
@@ -371,7 +406,10 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
         double *row = s->total + m->hinge_dofs[s->actuator_hinge[a]] * k;
         for (int64_t col = 0; col < k; ++col) row[col] -= factor * slope[col];
     }
-    if (s->n_load_actuators) controller_load_forces(m, c, s, slopes);
+    const int64_t *const loads[3] = {s->load_actuator_load, s->load_actuator_component, s->load_actuator_of};
+    if (s->n_load_actuators)
+        actuated_load_forces(m, c, s, s->n_load_actuators, loads, s->load_actuator_factor, slopes, 0,
+                             s->n_actuated_loads - s->n_sampled_loads);
 }
 
 /* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
@@ -449,7 +487,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
-    if (s->n_partials) controller_parameter_forces(m, w, c, s, t);
+    if (s->n_partials || s->sampled_held != NULL) controller_parameter_forces(m, w, c, s, t);
     load_parameter_forces(m, c, s, grid);
     if (s->cables != NULL) cable_parameter_forces(m, w, c, s->cables, k, grid, s->total);
     if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
