@@ -49,7 +49,12 @@ body's axes: the values the evaluation at the step's end left in Work, csrc/eval
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
-load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add)
+load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
+and sampled controllers between their samples on a model without rigid links or guides (the loop hands each sample
+instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
+differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
+struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
+``sampled_parameter_forces``)
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
 links and guides too (up to DENSE_LIMIT free coordinates, a dense or band step matrix, with the controllers and
 the explicit time dependence above): M, C and the exact K on the minimum coordinates,
@@ -62,7 +67,7 @@ from the carried δq, δv (``_energy_refusal``). Not native (the Python path): h
 names θ, θ̇ or an input and does not compile, cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input, linked models above DENSE_LIMIT free coordinates or whose step
 matrix is sparse, cables beside controllers or explicit time dependence beside events, controllers with states,
-sampled ones, those that read an input (or whose output a controller with a parameter reads and that reads one),
+sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a parameter reads and that reads one),
 chains, sensors other than hinge and guide angles and rates and load actuators on a model with rigid links or guides,
 controllers reading cables', elements' or joints' forces, explicit time dependence beside events through prescribed
 motions, reels (a rest length in t) or laws of the state and t, the external work and the dissipated energy (work
