@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
 
-import latdyn
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_controllers import WHEEL
+from tests.test_sensitivities_in_loop_state_laws import _run, _same
 from tests.test_sensitivities_native_parts import ARM
 
 #: a 3D arm (a flexible first beam to a knee body, a hinged second beam) slewed about the knee's skew hinge by a PD
@@ -60,42 +59,23 @@ assert "rate: 50}" in SAMPLED and "rate: 40, limits: [-4, 4]" in SAMPLED_BESIDE 
 assert "states: {I:" in SLEW_PI
 
 
-def _run(text: str, monkeypatch, in_loop: bool):
-    """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
-    with monkeypatch.context() as patch:
-        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
-        return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
-
-
-def _same(native, python) -> None:
-    """The two runs' sensitivities and the summary's, to the bit; every column nonzero."""
-    assert python.summary["time_loop"] == "python" and python.summary["sensitivity_steps_in_loop"] == 0
-    assert native.sensitivities.keys() == python.sensitivities.keys()
-    for key, values in python.sensitivities.items():
-        assert np.abs(values).max() > 0.0, key
-        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
-    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
-
-
-@pytest.mark.parametrize("text", [SLEW, CHAIN], ids=["PD on velocities driving a load", "estimator, clipped PD, push"])
-def test_a_3d_arm_whose_controllers_read_points_and_drive_a_load_takes_the_loop(text, monkeypatch):
-    """The 3D arm's PD controller reading the tip's velocity in the knee's axes and globally and driving the hinge and a
-    load in the knee's axes, and the chain estimator → clipped PD → push: every step in the loop of steps, the Python
-    path's sensitivities to the bit."""
+@pytest.mark.parametrize("text, steps", [(SLEW, 60), (CHAIN, 60), (WHEEL, 50), (SAMPLED, 60), (SAMPLED_BESIDE, 60)],
+                         ids=["PD on velocities driving a load", "estimator, clipped PD, push", "the wheel's chain",
+                              "sampled PD", "sampled beside a continuous PD"])
+def test_controllers_reading_points_chained_driving_loads_or_sampled_take_the_loop(text, steps, monkeypatch):
+    """Every step in the loop of steps, the Python path's sensitivities to the bit:
+    - the 3D arm's PD controller reading the tip's velocity in the knee's axes and globally and driving the hinge and
+      a load in the knee's axes;
+    - the arm's chain estimator → clipped PD → push;
+    - tests/test_sensitivities_controllers.py's 3D wheel on a skew hinge: a set point of t feeding a clipped controller
+      (on the hinge's angle and the wheel's place) feeding a push on the wheel in its own axes, five parameters among
+      them the hinge's stiffness;
+    - the arm's PD sampled at 50 Hz, and a clipped digital controller at 40 Hz driving the tip's load beside the
+      continuous PD on the hinge: the loop hands each sample instant back to Python (the sample and its restart
+      differentiated there: TransientSensitivities.after_sample) and carries the held outputs' δy between them."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     assert native.summary["time_loop"] == "compiled"
-    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 60
-    _same(native, python)
-
-
-def test_the_controllers_tests_wheel_takes_the_loop(monkeypatch):
-    """tests/test_sensitivities_controllers.py's 3D wheel on a skew hinge: a set point of t feeding a clipped controller
-    (on the hinge's angle and the wheel's place) feeding a controller that pushes the wheel with a force and a moment in
-    its own axes, five parameters among them the hinge's stiffness: every step in the loop, the Python path's to the
-    bit."""
-    native, python = _run(WHEEL, monkeypatch, True), _run(WHEEL, monkeypatch, False)
-    assert native.summary["time_loop"] == "compiled"
-    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 50
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == steps
     _same(native, python)
 
 
@@ -107,18 +87,6 @@ def test_the_cli_writes_the_python_paths_files_for_the_chain(tmp_path):
     summary = summary_of(out)
     assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] == summary["steps"] == 60
     the_loop_off_writes_the_same(tmp_path, out)
-
-
-@pytest.mark.parametrize("text", [SAMPLED, SAMPLED_BESIDE], ids=["sampled PD", "sampled beside a continuous PD"])
-def test_sampled_controllers_take_the_loop_between_their_samples(text, monkeypatch):
-    """The arm's PD controller sampled at 50 Hz, and a clipped digital controller at 40 Hz driving the tip's load beside
-    the continuous PD on the hinge: every step in the loop of steps, which hands each sample instant back to Python
-    (the sample and its restart differentiated there: TransientSensitivities.after_sample) and carries the held
-    outputs' δy between them; the Python path's sensitivities to the bit."""
-    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
-    assert native.summary["time_loop"] == "compiled"
-    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 60
-    _same(native, python)
 
 
 def test_a_controller_with_a_state_keeps_the_python_path(monkeypatch):
