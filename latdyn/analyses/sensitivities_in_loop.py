@@ -756,8 +756,8 @@ class SensitivityLoop:
         self._tabulate(grid_index, stop_index, control)
         if d.n_partials:   # the inputs and controllers' outputs the controllers' partials read, bound for this call
             owner.controllers.compiled.bind()
-        if d.sampled_held:   # the sampled controllers' held δy, constant up to the next sample (handed back to Python)
-            np.copyto(self._sampled_held, owner.controllers.sampled.held)
+        if d.sampled_held:   # the held δy of the last sample (as the Python step reads it: a resumed run's from the
+            np.copyto(self._sampled_held, carried["sampled_dy"])   # checkpoint), constant up to the next sample
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
         return d
