@@ -170,13 +170,11 @@ def test_the_cli_writes_the_python_paths_files_for_the_pd_controlled_arm(tmp_pat
 
 
 def test_controllers_the_loop_does_not_take_keep_the_python_path(monkeypatch):
-    """tests/test_sensitivities_controllers.py's wheel (chained controllers, one driving a load) takes every step from
-    Python, and so does the PD arm reading a point's position besides its hinge."""
-    from tests.test_sensitivities_controllers import WHEEL
-
-    text = WHEEL.replace("t_end: 0.5", "t_end: 0.1")
-    assert _run(text, monkeypatch, True).summary["sensitivity_steps_in_loop"] == 0
-    reading = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"}', '"Kp*(ref - angle) - Kd*omega - 0.5*tip_z"}')
-    assert "0.5*tip_z" in reading
+    """The PD arm whose controller reads an input besides its hinge takes every step from Python (the loop reads only
+    probes and earlier controllers; tests/test_sensitivities_in_loop_controllers2.py has the wheel and the points'
+    sensors the loop now takes, and the controllers with states and sampled ones it does not)."""
+    reading = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"}', '"Kp*(ref - angle) - Kd*omega - 0.5*u"}').replace(
+        "parameters: {", "inputs: {u: 0.2}\nparameters: {")
+    assert "0.5*u" in reading and "inputs: {u: 0.2}" in reading
     result = _run(reading, monkeypatch, True)
     assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"

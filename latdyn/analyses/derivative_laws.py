@@ -19,7 +19,7 @@ import ctypes
 
 import numpy as np
 
-__all__ = ["ControllerPartials", "DerivativeLaws", "of_the_state"]
+__all__ = ["ControllerPartials", "DerivativeLaws", "chained_outputs", "of_the_state"]
 
 _LAW = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
                         ctypes.POINTER(ctypes.c_double))
@@ -112,6 +112,26 @@ _CONTROLLER_LAW = ctypes.CFUNCTYPE(None, ctypes.c_int64, ctypes.c_double, ctypes
                                    ctypes.POINTER(ctypes.c_double))
 
 
+def chained_outputs(terms) -> list:
+    """The continuous controllers without states whose outputs (and their derivatives by what they read) a chain
+    through a parameter needs, in file order (ControllerTerms.add: dy_k/dp = ∂f_k/∂p + Σ_j ∂f_k/∂y_j dy_j/dp): those
+    that read an earlier controller or are read by one, among the controllers a parameter's slope reaches (those with
+    partials and every reader of one, transitively) and the controllers they read (transitively)."""
+    continuous = [c for c in terms.continuous if not c.states]
+    names = {c.name for c in terms.continuous}
+    reads = {c.name: [r for r in c.reads if r in names] for c in continuous}
+    reached = set(terms.partials)
+    for c in continuous:   # file order: a controller reads only earlier ones
+        if any(r in reached for r in reads[c.name]):
+            reached.add(c.name)
+    needed = set(reached)
+    for c in reversed(continuous):
+        if c.name in needed:
+            needed.update(reads[c.name])
+    read = {r for c in continuous if c.name in needed for r in reads[c.name]}
+    return [c.name for c in continuous if c.name in needed and (reads[c.name] or c.name in read)]
+
+
 class ControllerPartials:
     """The continuous controllers' outputs' derivatives by the parameters, ∂f/∂p (t, s, S) of
     :class:`latdyn.analyses.sensitivities.ControllerTerms`, compiled as the step's controller laws are (each one a
@@ -119,7 +139,9 @@ class ControllerPartials:
     the per-step Python path (:meth:`ControllerTerms.add`, through ctypes) and the loop of steps in C call. Numbered in
     the order of ``ControllerTerms.partials`` (controller, then column); after them, of each such controller with limits,
     its output f itself (:attr:`outputs`), whose value decides whether it is clipped (ControllerTerms.add) on both
-    paths."""
+    paths, then of each controller of a chain (:func:`chained_outputs`) the output f, whose value a later controller
+    reads and whose derivatives by what it reads (the law's ``out[1:]``: :meth:`gradient`) carry the earlier
+    controllers' slopes."""
 
     def __init__(self, uses: list, compiled, width: int, scene, outputs: dict):
         self.uses = uses   # (controller name, column, the partial's lambda) in their law's order
@@ -158,13 +180,13 @@ class ControllerPartials:
         if not uses:
             return None
         outputs = {}
-        for name in dict.fromkeys(name for name, _, _ in uses):   # the outputs of those with limits, after the partials
-            c = by_name[name]
-            if c.limits is not None:
-                outputs[name] = len(laws)
-                laws.append((SimpleNamespace(name=f"{name}.y", symbols=c.symbols, output_expr=c.output_expr,
-                                             states=tuple(c.states), state_exprs=(), output_text=c.output_text),
-                             tuple(c.reads)))
+        limited = [name for name in dict.fromkeys(name for name, _, _ in uses) if by_name[name].limits is not None]
+        for name in limited + [name for name in chained_outputs(terms) if name not in limited]:
+            c = by_name[name]   # the outputs of those with limits, then of the chains' (after the partials)
+            outputs[name] = len(laws)
+            laws.append((SimpleNamespace(name=f"{name}.y", symbols=c.symbols, output_expr=c.output_expr,
+                                         states=tuple(c.states), state_exprs=(), output_text=c.output_text),
+                         tuple(c.reads)))
         scene = owner.scene
         held = getattr(scene, "controller_outputs", None)
         signals = (tuple(scene.inputs.names) if scene.inputs is not None else (),
@@ -196,6 +218,16 @@ class ControllerPartials:
         self.bind()
         self._function(i, float(arguments[0]), self._arguments, self._out)
         return float(self._out[0])
+
+    def gradient(self, c, arguments: list) -> np.ndarray:
+        """∂f/∂(reads, states) of controller ``c``'s output before its limits at ``arguments``: the compiled output
+        law's derivatives (its ``out[1:]``, as the step's controller laws give them) where it is one of
+        :attr:`outputs`, else :meth:`Controller.output_gradient` (SymPy's, lambdified)."""
+        i = self.outputs.get(c.name, -1)
+        if i < 0:
+            return c.output_gradient(*arguments)
+        self._call(i, arguments)
+        return np.array(self._out[1:len(arguments)], float)
 
     def value(self, partial, arguments: list) -> float:
         """∂f/∂p at ``arguments`` (t, the sensors, the states): the compiled law's, or the lambda's where it is not one."""

@@ -1378,6 +1378,30 @@ class ControllerTerms:
         values, which do not depend on the parameters)."""
         return {**dict(zip(self.sensors.names, self.sensors.values(state))), **self.owner.scene.inputs.current()}
 
+    def sensed_in_c(self, state) -> dict:
+        """The values of the probes the continuous controllers read other than hinge and guide angles and rates
+        (points' positions and velocities, in global or a body's axes, …) as the step's evaluation computes them in
+        C (csrc/evaluate.c ``sensor_value``, through ``latdyn_controller_outputs_at``), by probe name: the values the
+        loop of steps reads at the same state (csrc/sensitivity_loop.c ``controller_parameter_forces``), so that
+        both paths evaluate ∂f/∂p at the same bits (the probes' NumPy values may differ from them at round-off). The
+        controllers' outputs that call leaves in the scene's array are put back."""
+        from latdyn.assembly.control import ANGLE, CONTROLLER, RATE
+
+        wiring = self.assembler.control
+        wanted = [(i, name) for k in range(wiring.n)
+                  for i, name in zip(range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1])),
+                                     wiring.sensor_names(k))
+                  if int(wiring.sensor_kind[i]) not in (ANGLE, RATE, CONTROLLER)]
+        if not wanted:
+            return {}
+        native = self.assembler.native(True)
+        outputs = self.owner.scene.controller_outputs.values
+        held = outputs.copy()
+        native.controller_outputs_at(state)
+        outputs[:] = held
+        sensed = native.buffers["sensor_values"]
+        return {name: float(sensed[i]) for i, name in wanted}
+
     @staticmethod
     def _laws_naming(scene, controllers: set) -> dict[str, list]:
         """The scene's parsed laws (hinge, guide and cable laws, load components, prescribed motions:
@@ -1415,6 +1439,8 @@ class ControllerTerms:
         if not (self.partials or self.held) or not len(w.actuator_kind):
             return
         values = self.signal_values(state)
+        if self.compiled is not None and self.states is None:
+            values.update(self.sensed_in_c(state))   # what the loop of steps reads (:meth:`sensed_in_c`)
         outputs, slopes = {}, {}
         for c in self.continuous:
             arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads],
@@ -1427,7 +1453,8 @@ class ControllerTerms:
                     slope[column] += (float(partial(*arguments)) if self.compiled is None else
                                       self.compiled.value(partial, arguments))
                 if self.chained[c.name] or c.name in self.held:
-                    gradient = c.output_gradient(*arguments)
+                    gradient = (c.output_gradient(*arguments) if self.compiled is None else
+                                self.compiled.gradient(c, arguments))
                     for read, i in self.chained[c.name].items():
                         slope += gradient[i] * slopes[read]
                     if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held)

@@ -54,7 +54,18 @@ no other explicit time dependence or controller, ``_reels_alone``) and through h
 t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
-clip) for controllers without states that read hinge angles and rates alone and drive hinge torques
+clip) for controllers without states that read hinge angles and rates alone and drive hinge torques, and on a model
+without rigid links or guides also for those that read points' positions, displacements and velocities (global, or in a
+body's axes: the values the evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
+Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c), that read earlier
+controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
+laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
+load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
+and sampled controllers between their samples on a model without rigid links or guides (the loop hands each sample
+instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
+differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
+struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
+``sampled_parameter_forces``)
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
 links and guides too (with the controllers and the explicit time dependence above): M, C and the exact K on the
 minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
@@ -76,7 +87,10 @@ energy_sensitivities.external_work_after_event). Not native (the Python path): h
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
-sampled ones, chains, other sensors or load actuators, explicit time dependence beside events through prescribed
+sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a
+parameter reads and that reads one), chains, sensors other than hinge and guide angles and rates and load actuators
+on a model with rigid links or guides, controllers reading cables', elements' or joints' forces, explicit time
+dependence beside events through prescribed
 motions on a model with rigid links or guides or read by a controller, reels beside other explicit time dependence
 or controllers, controllers' outputs that name t, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
@@ -351,26 +365,48 @@ def _account_refusal(owner, quantity: str) -> str | None:
 
 def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
-    without states and sampled ones, whose parameters' partials compiled (derivative_laws.ControllerPartials) and whose
-    controllers with a partial (their limits decided by their compiled output) read no earlier controller and only
-    hinge angles and rates, and drive hinge torques (:func:`controller_parameter_forces` of csrc/sensitivity_loop.c; ControllerTerms.add)."""
-    from latdyn.assembly.control import ANGLE, RATE
+    without states (sampled ones, states: the Python path) whose parameters' partials compiled
+    (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
+    controller reads (derivative_laws.chained_outputs) reads only probes and earlier continuous controllers (no input:
+    its reads are its wiring's sensors) — hinge and guide angles and rates, and on a model without rigid links or guides
+    also the global components of a point's position, displacement or velocity and their components in a body's axes
+    (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
+    controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
+    torques, guide forces or, without rigid links or guides, load components (:func:`controller_parameter_forces` of
+    csrc/sensitivity_loop.c; ControllerTerms.add)."""
+    from latdyn.analyses.derivative_laws import chained_outputs
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CONTROLLER, OFFSET_POSITION, \
+        OFFSET_VELOCITY, POSITION, RATE, VELOCITY
 
     terms = owner.controllers
-    if terms.states is not None or terms.sampled is not None:
-        return "controllers with states, or sampled controllers"
-    if terms.partials and terms.compiled is None:
+    linked = owner.model.links is not None
+    if terms.states is not None:
+        return "controllers with states"
+    if terms.sampled is not None and linked:
+        return "sampled controllers on a model with rigid links or guides"
+    continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
+    if continuous and terms.compiled is None:
         return "controllers' parameters whose derivatives did not compile"
+    if not continuous:
+        return None
+    kinds = (ANGLE, RATE) if linked else (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY,
+                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER)
+    chained = set(chained_outputs(terms))
+    if any(name not in terms.compiled.outputs for name in chained):
+        return "controllers of a chain whose outputs did not compile"
     wiring = owner.assembler.control
     for k, c in enumerate(wiring.controllers):
-        if c.name not in terms.partials:
+        if c.name not in terms.partials and c.name not in chained:
             continue
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
-        if terms.chained[c.name] or tuple(c.reads) != wiring.sensor_names(k) \
-                or any(int(wiring.sensor_kind[i]) not in (ANGLE, RATE) for i in sensors):
-            return f"controller {c.name}: a parameter inside an output that reads other than hinge angles and rates"
-        if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
-            return f"controller {c.name}: a parameter inside an output that drives a load"
+        if tuple(c.reads) != wiring.sensor_names(k) or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
+            return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
+                    + ("other than hinge angles and rates (a model with rigid links or guides)" if linked else
+                       "an input or a probe other than joint coordinates and rates and points' positions and "
+                       "velocities"))
+        if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
+                          if int(of) == k):
+            return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
     return None
 
 
@@ -712,9 +748,14 @@ class SensitivityLoop:
         """The continuous controllers' parameter uses (ControllerTerms.add), in its order: each use's controller (its
         place in the wiring) and column, its law's number its place (ControllerPartials); the sensors of each
         controller; the hinge actuators in the wiring's order."""
+        from latdyn.assembly.control import ANGLE, CONTROLLER, RATE
+
         owner, d = self.owner, self.data
         terms = owner.controllers
-        d.n_partials = 0
+        d.n_partials, d.sampled_held, d.n_actuated_loads, d.n_sampled_loads = 0, None, 0, 0
+        loads = self._actuated_loads(terms)
+        if terms is not None and terms.sampled is not None:
+            self._sampled(terms.sampled, loads)
         if terms is None or terms.compiled is None:
             return
         wiring = owner.assembler.control
@@ -727,7 +768,8 @@ class SensitivityLoop:
         d.partial_column = ints([column for _, column, _ in uses])
         d.n_partial_controllers = wiring.n
         d.read_start = ints(wiring.sensor_start[:wiring.n + 1])
-        d.read_kind = ints([0 if int(kind) == 0 else 1 for kind in wiring.sensor_kind[:wiring.n_sensors]])
+        d.read_kind = ints([{ANGLE: 0, RATE: 1, CONTROLLER: 3}.get(int(kind), 2)
+                            for kind in wiring.sensor_kind[:wiring.n_sensors]])
         d.read_index = ints(wiring.sensor_index[:wiring.n_sensors])
         hinges = [(int(index), int(of), float(gain) if gain else 1.0) for kind, index, of, gain in zip(
             wiring.actuator_kind, wiring.actuator_index, wiring.actuator_controller, wiring.actuator_gain) if kind == 0]
@@ -740,6 +782,63 @@ class SensitivityLoop:
         d.output_law = ints([terms.compiled.outputs.get(c.name, -1) for c in wiring.controllers])
         d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)
                                                   for c in wiring.controllers], float).reshape(-1))
+        # chains and load actuators (ControllerTerms.add's outputs, the chain rule and its loads' point_load calls)
+        d.output_limited = ints([int(c.limits is not None) for c in wiring.controllers])
+        d.held_outputs = self._pointer(np.zeros(wiring.n))
+        d.output_gradient = self._pointer(np.zeros(width + 1))
+        actuators, order = loads[0]
+        d.n_load_actuators = len(actuators)
+        if actuators:
+            d.load_actuator_load = ints([order.index(index) for index, *_ in actuators])
+            d.load_actuator_component = ints([a[1] for a in actuators])
+            d.load_actuator_of = ints([a[2] for a in actuators])
+            d.load_actuator_factor = self._pointer(np.array([a[3] for a in actuators], float))
+
+    def _actuated_loads(self, terms) -> tuple:
+        """The load actuators of the continuous controllers (load, component, controller's place in the wiring,
+        ∂(component)/∂y) in the wiring's order and their loads in their first actuator's order, and the sampled
+        controllers' (SampledTerms.actuators: controller's place among the sampled ones) likewise; the actuated loads'
+        points laid out in the struct (the continuous controllers' loads, then the sampled ones')."""
+        owner, d = self.owner, self.data
+        continuous, sampled = [], []
+        if terms is not None:
+            wiring = owner.assembler.control
+            continuous = [(int(index), int(component), int(of), float(gain) if gain else 1.0) for kind, index,
+                          component, of, gain in zip(wiring.actuator_kind, wiring.actuator_index,
+                                                     wiring.actuator_component, wiring.actuator_controller,
+                                                     wiring.actuator_gain) if kind != 0]
+            if terms.sampled is not None:
+                sampled = [(int(index), int(component), int(i), float(gain))
+                           for kind, index, component, i, gain in terms.sampled.actuators if kind != 0]
+        orders = [list(dict.fromkeys(index for index, *_ in a)) for a in (continuous, sampled)]
+        everything = orders[0] + orders[1]
+        d.n_actuated_loads, d.n_sampled_loads = len(everything), len(orders[1])
+        if everything:
+            node, offset, frame = owner._load_points()   # noqa: SLF001
+            ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+            d.actuated_load_node, d.actuated_load_frame = ints(node[everything]), ints(frame[everything])
+            d.actuated_load_offset = self._pointer(np.ascontiguousarray(offset[everything], np.float64))
+            d.actuated_load_scratch = self._pointer(np.zeros(83 * len(owner.names)))
+        return (continuous, orders[0]), (sampled, orders[1])
+
+    def _sampled(self, sampled, loads) -> None:
+        """The sampled controllers' part (SampledTerms.add): their hinge and guide actuators, their load actuators
+        (places after the continuous controllers' loads), and the held δy's buffer, filled before each call
+        (:meth:`prepared`)."""
+        d = self.data
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        hinges = [(int(index), int(i), float(gain)) for kind, index, _, i, gain in sampled.actuators if kind == 0]
+        d.n_sampled_hinge_actuators = len(hinges)
+        d.sampled_hinge, d.sampled_hinge_of = ints([h[0] for h in hinges]), ints([h[1] for h in hinges])
+        d.sampled_hinge_gain = self._pointer(np.array([h[2] for h in hinges], float))
+        actuators, order = loads[1]
+        first = d.n_actuated_loads - d.n_sampled_loads
+        d.n_sampled_load_actuators = len(actuators)
+        d.sampled_load = ints([first + order.index(index) for index, *_ in actuators])
+        d.sampled_load_component, d.sampled_load_of = ints([a[1] for a in actuators]), ints([a[2] for a in actuators])
+        d.sampled_load_gain = self._pointer(np.array([a[3] for a in actuators], float))
+        self._sampled_held = np.zeros(sampled.held.shape)
+        d.sampled_held = self._pointer(self._sampled_held)
 
     def _cables(self) -> None:
         """The cables' parameters' part (csrc/cable_forces.c): the uses of CableSensitivities in its order (cable,
@@ -850,6 +949,8 @@ class SensitivityLoop:
         self._tabulate(grid_index, stop_index, control)
         if d.n_partials:   # the inputs and controllers' outputs the controllers' partials read, bound for this call
             owner.controllers.compiled.bind()
+        if d.sampled_held:   # the held δy of the last sample (as the Python step reads it: a resumed run's from the
+            np.copyto(self._sampled_held, carried["sampled_dy"])   # checkpoint), constant up to the next sample
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
         return d

@@ -238,7 +238,17 @@ class SensitivityLoopData(ctypes.Structure):
                 ("linked_count", I64),
                 # ∂r/∂t through the prescribed motions, in the time_rates struct (csrc/prescribed_rates.c); 0: none
                 ("prescribed_mask", P), ("load_columns", P), ("n_motions", I64), ("motion_coordinates", P),
-                ("motion_values", P), ("motions_from", I64), ("motion_rates", P), ("through_prescribed", P)]
+                ("motion_values", P), ("motions_from", I64), ("motion_rates", P), ("through_prescribed", P),
+                # controllers' chains and load actuators (ControllerTerms.add: outputs, the chain rule, point_load)
+                ("output_limited", P), ("held_outputs", P), ("output_gradient", P), ("n_load_actuators", I64),
+                ("load_actuator_load", P), ("load_actuator_component", P), ("load_actuator_of", P),
+                ("load_actuator_factor", P), ("n_actuated_loads", I64), ("actuated_load_node", P),
+                ("actuated_load_frame", P), ("actuated_load_offset", P), ("actuated_load_scratch", P),
+                # sampled controllers' held outputs (SampledTerms.add)
+                ("sampled_held", P), ("n_sampled_hinge_actuators", I64), ("sampled_hinge", P), ("sampled_hinge_of", P),
+                ("sampled_hinge_gain", P), ("n_sampled_load_actuators", I64), ("sampled_load", P),
+                ("sampled_load_component", P), ("sampled_load_of", P), ("sampled_load_gain", P),
+                ("n_sampled_loads", I64)]
 
 
 class WorkAccountsData(ctypes.Structure):

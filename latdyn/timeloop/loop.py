@@ -169,7 +169,10 @@ class TimeLoop:
         self.sensitivities_in_loop = self.sensitivities.in_loop() if self.sensitivities is not None and eligible \
             else None
         self.compiled = eligible and (self.sensitivities is None or self.sensitivities_in_loop is not None)
-        self.control.samples_in_loop = self.compiled and self.sampler is not None and self.sampler.in_loop
+        # (with sensitivities carried in the loop of steps, each sample instant is handed back to Python, where the
+        # sample and its restart are differentiated: TransientSensitivities.after_sample)
+        self.control.samples_in_loop = (self.compiled and self.sampler is not None and self.sampler.in_loop
+                                        and self.sensitivities_in_loop is None)
         self.writer.summary["time_loop"] = "compiled" if self.compiled else "python"
         # rows where the step runs (with sensitivities in the loop, the carried columns at each row recorded there
         # too and the rows' sensitivities taken from them: SensitivityLoop.record_rows, AdjointLoop.record_rows)

@@ -173,6 +173,34 @@ typedef struct SensitivityLoopTag {
     const double *motion_values;
     int64_t motions_from;
     double *motion_rates, *through_prescribed;
+
+    /* controllers' chains and load actuators (ControllerTerms.add). read_kind 2: the probe's value the evaluation at c
+     * left in Work (sensor_values: points' positions and velocities), 3: an earlier controller's output (read_index
+     * its place), held here as the chain computes it; the compiled output law's derivatives (output_gradient) carry
+     * the earlier controllers' slopes; a load actuator adds its factor times its controller's slope to its load's
+     * component, each load's nonzero columns then one call of the generated point_load */
+    const int64_t *output_limited;      /* n_partial_controllers: 1 with limits */
+    double *held_outputs;               /* n_partial_controllers: the outputs after their limits */
+    double *output_gradient;            /* the largest controller's reads + 1 */
+    int64_t n_load_actuators;           /* 0: none */
+    const int64_t *load_actuator_load;  /* its load's place among the actuated loads */
+    const int64_t *load_actuator_component, *load_actuator_of;
+    const double *load_actuator_factor; /* ∂(the component)/∂y */
+    int64_t n_actuated_loads;           /* in their first actuator's order */
+    const int64_t *actuated_load_node, *actuated_load_frame; /* frame: the node of its body, −1 global */
+    const double *actuated_load_offset; /* n_actuated_loads × 3 */
+    double *actuated_load_scratch;      /* 83 k */
+    /* sampled controllers (SampledTerms.add): their held δy (controllers × k, set before each call of the loop, which
+     * hands every sample instant back to Python: TransientSensitivities.after_sample), NULL: none; their hinge and
+     * guide actuators (hinge, controller, ∂τ/∂y) and load actuators (as the continuous ones') */
+    const double *sampled_held;
+    int64_t n_sampled_hinge_actuators;
+    const int64_t *sampled_hinge, *sampled_hinge_of;
+    const double *sampled_hinge_gain;
+    int64_t n_sampled_load_actuators;
+    const int64_t *sampled_load, *sampled_load_component, *sampled_load_of;
+    const double *sampled_load_gain;
+    int64_t n_sampled_loads;            /* the last of the actuated loads: the sampled controllers' */
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -293,32 +321,123 @@ static void joint_law_parameter_forces(const Model *m, const Configuration *c, c
     }
 }
 
-/* ∂r/∂p through the continuous controllers at c (time t) into total (ControllerTerms.add: no states, limits, chains or
- * load actuators here): each controller's slope dy/dp = ∂f/∂p by the compiled partials at its sensors, then each hinge
- * actuator's row less its factor times its controller's slope, in the wiring's order. */
-static void controller_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, double t)
+/* The load actuators' part of ControllerTerms.add (and of SampledTerms.add): per actuated load (in its first
+ * actuator's order) its six components' derivatives (each actuator's factor times its controller's slope, summed in
+ * the order of the actuators), then one call of the generated point_load for the columns where any is nonzero, added at
+ * its node's coordinates. `a`: the actuators' load places, components, controllers and factors (n of them); their
+ * loads' places first … last − 1 among the actuated loads (the continuous controllers' then the sampled ones'). */
+static void actuated_load_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t n,
+                                 const int64_t *const a[3], const double *factors, const double *slopes,
+                                 int64_t first, int64_t last)
+{
+    static const double identity[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const int64_t k = s->k;
+    double *moved = s->actuated_load_scratch, *T = moved + 6 * k, *values = T + 9 * k, *frames = values + 6 * k;
+    double *velocity = frames + 9 * k, *offsets = velocity + 6 * k, *force = offsets + 3 * k, *power = force + 6 * k;
+    double *by_node = power + k, *by_frame = by_node + 18 * k;
+    int64_t columns[k > 0 ? k : 1];
+    for (int64_t load = first; load < last; ++load) {
+        memset(moved, 0, sizeof(double) * (size_t)(6 * k));
+        for (int64_t i = 0; i < n; ++i) {
+            if (a[0][i] != load) continue;
+            const double factor = factors[i], *slope = slopes + a[2][i] * k;
+            double *row = moved + a[1][i] * k;
+            for (int64_t col = 0; col < k; ++col) row[col] += factor * slope[col];
+        }
+        const int64_t node = s->actuated_load_node[load], frame = s->actuated_load_frame[load];
+        int64_t P = 0;
+        for (int64_t col = 0; col < k; ++col) {
+            int any = 0;
+            for (int j = 0; j < 6; ++j) any |= moved[j * k + col] != 0.0;
+            if (!any) continue;
+            columns[P] = col;
+            memcpy(T + 9 * P, c->T + 9 * node, 9 * sizeof(double));
+            for (int j = 0; j < 6; ++j) values[6 * P + j] = moved[j * k + col];
+            memcpy(frames + 9 * P, frame >= 0 ? c->T + 9 * frame : identity, 9 * sizeof(double));
+            memcpy(velocity + 6 * P, c->v + 3 * node, 3 * sizeof(double));
+            memcpy(velocity + 6 * P + 3, c->w + 3 * node, 3 * sizeof(double));
+            memcpy(offsets + 3 * P, s->actuated_load_offset + 3 * load, 3 * sizeof(double));
+            ++P;
+        }
+        if (!P) continue;
+        m->point_load(P, T, offsets, values, frames, velocity, force, power, by_node, by_frame);
+        const int64_t *d = m->node_dofs + 6 * node;
+        for (int64_t p = 0; p < P; ++p)
+            for (int j = 0; j < 6; ++j) s->total[d[j] * k + columns[p]] += force[6 * p + j];
+    }
+}
+
+/* The sampled controllers' held outputs' ∂r/∂p (SampledTerms.add, before the continuous controllers'): each hinge or
+ * guide actuator's row less its gain times its controller's held δy where that is nonzero, then the loads'. */
+static void sampled_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s)
 {
     const int64_t k = s->k;
-    double *slopes = s->controller_slopes, *args = s->controller_scratch;
+    for (int64_t a = 0; a < s->n_sampled_hinge_actuators; ++a) {
+        const double *held = s->sampled_held + s->sampled_hinge_of[a] * k, gain = s->sampled_hinge_gain[a];
+        int any = 0;
+        for (int64_t col = 0; col < k; ++col) any |= gain * held[col] != 0.0;
+        if (!any) continue;
+        double *row = s->total + m->hinge_dofs[s->sampled_hinge[a]] * k;
+        for (int64_t col = 0; col < k; ++col) row[col] -= gain * held[col];
+    }
+    const int64_t *const loads[3] = {s->sampled_load, s->sampled_load_component, s->sampled_load_of};
+    if (s->n_sampled_load_actuators)
+        actuated_load_forces(m, c, s, s->n_sampled_load_actuators, loads, s->sampled_load_gain, s->sampled_held,
+                             s->n_actuated_loads - s->n_sampled_loads, s->n_actuated_loads);
+}
+
+/* ∂r/∂p through the continuous controllers at c (time t) into total (ControllerTerms.add: no states): in the wiring's
+ * order each controller's slope dy/dp = ∂f/∂p by the compiled partials at its sensors (0 while its output, by its
+ * compiled law, is clipped) plus, through a chain, ∂f/∂y_j dy_j/dp by its compiled output's derivatives; then each
+ * hinge actuator's row less its factor times its controller's slope, and each actuated load's point_load. */
+static void controller_parameter_forces(const Model *m, const Work *w, const Configuration *c,
+                                        const SensitivityLoop *s, double t)
+{
+    const int64_t k = s->k;
+    double *slopes = s->controller_slopes, *args = s->controller_scratch, *gradient = s->output_gradient;
+    if (s->sampled_held != NULL) sampled_parameter_forces(m, c, s);
+    if (!s->n_partials) return;
     memset(slopes, 0, sizeof(double) * (size_t)(s->n_partial_controllers * k));
-    for (int64_t u = 0; u < s->n_partials; ++u) {
-        const int64_t ctl = s->partial_controller[u], output = s->output_law[ctl];
-        int64_t count = 0;
-        for (int64_t i = s->read_start[ctl]; i < s->read_start[ctl + 1]; ++i)
-            args[count++] = s->read_kind[i] == 0 ? c->theta[s->read_index[i]] : c->theta_dot[s->read_index[i]];
-        double *out = args + count;
-        if (output >= 0) {   /* no derivative while the output is clipped: lo < f < hi, f by its compiled law */
-            s->controller_partials(output, t, args, out);
-            if (!(s->output_limits[2 * ctl] < out[0] && out[0] < s->output_limits[2 * ctl + 1])) continue;
+    for (int64_t ctl = 0; ctl < s->n_partial_controllers; ++ctl) {
+        const int64_t output = s->output_law[ctl], first = s->read_start[ctl];
+        int64_t uses = 0, count = 0, chained = 0;
+        for (int64_t u = 0; u < s->n_partials; ++u) uses += s->partial_controller[u] == ctl;
+        if (!uses && output < 0) continue;
+        for (int64_t i = first; i < s->read_start[ctl + 1]; ++i) {
+            const int64_t kind = s->read_kind[i], index = s->read_index[i];
+            args[count++] = kind == 0 ? c->theta[index] : kind == 1 ? c->theta_dot[index] :
+                            kind == 2 ? w->sensor_values[i] : s->held_outputs[index];
+            chained += kind == 3;
         }
-        s->controller_partials(u, t, args, out);
-        slopes[ctl * k + s->partial_column[u]] += out[0];
+        double *out = args + count;
+        if (output >= 0) {   /* f by its compiled law: its limits, the output a later controller reads, ∂f/∂s */
+            s->controller_partials(output, t, args, out);
+            const double raw = out[0], lo = s->output_limits[2 * ctl], hi = s->output_limits[2 * ctl + 1];
+            memcpy(gradient, out + 1, sizeof(double) * (size_t)count);
+            s->held_outputs[ctl] = !s->output_limited[ctl] ? raw : fmin(fmax(raw, lo), hi);
+            if (s->output_limited[ctl] && !(lo < raw && raw < hi)) continue;   /* clipped: no derivative */
+        }
+        double *slope = slopes + ctl * k;
+        for (int64_t u = 0; u < s->n_partials; ++u) {
+            if (s->partial_controller[u] != ctl) continue;
+            s->controller_partials(u, t, args, out);
+            slope[s->partial_column[u]] += out[0];
+        }
+        for (int64_t i = first; chained && i < s->read_start[ctl + 1]; ++i) {   /* the chain rule, in its reads' order */
+            if (s->read_kind[i] != 3) continue;
+            const double g = gradient[i - first], *earlier = slopes + s->read_index[i] * k;
+            for (int64_t col = 0; col < k; ++col) slope[col] += g * earlier[col];
+        }
     }
     for (int64_t a = 0; a < s->n_hinge_actuators; ++a) {
         const double *slope = slopes + s->actuator_of[a] * k, factor = s->actuator_factor[a];
         double *row = s->total + m->hinge_dofs[s->actuator_hinge[a]] * k;
         for (int64_t col = 0; col < k; ++col) row[col] -= factor * slope[col];
     }
+    const int64_t *const loads[3] = {s->load_actuator_load, s->load_actuator_component, s->load_actuator_of};
+    if (s->n_load_actuators)
+        actuated_load_forces(m, c, s, s->n_load_actuators, loads, s->load_actuator_factor, slopes, 0,
+                             s->n_actuated_loads - s->n_sampled_loads);
 }
 
 /* ∂r/∂t through the prescribed motions at c into r->through_prescribed (ExplicitTime.through_prescribed,
@@ -418,7 +537,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
-    if (s->n_partials) controller_parameter_forces(m, c, s, t);
+    if (s->n_partials || s->sampled_held != NULL) controller_parameter_forces(m, w, c, s, t);
     load_parameter_forces(m, c, s, grid);
     if (s->cables != NULL) cable_parameter_forces(m, w, c, s->cables, k, grid, s->total);
     if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
