@@ -231,11 +231,12 @@ def frames(assembler, mesh: dict, states, kernel_sections=None) -> "FrameBlock |
     axis (a block of rows recorded where the step runs), ``kernel_sections`` their strain-energy
     kernel's section forces (rows, elements, 4) or None. The same arrays to the last bit (the same
     operations, row by row along the leading axis) without one pass of Python a frame. None for a
-    model whose frames need a state at a time (rigid links completed, cables' tensions)."""
+    model whose frames need a state at a time (cables' tensions). Rigid links' dependent nodes need no
+    completing here: the loop's step completed them in C before it recorded the row (csrc/links.c), as
+    :func:`frame`'s ``complete_links`` would again, to the same bits."""
     from latdyn.results.probes import SECTION_QUANTITIES, section_forces
 
-    model = assembler.model
-    if model.links is not None or "cables" in mesh:
+    if "cables" in mesh:
         return None
     m = len(states.t)
     parts = {}
