@@ -426,8 +426,11 @@ def _time_refusal(owner) -> str | None:
     if rates.prescribed and not rates.motions.exact():
         return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
                 "guides, or read by a controller (a difference in t of the residual in Python)")
-    if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): not in C
-        return "explicit time dependence beside events through a controller's output"
+    if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): compiled, as ∂y/∂p
+        why = _controller_refusal(rates.laws)
+        if why is not None or rates.laws.controllers.compiled is None:
+            return ("explicit time dependence beside events through a controller's output: "
+                    + (why or "its rate in t did not compile"))
     model = owner.model
     compiled = rates.laws.derivative_laws   # the rates of laws of the state and t, compiled (ExplicitTime)
     for key, by_column in rates.laws.derivatives.items():
@@ -953,6 +956,8 @@ class SensitivityLoop:
             np.copyto(self._sampled_held, carried["sampled_dy"])   # checkpoint), constant up to the next sample
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
+            if self._rates.data.n_partials:   # the controllers' outputs' rates in t: their signals bound alike
+                self._rates.owner.controllers.compiled.bind()
         return d
 
     def _carry_accounts(self, carried: dict, state, rows: int) -> None:
@@ -1158,6 +1163,7 @@ class _TimeRates(SensitivityLoop):
         d.total = self._pointer(self._total)
         self._loads()
         self._hinges()
+        self._controllers()   # outputs that name t: their ∂f/∂t compiled (_controller_time_rates), as ∂f/∂p
         self._reels()
         self._motions()
         self._for = (None, True)
