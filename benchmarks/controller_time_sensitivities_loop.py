@@ -14,27 +14,15 @@ benchmarks/hinge_sensitivities_loop.py's docstring (the same functions).
 """
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _modes():
-    """benchmarks/hinge_sensitivities_loop.py (read from this checkout whatever build PYTHONPATH names first)."""
-    sys.path.append(str(ROOT))   # after PYTHONPATH: the build compared is the one it names
-    spec = importlib.util.spec_from_file_location("hinge_sensitivities_loop", ROOT / "benchmarks" /
-                                                  "hinge_sensitivities_loop.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 if __name__ == "__main__":
-    modes = _modes()
+    sys.path.append(str(ROOT))   # after PYTHONPATH: the build compared is the one it names
+    from benchmarks.hinge_sensitivities_loop import _from_tests, main
+
     tests = "test_sensitivities_in_loop_controller_states"
-    modes.main({"latch": modes._from_tests(tests, "TIMED_LATCH"),   # noqa: SLF001
-                "stop": modes._from_tests(tests, "TIMED_STOP"),   # noqa: SLF001
-                "chain": modes._from_tests(tests, "TIMED_CHAIN")},   # noqa: SLF001
-               default="latch", description=__doc__)
+    main({name: _from_tests(tests, f"TIMED_{name.upper()}") for name in ("latch", "stop", "chain")}, "latch", __doc__)
