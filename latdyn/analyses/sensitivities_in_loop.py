@@ -41,7 +41,11 @@ as the Python step adds them: tests/test_sensitivities_in_loop_cables2.py), and
 parameters of ``initial_velocity`` (they move the start only), and explicit time dependence beside events
 through load components and hinge and guide laws whose rate in t is a value of t alone (laws of t alone, and laws
 naming a controller's output or an input whose derivative by t names neither: a PD torque ``pd + 0.3*sin(9*t)``;
-``_rate_in_time_alone``) (∂r/∂t at the step's end through the same point_load and
+``_rate_in_time_alone``), through continuous controllers' outputs that name t (a feed-forward set point
+``Kp*(a0 + g*sin(3*t) - angle)``, chains of them: their ∂f/∂t compiled as the parameters' ∂f/∂p are,
+transient_sensitivities._controller_time_rates, the same C on both paths, taken through the actuators by
+``controller_parameter_forces`` on ∂r/∂t's struct, ``_TimeRates._controllers``, where ``_controller_refusal`` takes the
+controllers) (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it) and through
@@ -92,7 +96,8 @@ parameter reads and that reads one), chains, sensors other than hinge and guide 
 on a model with rigid links or guides, controllers reading cables', elements' or joints' forces, explicit time
 dependence beside events through prescribed
 motions on a model with rigid links or guides or read by a controller, reels beside other explicit time dependence
-or controllers, controllers' outputs that name t, or laws of the state and t whose rate in t is not a value of t alone
+or controllers, controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
+read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
 with a law of θ, θ̇ or an input in them, with rigid links or guides, or (the external work) with a prescribed motion
 (its drive's reaction), and the NumPy kernels.
@@ -419,15 +424,20 @@ def _time_refusal(owner) -> str | None:
     motions where they are exact (latdyn/analyses/prescribed_rates.py ``PrescribedRates.exact``: the coupling blocks
     times the motion laws' rates, csrc/prescribed_rates.c on both paths), of reels (``model_refusal``: alone), and of
     hinge and guide laws of the state and t whose rate compiled (transient_sensitivities._time_rate_law, the same C
-    on both paths); prescribed motions on a model with rigid links or guides or read by a controller (a difference in
-    t of the residual in Python), controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's
-    ``controllers``, not in C) and laws of the state and t whose rate did not compile (a SymPy rate in NumPy) not."""
+    on both paths) and of continuous controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's
+    ``controllers``, compiled as ∂f/∂p, transient_sensitivities._controller_time_rates) where :func:`_controller_refusal`
+    takes those controllers; prescribed motions on a model with rigid links or guides or read by a controller (a
+    difference in t of the residual in Python), controllers' outputs that name t it refuses or whose rate in t did not
+    compile, and laws of the state and t whose rate did not compile (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
     if rates.prescribed and not rates.motions.exact():
         return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
                 "guides, or read by a controller (a difference in t of the residual in Python)")
-    if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): not in C
-        return "explicit time dependence beside events through a controller's output"
+    if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): compiled, as ∂y/∂p
+        why = _controller_refusal(rates.laws)
+        if why is not None or rates.laws.controllers.compiled is None:
+            return ("explicit time dependence beside events through a controller's output: "
+                    + (why or "its rate in t did not compile"))
     model = owner.model
     compiled = rates.laws.derivative_laws   # the rates of laws of the state and t, compiled (ExplicitTime)
     for key, by_column in rates.laws.derivatives.items():
@@ -953,6 +963,8 @@ class SensitivityLoop:
             np.copyto(self._sampled_held, carried["sampled_dy"])   # checkpoint), constant up to the next sample
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
+            if self._rates.data.n_partials:   # the controllers' outputs' rates in t: their signals bound alike
+                self._rates.owner.controllers.compiled.bind()
         return d
 
     def _carry_accounts(self, carried: dict, state, rows: int) -> None:
@@ -1146,7 +1158,8 @@ class SensitivityLoop:
 class _TimeRates(SensitivityLoop):
     """∂r/∂t at fixed coordinates (ExplicitTime.of_laws of latdyn/analyses/transient_sensitivities.py: the laws' rates
     in t through the parameters' machinery with one column, t) as a struct of its own, which the loop's step reads
-    beside its parameters' (``time_rates``): the hinge laws' and the load components' uses of ``laws`` (the
+    beside its parameters' (``time_rates``): the hinge laws', the controllers' outputs' (∂f/∂t compiled) and the load
+    components' uses of ``laws`` (the
     ExplicitTime's one-column copy of the owner), their rates tabulated per grid point, its ``total`` the column."""
 
     def _layout(self) -> bool:
@@ -1158,6 +1171,7 @@ class _TimeRates(SensitivityLoop):
         d.total = self._pointer(self._total)
         self._loads()
         self._hinges()
+        self._controllers()   # outputs that name t: their ∂f/∂t compiled (_controller_time_rates), as ∂f/∂p
         self._reels()
         self._motions()
         self._for = (None, True)

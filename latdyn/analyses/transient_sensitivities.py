@@ -1550,7 +1550,7 @@ class ExplicitTime:
 
         scene = owner.scene
         reels = any(not c.rest_length.is_constant for c in scene.cables.values()) if scene.cables else False
-        timed = _controller_time_rates(owner) is not None
+        timed = owner.controllers is not None and any(c.output_names_t for c in owner.controllers.continuous)
         if (not depends_on_time(scene) and not reels and not timed) or not (has_events(scene) or scene.solve.adaptive):
             return None
         laws: dict[str, dict[int, _TimeRate]] = {}
@@ -1631,7 +1631,9 @@ def _controller_time_rates(owner):
     derivative of the output by t (deltas dropped), chained through the controllers that read a timed one and
     applied through the actuators as ∂y/∂p is; None where no continuous controller's output names t. Controllers
     with states or sampled ones beside events or adaptive steps are refused before (their states and samples are
-    not moved in t)."""
+    not moved in t). Its partials ∂f/∂t are compiled as the parameters' are
+    (:class:`latdyn.analyses.derivative_laws.ControllerPartials`): the one C function the per-step Python path and the
+    loop of steps (csrc/sensitivity_loop.c ``explicit_time_columns``) call; their lambdas where they do not compile."""
     terms = owner.controllers
     if terms is None:
         return None
@@ -1644,8 +1646,11 @@ def _controller_time_rates(owner):
 
     rates = copy.copy(terms)
     rates.k, rates.held, rates.sampled, rates.states = 1, {}, None, None
-    rates.partials = {c.name: {0: sp.lambdify(c.symbols, _drop_deltas(sp.diff(c.output_expr, c.symbols[0])),
-                                              modules=["math", "numpy"])} for c in timed}
+    expressions = {c.name: {0: _drop_deltas(sp.diff(c.output_expr, c.symbols[0]))} for c in timed}
+    rates.partial_expressions = expressions
+    rates.partials = {name: {0: sp.lambdify(c.symbols, expressions[name][0], modules=["math", "numpy"])}
+                      for name, c in ((c.name, c) for c in timed)}
+    rates.compiled = ControllerPartials.of(rates, expressions)
     return rates
 
 

@@ -460,7 +460,9 @@ static void prescribed_time_rate(const Model *m, Work *w, const Configuration *c
 }
 
 /* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
- * laws' then the loads' rates in t through the same calls as their parameters', ExplicitTime.of_laws; with rigid
+ * laws', the continuous controllers' outputs' that name t (their compiled ∂f/∂t through the actuators, as their
+ * parameters' ∂f/∂p: transient_sensitivities._controller_time_rates) then the loads' rates in t through the same calls
+ * as their parameters', ExplicitTime.of_laws; with rigid
  * links or guides reduced by Pᵀ as ExplicitTime's _on_free_coordinates reduces it) times the
  * carried δt_n added to the parameters' columns of explicit_, and ∂r/∂t itself to the step size's. */
 static void explicit_time_columns(const Model *m, Work *w, const Configuration *c, SensitivityLoop *s, int64_t grid,
@@ -470,6 +472,7 @@ static void explicit_time_columns(const Model *m, Work *w, const Configuration *
     const int64_t n = m->n_dofs, k = s->k, cols = k + 1;
     memset(r->total, 0, sizeof(double) * (size_t)(m->n_total + 1));
     if (r->n_hinge_uses) hinge_parameter_forces(m, c, r, grid, t);
+    if (r->n_partials) controller_parameter_forces(m, w, c, r, t);   /* outputs that name t: their ∂y/∂t */
     load_parameter_forces(m, c, r, grid);
     if (r->cables != NULL) cable_parameter_forces(m, w, c, r->cables, 1, grid, r->total);   /* reels: ExplicitTime.of_laws */
     if (s->linked) latdyn_linked_reduce_columns(m, r->total, 1, r->total);   /* Pᵀ, as the parameters' columns */
