@@ -85,7 +85,7 @@ class PrescribedRates:
         """Whether :meth:`__call__` holds for this model (module docstring): no rigid links or guides, and no
         controller coupling on a prescribed coordinate."""
         model, assembler = self.owner.model, self.owner.assembler
-        if model.links is not None:
+        if model.links is not None:   # :meth:`linked` is written, not yet held to the difference on every state
             return False
         control = assembler.control
         cols = np.asarray(getattr(control, "coupling_cols", np.zeros(0)), np.int64)
@@ -142,7 +142,10 @@ class PrescribedRates:
 
     def __call__(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> np.ndarray:
         """∂r/∂t (n_total + 1,) through the prescribed motions at ``state`` (every coordinate's row; the caller
-        takes the free ones or reduces): one native evaluation with the blocks, then latdyn_prescribed_time_rate."""
+        takes the free ones or reduces): one native evaluation with the blocks, then latdyn_prescribed_time_rate;
+        with rigid links or guides see :meth:`linked`."""
+        if self.owner.model.links is not None:
+            return self.linked(state, inertia, rates)[0]
         owner = self.owner
         assembler, model = owner.assembler, owner.model
         native = assembler.native(True)
@@ -157,3 +160,30 @@ class PrescribedRates:
             native.model_ref, native.work_ref, mask.ctypes.data, rates.ctypes.data, int(bool(inertia)),
             body.ctypes.data if body is not None else None, columns.ctypes.data, out.ctypes.data)
         return out
+
+    def linked(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> tuple:
+        """(∂r_all/∂t (n_total + 1,), every coordinate's row before the reduction; ∂r_min/∂t (n,)) through the
+        prescribed motions of a model with rigid links or guides at ``state``: the dependent nodes that hang from a
+        prescribed coordinate move with it (module docstring; csrc/linked_prescribed_rates.c
+        ``latdyn_linked_prescribed_time_rate``, which the loop of steps calls too)."""
+        owner = self.owner
+        assembler, model = owner.assembler, owner.model
+        from latdyn.assembly.linked import linked_pattern
+
+        native = assembler.native(True)
+        linked_pattern(assembler, native)   # its links laid out for the numbering now (as evaluate_linked)
+        assembler.complete_links(state)
+        native.evaluate(state, True, 1.0, inertia, inertia)
+        body = None
+        if inertia and len(model.body_nodes):
+            body = np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), float)
+        rates = np.ascontiguousarray(self.rates(float(state.t)) if rates is None else rates, float)
+        mask, columns = self.mask(), self.load_columns()
+        size = model.n_total + 1
+        scratch_mask, moved = np.empty(size, np.int64), np.empty(3 * size)
+        total, out = np.empty(size), np.empty(size)
+        native.library.latdyn_linked_prescribed_time_rate(
+            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), mask.ctypes.data,
+            rates.ctypes.data, int(bool(inertia)), body.ctypes.data if body is not None else None,
+            columns.ctypes.data, scratch_mask.ctypes.data, moved.ctypes.data, total.ctypes.data, out.ctypes.data)
+        return total, out[:model.n_dofs].copy()

@@ -1602,6 +1602,9 @@ class ExplicitTime:
         where the model allows, else the prescribed nodes and angles moved to t ± η, ± 2η; ``on_all``: of the
         assembled residual and the reactions (n_total + 1,), before the reduction."""
         if self.motions is not None and self.motions.exact():
+            if self.owner.model.links is not None:
+                total, reduced = self.motions.linked(state, inertia)
+                return total if on_all else reduced
             total = self.motions(state, inertia)
             return total if on_all else self.owner._on_free_coordinates(state, total[:, None])[:, 0]
         return self.difference_in_t(state, inertia, on_all)
