@@ -85,11 +85,12 @@ class PrescribedRates:
         """Whether :meth:`__call__` holds for this model (module docstring): no rigid links or guides, and no
         controller coupling on a prescribed coordinate."""
         model, assembler = self.owner.model, self.owner.assembler
-        if model.links is not None:   # :meth:`linked` is written, not yet held to the difference on every state
-            return False
         control = assembler.control
         cols = np.asarray(getattr(control, "coupling_cols", np.zeros(0)), np.int64)
-        return not np.isin(cols, self.coordinates()).any()
+        moved = self.coordinates()
+        if model.links is not None and len(cols):   # and the dependent nodes' coordinates that move with them
+            moved = np.concatenate([moved, model.node_dofs[model.links.dependent].ravel()])
+        return not np.isin(cols, moved).any()
 
     def coordinates(self) -> np.ndarray:
         """Every prescribed coordinate (the numbering now), laws or none."""

@@ -1207,6 +1207,9 @@ class _TimeRates(SensitivityLoop):
         d.motion_rates = self._pointer(np.zeros(3 * size))
         self._through = np.zeros(size)
         d.through_prescribed = self._pointer(self._through)
+        if self.owner.model.links is not None:   # csrc/linked_prescribed_rates.c's scratch
+            d.linked_motion_mask = self._pointer(np.zeros(size, np.int64))
+            d.linked_motion_moved, d.linked_motion_all = self._pointer(np.zeros(3 * size)), self._pointer(np.zeros(size))
 
     def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
         """The laws' rates (SensitivityLoop._tabulate) and the motion laws' rate, acceleration and jerk at each grid

@@ -248,7 +248,11 @@ class SensitivityLoopData(ctypes.Structure):
                 ("sampled_held", P), ("n_sampled_hinge_actuators", I64), ("sampled_hinge", P), ("sampled_hinge_of", P),
                 ("sampled_hinge_gain", P), ("n_sampled_load_actuators", I64), ("sampled_load", P),
                 ("sampled_load_component", P), ("sampled_load_of", P), ("sampled_load_gain", P),
-                ("n_sampled_loads", I64)]
+                ("n_sampled_loads", I64),
+                # prescribed motions on a model with rigid links or guides (csrc/linked_prescribed_rates.c), in the
+                # time_rates struct: scratch of the prescribed and dependent coordinates' mask and δq, δv, δa, and
+                # ∂r_all/∂t (n_total + 1, 3 (n_total + 1), n_total + 1)
+                ("linked_motion_mask", P), ("linked_motion_moved", P), ("linked_motion_all", P)]
 
 
 class WorkAccountsData(ctypes.Structure):
