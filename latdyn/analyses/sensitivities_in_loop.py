@@ -45,10 +45,14 @@ naming a controller's output or an input whose derivative by t names neither: a 
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it) and through
-prescribed motions on a model without rigid links or guides whose controllers read no prescribed coordinate (the
-blocks of M, C and the exact K coupling every row to the prescribed coordinates times the motion laws' exact rate,
-acceleration and jerk tabulated per grid point: csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``, which the
-Python path's ExplicitTime.through_prescribed calls too; :class:`_TimeRates` ``_motions``), through reels (a cable's
+prescribed motions (the blocks of M, C and the exact K coupling every row to the prescribed coordinates, and the
+continuous controllers' couplings of sensors that read them, times the motion laws' exact rate, acceleration and
+jerk tabulated per grid point: csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``, which the Python path's
+ExplicitTime.through_prescribed calls too; :class:`_TimeRates` ``_motions``; on a model with rigid links or guides
+the dependent nodes moved with the prescribed coordinates through J, ∂c/∂v and the dependent rates' ∂/∂q, reduced by
+Pᵀ, with the geometric term ∂(Pᵀ)/∂q_p q̇_p · r_all, csrc/linked_prescribed_rates.c
+``latdyn_linked_prescribed_time_rate``, on both paths too),
+through reels (a cable's
 rest length in t: each a rest-length use of csrc/cable_forces.c with L0′(t) tabulated, ``_TimeRates._reels``; beside
 no other explicit time dependence or controller, ``_reels_alone``) and through hinge and guide laws of the state and
 t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
@@ -90,8 +94,7 @@ values whose derivative is a law in t or an input (the loader refuses those anyw
 sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a
 parameter reads and that reads one), chains, sensors other than hinge and guide angles and rates and load actuators
 on a model with rigid links or guides, controllers reading cables', elements' or joints' forces, explicit time
-dependence beside events through prescribed
-motions on a model with rigid links or guides or read by a controller, reels beside other explicit time dependence
+dependence beside events through reels beside other explicit time dependence
 or controllers, controllers' outputs that name t, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
 with a law of θ, θ̇ or an input in them, with rigid links or guides, or (the external work) with a prescribed motion
@@ -416,16 +419,13 @@ def _time_refusal(owner) -> str | None:
     ∂r/∂t of load components and hinge and guide laws whose rate in t is one of t alone (:func:`_rate_in_time_alone`),
     their exact rates (the same ``_TimeRate`` objects) tabulated per grid point through the same generated point_load
     and hinge_force (:class:`_TimeRates`), and of prescribed
-    motions where they are exact (latdyn/analyses/prescribed_rates.py ``PrescribedRates.exact``: the coupling blocks
-    times the motion laws' rates, csrc/prescribed_rates.c on both paths), of reels (``model_refusal``: alone), and of
+    motions (latdyn/analyses/prescribed_rates.py: the coupling blocks, a controller's among them, times the motion
+    laws' rates, csrc/prescribed_rates.c on both paths; with rigid links or guides the dependent nodes carried,
+    csrc/linked_prescribed_rates.c), of reels (``model_refusal``: alone), and of
     hinge and guide laws of the state and t whose rate compiled (transient_sensitivities._time_rate_law, the same C
-    on both paths); prescribed motions on a model with rigid links or guides or read by a controller (a difference in
-    t of the residual in Python), controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's
+    on both paths); controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's
     ``controllers``, not in C) and laws of the state and t whose rate did not compile (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
-    if rates.prescribed and not rates.motions.exact():
-        return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
-                "guides, or read by a controller (a difference in t of the residual in Python)")
     if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): not in C
         return "explicit time dependence beside events through a controller's output"
     model = owner.model
@@ -1203,6 +1203,8 @@ class _TimeRates(SensitivityLoop):
         size = self.owner.model.n_total + 1
         d.prescribed_mask = self._pointer(motions.mask())
         d.load_columns = self._pointer(motions.load_columns())
+        couplings = motions.couplings()
+        d.motion_couplings = self._pointer(couplings) if couplings is not None else None
         d.motion_coordinates = self._pointer(coordinates)
         d.motion_rates = self._pointer(np.zeros(3 * size))
         self._through = np.zeros(size)

@@ -252,7 +252,10 @@ class SensitivityLoopData(ctypes.Structure):
                 # prescribed motions on a model with rigid links or guides (csrc/linked_prescribed_rates.c), in the
                 # time_rates struct: scratch of the prescribed and dependent coordinates' mask and δq, δv, δa, and
                 # ∂r_all/∂t (n_total + 1, 3 (n_total + 1), n_total + 1)
-                ("linked_motion_mask", P), ("linked_motion_moved", P), ("linked_motion_all", P)]
+                ("linked_motion_mask", P), ("linked_motion_moved", P), ("linked_motion_all", P),
+                # the continuous controllers' coupling rows then columns (2 n_couplings; NULL: none), for a sensor on
+                # a coordinate the prescribed motions move (csrc/prescribed_rates.c)
+                ("motion_couplings", P)]
 
 
 class WorkAccountsData(ctypes.Structure):
@@ -430,10 +433,10 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_linked_reduce_total.restype = None
         library.latdyn_linked_reduce_total.argtypes = [model, P]
         library.latdyn_prescribed_time_rate.restype = None
-        library.latdyn_prescribed_time_rate.argtypes = [model, work, P, P, I64, P, P, P]
+        library.latdyn_prescribed_time_rate.argtypes = [model, work, P, P, I64, P, P, P, P]
         library.latdyn_linked_prescribed_time_rate.restype = None
         library.latdyn_linked_prescribed_time_rate.argtypes = [model, work, configuration, P, P, I64, P, P, P, P, P,
-                                                               P]
+                                                               P, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None

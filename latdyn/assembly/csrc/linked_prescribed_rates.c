@@ -34,8 +34,8 @@
  * the reduction; into `out` (n_total + 1): its rows below n_dofs ∂r_min/∂t (the rest scratch). */
 void latdyn_linked_prescribed_time_rate(const Model *m, Work *w, const Configuration *c, const int64_t *prescribed,
                                         const double *rates, int64_t inertia, const double *body_inertia_stiffness,
-                                        const int64_t *load_columns, int64_t *mask, double *moved, double *all,
-                                        double *out)
+                                        const int64_t *load_columns, const int64_t *couplings, int64_t *mask,
+                                        double *moved, double *all, double *out)
 {
     const Links *L = m->links;
     const int64_t size = m->n_total + 1, W = L->width;
@@ -67,7 +67,7 @@ void latdyn_linked_prescribed_time_rate(const Model *m, Work *w, const Configura
             moved[2 * size + d[k]] = da;
         }
     }
-    latdyn_prescribed_time_rate(m, w, mask, moved, inertia, body_inertia_stiffness, load_columns, all);
+    latdyn_prescribed_time_rate(m, w, mask, moved, inertia, body_inertia_stiffness, load_columns, couplings, all);
     memcpy(out, all, sizeof(double) * (size_t)size);
     latdyn_linked_reduce_columns(m, all, 1, out);   /* Pᵀ ∂r_all/∂t: rows below n_dofs */
     /* ∂(Pᵀ)/∂q_p q̇_p · r_all: the dependent rows of the residual the evaluation left in w->total */

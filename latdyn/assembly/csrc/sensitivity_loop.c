@@ -206,6 +206,9 @@ typedef struct SensitivityLoopTag {
      * (3 (n_total + 1)), and ∂r_all/∂t (n_total + 1) */
     int64_t *linked_motion_mask;
     double *linked_motion_moved, *linked_motion_all;
+    /* the continuous controllers' coupling rows then columns (2 n_couplings), for a sensor on a coordinate the
+     * prescribed motions move (prescribed_rates.c); NULL: none */
+    const int64_t *motion_couplings;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -462,12 +465,12 @@ static void prescribed_time_rate(const Model *m, Work *w, const Configuration *c
     if (s->linked)   /* the dependent nodes moved with the prescribed ones, Pᵀ and the geometric term */
         latdyn_linked_prescribed_time_rate(m, w, c, r->prescribed_mask, r->motion_rates, 1,
                                            s->body_kernel != NULL ? s->linked_body_D : NULL, r->load_columns,
-                                           r->linked_motion_mask, r->linked_motion_moved, r->linked_motion_all,
+                                           r->motion_couplings, r->linked_motion_mask, r->linked_motion_moved, r->linked_motion_all,
                                            r->through_prescribed);
     else
         latdyn_prescribed_time_rate(m, w, r->prescribed_mask, r->motion_rates, 1,
                                     s->body_kernel != NULL ? s->body_stiffness : NULL, r->load_columns,
-                                    r->through_prescribed);
+                                    r->motion_couplings, r->through_prescribed);
 }
 
 /* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
