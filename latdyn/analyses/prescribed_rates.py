@@ -191,5 +191,6 @@ class PrescribedRates:
         native.library.latdyn_linked_prescribed_time_rate(
             native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), mask.ctypes.data,
             rates.ctypes.data, int(bool(inertia)), body.ctypes.data if body is not None else None,
-            columns.ctypes.data, couplings.ctypes.data if couplings is not None else None, scratch_mask.ctypes.data, moved.ctypes.data, total.ctypes.data, out.ctypes.data)
+            columns.ctypes.data, couplings.ctypes.data if couplings is not None else None, scratch_mask.ctypes.data,
+            moved.ctypes.data, total.ctypes.data, out.ctypes.data)
         return total, out[:model.n_dofs].copy()

@@ -85,7 +85,8 @@ point_load's, with ∂Q/∂p of the load parameters, and the hinges' applied tor
 conservative) — are carried by csrc/work_accounts.c at each step the loop accepts and at each row it records, the C
 the per-step Python path calls too (energy_sensitivities._dissipated_step, external_work_step, _power), with the
 laws' values (damping laws, load values, applied torques and springs, and their parameters' derivative laws: of t
-alone) tabulated per grid point, on models without rigid links, guides or prescribed motions (``_account_refusal``;
+alone) tabulated per grid point, on models without rigid links, guides or prescribed motions (the dissipated energy
+with rigid links too: its dampers' δθ, δθ̇ are free coordinates; ``_account_refusal``;
 the accounts and their terms handed back at the loop's end, an event's account after it is the Python path's,
 energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
@@ -97,7 +98,7 @@ on a model with rigid links or guides, controllers reading cables', elements' or
 dependence beside events through reels beside other explicit time dependence
 or controllers, controllers' outputs that name t, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
-with a law of θ, θ̇ or an input in them, with rigid links or guides, or (the external work) with a prescribed motion
+with a law of θ, θ̇ or an input in them, with guides, the external work with rigid links, or (the external work) with a prescribed motion
 (its drive's reaction), and the NumPy kernels.
 
 Step matrices of every storage: where a model has S on the supernodal sparse LU (above DENSE_LIMIT coordinates, its
@@ -339,7 +340,8 @@ def _account_refusal(owner, quantity: str) -> str | None:
     """Why a work account's sensitivity (``quantity``: the dissipated energy or the external work, sums over the steps:
     energy_sensitivities._dissipated_step, external_work_step) keeps the run on the Python path, or None: the loop
     carries them by csrc/work_accounts.c, the C the Python path calls, on a model without rigid links or guides (δθ, δθ̇,
-    δπ, δu the carried δq, δv at the free coordinates) with the laws' values tabulated per grid point: for the
+    δπ, δu the carried δq, δv at the free coordinates; the dissipated energy with rigid links too, its hinges' δθ, δθ̇
+    free coordinates: a rigid link's hinge is one) with the laws' values tabulated per grid point: for the
     dissipated energy every hinge's damping law and the damping parameters' derivative laws, for the external work the
     loads' values and their derivative laws, every hinge's applied torque, a spring that is not conservative, the
     torque's, stiffness's and rest angle's parameters' derivative laws (laws of t alone, as the Python step reads them
@@ -348,7 +350,8 @@ def _account_refusal(owner, quantity: str) -> str | None:
 
     model = owner.model
     what = "the dissipated energy" if quantity == "dissipated" else "the external work"
-    if model.links is not None:
+    guided = any(getattr(body, "guide", None) is not None for body in owner.scene.bodies.values())
+    if model.links is not None and (quantity != "dissipated" or guided):   # the dampers' δθ, δθ̇: free coordinates
         return f"{what} with rigid links or guides (a work account carried per step in Python)"
     if quantity == "dissipated":
         laws = [hinge.damping for hinge in model.hinges] + [law for _, _, law in damping_uses(owner)]
@@ -1211,7 +1214,8 @@ class _TimeRates(SensitivityLoop):
         d.through_prescribed = self._pointer(self._through)
         if self.owner.model.links is not None:   # csrc/linked_prescribed_rates.c's scratch
             d.linked_motion_mask = self._pointer(np.zeros(size, np.int64))
-            d.linked_motion_moved, d.linked_motion_all = self._pointer(np.zeros(3 * size)), self._pointer(np.zeros(size))
+            d.linked_motion_moved = self._pointer(np.zeros(3 * size))
+            d.linked_motion_all = self._pointer(np.zeros(size))
 
     def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
         """The laws' rates (SensitivityLoop._tabulate) and the motion laws' rate, acceleration and jerk at each grid

@@ -465,8 +465,8 @@ static void prescribed_time_rate(const Model *m, Work *w, const Configuration *c
     if (s->linked)   /* the dependent nodes moved with the prescribed ones, Pᵀ and the geometric term */
         latdyn_linked_prescribed_time_rate(m, w, c, r->prescribed_mask, r->motion_rates, 1,
                                            s->body_kernel != NULL ? s->linked_body_D : NULL, r->load_columns,
-                                           r->motion_couplings, r->linked_motion_mask, r->linked_motion_moved, r->linked_motion_all,
-                                           r->through_prescribed);
+                                           r->motion_couplings, r->linked_motion_mask, r->linked_motion_moved,
+                                           r->linked_motion_all, r->through_prescribed);
     else
         latdyn_prescribed_time_rate(m, w, r->prescribed_mask, r->motion_rates, 1,
                                     s->body_kernel != NULL ? s->body_stiffness : NULL, r->load_columns,
