@@ -151,46 +151,42 @@ class PrescribedRates:
         with rigid links or guides see :meth:`linked`."""
         if self.owner.model.links is not None:
             return self.linked(state, inertia, rates)[0]
-        owner = self.owner
-        assembler, model = owner.assembler, owner.model
+        native, pointers = self._evaluated(state, inertia, rates)
+        out = np.empty(self.owner.model.n_total + 1)
+        native.library.latdyn_prescribed_time_rate(native.model_ref, native.work_ref, pointers[0], pointers[1],
+                                                   int(bool(inertia)), *pointers[2:], out.ctypes.data)
+        return out
+
+    def _evaluated(self, state, inertia: bool, rates: np.ndarray | None) -> tuple:
+        """The native model evaluated at ``state`` with the blocks (the inertia tangent with ``inertia``), and the
+        addresses of the mask, the rates, the joint bodies' inertia stiffness (or None), the loads' columns and the
+        couplings (or None) that the C calls take, the arrays held until the next call."""
+        assembler, model = self.owner.assembler, self.owner.model
         native = assembler.native(True)
         native.evaluate(state, True, 1.0, inertia, inertia)
         body = None
         if inertia and len(model.body_nodes):
             body = np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), float)
         rates = np.ascontiguousarray(self.rates(float(state.t)) if rates is None else rates, float)
-        mask, columns, couplings = self.mask(), self.load_columns(), self.couplings()
-        out = np.empty(model.n_total + 1)
-        native.library.latdyn_prescribed_time_rate(
-            native.model_ref, native.work_ref, mask.ctypes.data, rates.ctypes.data, int(bool(inertia)),
-            body.ctypes.data if body is not None else None, columns.ctypes.data,
-            couplings.ctypes.data if couplings is not None else None, out.ctypes.data)
-        return out
+        self._held = arrays = (self.mask(), rates, body, self.load_columns(), self.couplings())
+        return native, tuple(None if a is None else a.ctypes.data for a in arrays)
 
     def linked(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> tuple:
         """(∂r_all/∂t (n_total + 1,), every coordinate's row before the reduction; ∂r_min/∂t (n,)) through the
         prescribed motions of a model with rigid links or guides at ``state``: the dependent nodes that hang from a
         prescribed coordinate move with it (module docstring; csrc/linked_prescribed_rates.c
         ``latdyn_linked_prescribed_time_rate``, which the loop of steps calls too)."""
-        owner = self.owner
-        assembler, model = owner.assembler, owner.model
         from latdyn.assembly.linked import linked_pattern
 
-        native = assembler.native(True)
-        linked_pattern(assembler, native)   # its links laid out for the numbering now (as evaluate_linked)
+        assembler, model = self.owner.assembler, self.owner.model
+        linked_pattern(assembler, assembler.native(True))   # its links laid out for the numbering now (evaluate_linked)
         assembler.complete_links(state)
-        native.evaluate(state, True, 1.0, inertia, inertia)
-        body = None
-        if inertia and len(model.body_nodes):
-            body = np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), float)
-        rates = np.ascontiguousarray(self.rates(float(state.t)) if rates is None else rates, float)
-        mask, columns, couplings = self.mask(), self.load_columns(), self.couplings()
+        native, pointers = self._evaluated(state, inertia, rates)
         size = model.n_total + 1
         scratch_mask, moved = np.empty(size, np.int64), np.empty(3 * size)
         total, out = np.empty(size), np.empty(size)
         native.library.latdyn_linked_prescribed_time_rate(
-            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), mask.ctypes.data,
-            rates.ctypes.data, int(bool(inertia)), body.ctypes.data if body is not None else None,
-            columns.ctypes.data, couplings.ctypes.data if couplings is not None else None, scratch_mask.ctypes.data,
-            moved.ctypes.data, total.ctypes.data, out.ctypes.data)
+            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), pointers[0], pointers[1],
+            int(bool(inertia)), *pointers[2:], scratch_mask.ctypes.data, moved.ctypes.data, total.ctypes.data,
+            out.ctypes.data)
         return total, out[:model.n_dofs].copy()
