@@ -170,26 +170,32 @@ def test_the_cli_writes_the_python_paths_files_for_the_slider_crank(tmp_path):
     the_loop_off_writes_the_same(tmp_path, out)
 
 
+def _driven_by_a_controller(text: str, gains: str, law: str, output: str, after: str, sensors: str,
+                            sensitivities: tuple) -> str:
+    """``text`` with the parameters ``gains`` first, the hinge law ``law`` given the torque "pd", the controller pd
+    of ``output`` and the probes ``sensors`` after the probe line ``after``, its sensitivities ``sensitivities``
+    (old, new)."""
+    return (text.replace("parameters: {", "parameters: {" + gains + ", ").replace(law, law + ' torque: "pd",')
+            .replace("solve: {", 'controllers:\n  pd: {output: "' + output + '"}\nsolve: {')
+            .replace(after, after + sensors).replace(*sensitivities))
+
+
 #: the slider-crank's swing driven by a controller that reads the prescribed crank's angle and rate (its stop
 #: met at 0.079, 0.187 and 0.256 s)
-CRANK_PD = (CRANK_STOP.replace("parameters: {m: 1.0,", "parameters: {Kp: 0.01, Kd: 0.005, m: 1.0,")
-            .replace('stiffness: \"ks\", limits', 'stiffness: \"ks\", torque: \"pd\", limits')
-            .replace("solve: {", 'controllers:\n  pd: {output: "Kp*sin(ca) + Kd*cr"}\nsolve: {')
-            .replace("    sw: {hinge: swing.start, quantity: angle}\n",
-                     "    sw: {hinge: swing.start, quantity: angle}\n    ca: {hinge: crank.start, quantity: angle}\n"
-                     "    cr: {hinge: crank.start, quantity: rate}\n")
-            .replace("sensitivities: [m, ks, mb]", "sensitivities: [Kp, Kd, ks, mb]"))
+CRANK_PD = _driven_by_a_controller(
+    CRANK_STOP, "Kp: 0.01, Kd: 0.005", 'stiffness: "ks",', "Kp*sin(ca) + Kd*cr",
+    "    sw: {hinge: swing.start, quantity: angle}\n",
+    "    ca: {hinge: crank.start, quantity: angle}\n    cr: {hinge: crank.start, quantity: rate}\n",
+    ("sensitivities: [m, ks, mb]", "sensitivities: [Kp, Kd, ks, mb]"))
 assert 'torque: "pd"' in CRANK_PD and "cr: {hinge" in CRANK_PD
 
 #: the prescribed hinge angle beside a latching arm of tests/test_sensitivities_time_laws.py, the arm's hinge driven
 #: by a controller that reads the prescribed angle and its rate (no rigid links: the coupling alone)
-ANGLE_PD = (ANGLE_LATCH.replace("parameters: {k: 2.0,", "parameters: {Kp: 0.3, Kd: 0.1, k: 2.0,")
-            .replace("rest_angle: 2.0, lock_at: 0.8}", 'rest_angle: 2.0, torque: "pd", lock_at: 0.8}')
-            .replace("solve: {", 'controllers:\n  pd: {output: "Kp*fa + Kd*fr"}\nsolve: {')
-            .replace("    hinge: {hinge: arm.start, quantity: angle}\n",
-                     "    hinge: {hinge: arm.start, quantity: angle}\n    fa: {hinge: fore.start, quantity: angle}\n"
-                     "    fr: {hinge: fore.start, quantity: rate}\n")
-            .replace("sensitivities: [k]", "sensitivities: [k, Kp, Kd]"))
+ANGLE_PD = _driven_by_a_controller(
+    ANGLE_LATCH, "Kp: 0.3, Kd: 0.1", "rest_angle: 2.0,", "Kp*fa + Kd*fr",
+    "    hinge: {hinge: arm.start, quantity: angle}\n",
+    "    fa: {hinge: fore.start, quantity: angle}\n    fr: {hinge: fore.start, quantity: rate}\n",
+    ("sensitivities: [k]", "sensitivities: [k, Kp, Kd]"))
 assert 'torque: "pd"' in ANGLE_PD and "fr: {hinge" in ANGLE_PD
 CONTROLLED = {"slider-crank's swing driven by a controller reading the crank": (CRANK_PD, ["stop"] * 3, 6),
               "arm driven by a controller reading a prescribed angle, latching": (ANGLE_PD, ["latch"], 2)}
