@@ -1,8 +1,10 @@
 """Time of forward sensitivity runs through prescribed motions beside events (docs/performance.md, "Prescribed motions
 and reels in the sensitivity loop (issue 34)"): the scenes of tests/test_sensitivities_in_loop_prescribed.py.
 
-    python benchmarks/prescribed_sensitivities_loop.py --write DIR
-        the scenes as YAML files in DIR (boom.yaml, angle.yaml, truss.yaml; *-plain.yaml without sensitivities)
+    python benchmarks/prescribed_sensitivities_loop.py --write DIR [--linked]
+        the scenes as YAML files in DIR (boom.yaml, angle.yaml, truss.yaml; *-plain.yaml without sensitivities);
+        --linked: those of tests/test_sensitivities_in_loop_linked2.py instead (crank.yaml, gimbal.yaml, crankpd.yaml:
+        docs/performance.md, "Linked models' prescribed motions and work accounts in the sensitivity loop (issue 34)")
     python benchmarks/prescribed_sensitivities_loop.py --scene FILE --repeats 7 [--off]
         in this process (the tree on PYTHONPATH): one warm-up run, then the runs timed (wall and
         time.process_time); prints the minimum and the median of each; --off: the sensitivities' loop of steps
@@ -26,14 +28,20 @@ import time
 from pathlib import Path
 
 
-def write(folder: Path) -> None:
+def write(folder: Path, linked: bool = False) -> None:
     import yaml
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from tests.test_sensitivities_in_loop_prescribed import ANGLE_LATCH, BOOM_SLEW, REEL_TRUSS
+    if linked:
+        from tests.test_sensitivities_in_loop_linked2 import CRANK_PD, CRANK_STOP, GIMBAL_SLEW
 
+        scenes = (("crank", CRANK_STOP), ("gimbal", GIMBAL_SLEW), ("crankpd", CRANK_PD))
+    else:
+        from tests.test_sensitivities_in_loop_prescribed import ANGLE_LATCH, BOOM_SLEW, REEL_TRUSS
+
+        scenes = (("boom", BOOM_SLEW), ("angle", ANGLE_LATCH), ("truss", REEL_TRUSS))
     folder.mkdir(parents=True, exist_ok=True)
-    for name, text in (("boom", BOOM_SLEW), ("angle", ANGLE_LATCH), ("truss", REEL_TRUSS)):
+    for name, text in scenes:
         (folder / f"{name}.yaml").write_text(text)
         plain = yaml.safe_load(text)
         plain["solve"].pop("sensitivities")
@@ -91,12 +99,13 @@ def main() -> None:
     parser.add_argument("--scene", type=Path)
     parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--off", action="store_true")
+    parser.add_argument("--linked", action="store_true")
     parser.add_argument("--user", type=int)
     parser.add_argument("--trees")
     parser.add_argument("--scenes", type=Path)
     args = parser.parse_args()
     if args.write:
-        write(args.write)
+        write(args.write, args.linked)
     elif args.scene:
         in_process(args.scene, args.repeats, args.off)
     elif args.user:

@@ -32,6 +32,7 @@ import latdyn
 import tests.test_sensitivities_events as events
 from tests.cli_runs import latdyn_run, summary_of
 from tests.test_sensitivities_in_loop_cables import truss
+from tests.test_sensitivities_in_loop_linked2 import difference_in_t
 from tests.test_sensitivities_time_laws import ANGLE_LATCH, DAMPED_REEL, HUB_STOP, TORQUE_LATCH
 
 #: the 3D wheel latching of tests/test_sensitivities_events.py on a boom whose root is prescribed: a slew
@@ -164,10 +165,10 @@ def test_the_cli_writes_the_python_paths_files(text, beside, tmp_path):
 
 @pytest.mark.parametrize("name", ["3D boom slewing to a latch", "prescribed angle beside a stop"])
 def test_the_exact_rate_in_t_equals_the_five_point_difference(name, monkeypatch):
-    """ExplicitTime.through_prescribed (exact) against its five-point difference in t of the residual
-    (``difference_in_t``, truncation (ηω)⁴/30, round-off ε|r|/η) at every state the run asks it at, on the free
-    coordinates and on all (measured ≤ 7.3e-9 of the largest entry on the boom, 116 calls; 1.1e-12 on the angle, 81
-    calls; the hub of tests/test_sensitivities_time_laws.py 1.7e-8)."""
+    """ExplicitTime.through_prescribed (exact) against the five-point difference in t of the residual
+    (tests/test_sensitivities_in_loop_linked2.py ``difference_in_t``, truncation (ηω)⁴/30, round-off ε|r|/η) at
+    every state the run asks it at, on the free coordinates and on all (measured ≤ 7.3e-9 of the largest entry on
+    the boom, 116 calls; 1.1e-12 on the angle, 81 calls; the hub of tests/test_sensitivities_time_laws.py 1.7e-8)."""
     from latdyn.analyses import transient_sensitivities as ts
 
     worst, calls = [0.0], [0]
@@ -175,7 +176,7 @@ def test_the_exact_rate_in_t_equals_the_five_point_difference(name, monkeypatch)
 
     def compared(self, state, inertia=True, on_all=False):
         value = exact(self, state, inertia, on_all)
-        difference = self.difference_in_t(state, inertia, on_all)
+        difference = difference_in_t(self, state, inertia, on_all)
         worst[0] = max(worst[0], np.abs(value - difference).max() / np.abs(difference).max())
         calls[0] += 1
         return value

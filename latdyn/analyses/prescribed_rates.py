@@ -14,10 +14,16 @@ a table's slope and zeros). A rotation about a fixed axis moves T by exp(skew(a 
 spatial tangent space that K's rotation columns use are a ġ, a g̈, a g⃛. The products are one native call
 (csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``), which the sensitivities' loop of steps makes too.
 
-Not here (:meth:`PrescribedRates.exact` False; ExplicitTime keeps its five-point difference in t of the residual
-there): models with rigid links or guides (a dependent node moves with a prescribed one through the link) and
-continuous controllers whose sensors read a prescribed coordinate (their couplings are not blocks of the
-evaluation's buffers).
+A continuous controller whose sensor reads a prescribed coordinate adds its coupling entry (of K for a coordinate
+or a rotation read, of C for a rate) times the motion's rate or acceleration, last (``couplings``).
+
+With rigid links or guides (:meth:`PrescribedRates.linked`, csrc/linked_prescribed_rates.c) the dependent nodes that
+hang from a prescribed coordinate move with it, at fixed free coordinates, rates and accelerations:
+δq_dep = J_·p q̇_p, δv_dep = ∂(J v)/∂q_p q̇_p + J_·p q̈_p, δa_dep = ∂(J a + c)/∂q_p q̇_p + ∂c/∂v_p q̈_p + J_·p q⃛_p
+(J, ∂c/∂v and the dependent rates' ∂/∂q of the compiled step's links, latdyn/assembly/linked.py); the blocks take
+those moves as the prescribed coordinates' (∂r_all/∂t), and r_min = Pᵀ r_all moves as
+Pᵀ ∂r_all/∂t + ∂(Pᵀ)/∂q_p q̇_p · r_all, the geometric term the forward step's own (csrc/links.c geometric_term) on
+the prescribed columns. A controller reading a dependent coordinate adds its coupling there too.
 """
 from __future__ import annotations
 
@@ -81,15 +87,14 @@ class PrescribedRates:
             if isinstance(hinge.angle, TimeFunction) and not hinge.angle.is_constant:
                 self.motions.append(("hinge", j, 0, hinge.angle, third_derivative(hinge.angle), 1.0))
 
-    def exact(self) -> bool:
-        """Whether :meth:`__call__` holds for this model (module docstring): no rigid links or guides, and no
-        controller coupling on a prescribed coordinate."""
-        model, assembler = self.owner.model, self.owner.assembler
-        if model.links is not None:
-            return False
-        control = assembler.control
-        cols = np.asarray(getattr(control, "coupling_cols", np.zeros(0)), np.int64)
-        return not np.isin(cols, self.coordinates()).any()
+    def couplings(self) -> np.ndarray | None:
+        """(2 n_couplings,) int64: the continuous controllers' coupling rows, then their columns (the numbering
+        now), or None without them: csrc/prescribed_rates.c takes each entry whose column the motions move."""
+        control = self.owner.assembler.control
+        rows = np.asarray(getattr(control, "coupling_rows", np.zeros(0)), np.int64)
+        if not len(rows):
+            return None
+        return np.ascontiguousarray(np.concatenate([rows, np.asarray(control.coupling_cols, np.int64)]))
 
     def coordinates(self) -> np.ndarray:
         """Every prescribed coordinate (the numbering now), laws or none."""
@@ -142,18 +147,46 @@ class PrescribedRates:
 
     def __call__(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> np.ndarray:
         """∂r/∂t (n_total + 1,) through the prescribed motions at ``state`` (every coordinate's row; the caller
-        takes the free ones or reduces): one native evaluation with the blocks, then latdyn_prescribed_time_rate."""
-        owner = self.owner
-        assembler, model = owner.assembler, owner.model
+        takes the free ones or reduces): one native evaluation with the blocks, then latdyn_prescribed_time_rate;
+        with rigid links or guides see :meth:`linked`."""
+        if self.owner.model.links is not None:
+            return self.linked(state, inertia, rates)[0]
+        native, pointers = self._evaluated(state, inertia, rates)
+        out = np.empty(self.owner.model.n_total + 1)
+        native.library.latdyn_prescribed_time_rate(native.model_ref, native.work_ref, pointers[0], pointers[1],
+                                                   int(bool(inertia)), *pointers[2:], out.ctypes.data)
+        return out
+
+    def _evaluated(self, state, inertia: bool, rates: np.ndarray | None) -> tuple:
+        """The native model evaluated at ``state`` with the blocks (the inertia tangent with ``inertia``), and the
+        addresses of the mask, the rates, the joint bodies' inertia stiffness (or None), the loads' columns and the
+        couplings (or None) that the C calls take, the arrays held until the next call."""
+        assembler, model = self.owner.assembler, self.owner.model
         native = assembler.native(True)
         native.evaluate(state, True, 1.0, inertia, inertia)
         body = None
         if inertia and len(model.body_nodes):
             body = np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), float)
         rates = np.ascontiguousarray(self.rates(float(state.t)) if rates is None else rates, float)
-        mask, columns = self.mask(), self.load_columns()
-        out = np.empty(model.n_total + 1)
-        native.library.latdyn_prescribed_time_rate(
-            native.model_ref, native.work_ref, mask.ctypes.data, rates.ctypes.data, int(bool(inertia)),
-            body.ctypes.data if body is not None else None, columns.ctypes.data, out.ctypes.data)
-        return out
+        self._held = arrays = (self.mask(), rates, body, self.load_columns(), self.couplings())
+        return native, tuple(None if a is None else a.ctypes.data for a in arrays)
+
+    def linked(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> tuple:
+        """(∂r_all/∂t (n_total + 1,), every coordinate's row before the reduction; ∂r_min/∂t (n,)) through the
+        prescribed motions of a model with rigid links or guides at ``state``: the dependent nodes that hang from a
+        prescribed coordinate move with it (module docstring; csrc/linked_prescribed_rates.c
+        ``latdyn_linked_prescribed_time_rate``, which the loop of steps calls too)."""
+        from latdyn.assembly.linked import linked_pattern
+
+        assembler, model = self.owner.assembler, self.owner.model
+        linked_pattern(assembler, assembler.native(True))   # its links laid out for the numbering now (evaluate_linked)
+        assembler.complete_links(state)
+        native, pointers = self._evaluated(state, inertia, rates)
+        size = model.n_total + 1
+        scratch_mask, moved = np.empty(size, np.int64), np.empty(3 * size)
+        total, out = np.empty(size), np.empty(size)
+        native.library.latdyn_linked_prescribed_time_rate(
+            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), pointers[0], pointers[1],
+            int(bool(inertia)), *pointers[2:], scratch_mask.ctypes.data, moved.ctypes.data, total.ctypes.data,
+            out.ctypes.data)
+        return total, out[:model.n_dofs].copy()

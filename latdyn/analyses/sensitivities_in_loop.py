@@ -49,10 +49,14 @@ controllers) (∂r/∂t at the step's end through the same point_load and
 hinge_force calls, their exact rates tabulated per grid point: :class:`_TimeRates`, ``_time_refusal``; ∂r/∂t δt_n in
 the parameters' columns, ∂r/∂t in the step size's, as ``TransientSensitivities._add_time_columns``; δt_n is 0 at
 every step the loop takes in the runs measured, the landing on the grid before it having cancelled it) and through
-prescribed motions on a model without rigid links or guides whose controllers read no prescribed coordinate (the
-blocks of M, C and the exact K coupling every row to the prescribed coordinates times the motion laws' exact rate,
-acceleration and jerk tabulated per grid point: csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``, which the
-Python path's ExplicitTime.through_prescribed calls too; :class:`_TimeRates` ``_motions``), through reels (a cable's
+prescribed motions (the blocks of M, C and the exact K coupling every row to the prescribed coordinates, and the
+continuous controllers' couplings of sensors that read them, times the motion laws' exact rate, acceleration and
+jerk tabulated per grid point: csrc/prescribed_rates.c ``latdyn_prescribed_time_rate``, which the Python path's
+ExplicitTime.through_prescribed calls too; :class:`_TimeRates` ``_motions``; on a model with rigid links or guides
+the dependent nodes moved with the prescribed coordinates through J, ∂c/∂v and the dependent rates' ∂/∂q, reduced by
+Pᵀ, with the geometric term ∂(Pᵀ)/∂q_p q̇_p · r_all, csrc/linked_prescribed_rates.c
+``latdyn_linked_prescribed_time_rate``, on both paths too),
+through reels (a cable's
 rest length in t: each a rest-length use of csrc/cable_forces.c with L0′(t) tabulated, ``_TimeRates._reels``; beside
 no other explicit time dependence or controller, ``_reels_alone``) and through hinge and guide laws of the state and
 t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
@@ -85,7 +89,8 @@ point_load's, with ∂Q/∂p of the load parameters, and the hinges' applied tor
 conservative) — are carried by csrc/work_accounts.c at each step the loop accepts and at each row it records, the C
 the per-step Python path calls too (energy_sensitivities._dissipated_step, external_work_step, _power), with the
 laws' values (damping laws, load values, applied torques and springs, and their parameters' derivative laws: of t
-alone) tabulated per grid point, on models without rigid links, guides or prescribed motions (``_account_refusal``;
+alone) tabulated per grid point, on models without rigid links, guides or prescribed motions (the dissipated energy
+with rigid links too: its dampers' δθ, δθ̇ are free coordinates; ``_account_refusal``;
 the accounts and their terms handed back at the loop's end, an event's account after it is the Python path's,
 energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
@@ -94,12 +99,11 @@ values whose derivative is a law in t or an input (the loader refuses those anyw
 sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a
 parameter reads and that reads one), chains, sensors other than hinge and guide angles and rates and load actuators
 on a model with rigid links or guides, controllers reading cables', elements' or joints' forces, explicit time
-dependence beside events through prescribed
-motions on a model with rigid links or guides or read by a controller, reels beside other explicit time dependence
+dependence beside events through reels beside other explicit time dependence
 or controllers, controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
-with a law of θ, θ̇ or an input in them, with rigid links or guides, or (the external work) with a prescribed motion
+with a law of θ, θ̇ or an input in them, with guides, the external work with rigid links, or (the external work) with a prescribed motion
 (its drive's reaction), and the NumPy kernels.
 
 Step matrices of every storage: where a model has S on the supernodal sparse LU (above DENSE_LIMIT coordinates, its
@@ -341,7 +345,8 @@ def _account_refusal(owner, quantity: str) -> str | None:
     """Why a work account's sensitivity (``quantity``: the dissipated energy or the external work, sums over the steps:
     energy_sensitivities._dissipated_step, external_work_step) keeps the run on the Python path, or None: the loop
     carries them by csrc/work_accounts.c, the C the Python path calls, on a model without rigid links or guides (δθ, δθ̇,
-    δπ, δu the carried δq, δv at the free coordinates) with the laws' values tabulated per grid point: for the
+    δπ, δu the carried δq, δv at the free coordinates; the dissipated energy with rigid links too, its hinges' δθ, δθ̇
+    free coordinates: a rigid link's hinge is one) with the laws' values tabulated per grid point: for the
     dissipated energy every hinge's damping law and the damping parameters' derivative laws, for the external work the
     loads' values and their derivative laws, every hinge's applied torque, a spring that is not conservative, the
     torque's, stiffness's and rest angle's parameters' derivative laws (laws of t alone, as the Python step reads them
@@ -350,7 +355,8 @@ def _account_refusal(owner, quantity: str) -> str | None:
 
     model = owner.model
     what = "the dissipated energy" if quantity == "dissipated" else "the external work"
-    if model.links is not None:
+    guided = any(getattr(body, "guide", None) is not None for body in owner.scene.bodies.values())
+    if model.links is not None and (quantity != "dissipated" or guided):   # the dampers' δθ, δθ̇: free coordinates
         return f"{what} with rigid links or guides (a work account carried per step in Python)"
     if quantity == "dissipated":
         laws = [hinge.damping for hinge in model.hinges] + [law for _, _, law in damping_uses(owner)]
@@ -421,18 +427,15 @@ def _time_refusal(owner) -> str | None:
     ∂r/∂t of load components and hinge and guide laws whose rate in t is one of t alone (:func:`_rate_in_time_alone`),
     their exact rates (the same ``_TimeRate`` objects) tabulated per grid point through the same generated point_load
     and hinge_force (:class:`_TimeRates`), and of prescribed
-    motions where they are exact (latdyn/analyses/prescribed_rates.py ``PrescribedRates.exact``: the coupling blocks
-    times the motion laws' rates, csrc/prescribed_rates.c on both paths), of reels (``model_refusal``: alone), and of
+    motions (latdyn/analyses/prescribed_rates.py: the coupling blocks, a controller's among them, times the motion
+    laws' rates, csrc/prescribed_rates.c on both paths; with rigid links or guides the dependent nodes carried,
+    csrc/linked_prescribed_rates.c), of reels (``model_refusal``: alone), and of
     hinge and guide laws of the state and t whose rate compiled (transient_sensitivities._time_rate_law, the same C
     on both paths) and of continuous controllers' outputs that name t (their ∂y/∂t through the actuators: ExplicitTime's
     ``controllers``, compiled as ∂f/∂p, transient_sensitivities._controller_time_rates) where :func:`_controller_refusal`
-    takes those controllers; prescribed motions on a model with rigid links or guides or read by a controller (a
-    difference in t of the residual in Python), controllers' outputs that name t it refuses or whose rate in t did not
+    takes those controllers; controllers' outputs that name t it refuses or whose rate in t did not
     compile, and laws of the state and t whose rate did not compile (a SymPy rate in NumPy) not."""
     rates = owner.explicit_time
-    if rates.prescribed and not rates.motions.exact():
-        return ("explicit time dependence beside events through prescribed motions on a model with rigid links or "
-                "guides, or read by a controller (a difference in t of the residual in Python)")
     if rates.laws.controllers is not None:   # ∂y/∂t of outputs that name t (_controller_time_rates): compiled, as ∂y/∂p
         why = _controller_refusal(rates.laws)
         if why is not None or rates.laws.controllers.compiled is None:
@@ -1217,10 +1220,16 @@ class _TimeRates(SensitivityLoop):
         size = self.owner.model.n_total + 1
         d.prescribed_mask = self._pointer(motions.mask())
         d.load_columns = self._pointer(motions.load_columns())
+        couplings = motions.couplings()
+        d.motion_couplings = self._pointer(couplings) if couplings is not None else None
         d.motion_coordinates = self._pointer(coordinates)
         d.motion_rates = self._pointer(np.zeros(3 * size))
         self._through = np.zeros(size)
         d.through_prescribed = self._pointer(self._through)
+        if self.owner.model.links is not None:   # csrc/linked_prescribed_rates.c's scratch
+            d.linked_motion_mask = self._pointer(np.zeros(size, np.int64))
+            d.linked_motion_moved = self._pointer(np.zeros(3 * size))
+            d.linked_motion_all = self._pointer(np.zeros(size))
 
     def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
         """The laws' rates (SensitivityLoop._tabulate) and the motion laws' rate, acceleration and jerk at each grid

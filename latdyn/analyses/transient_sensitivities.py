@@ -77,9 +77,9 @@ t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e afte
 the grid), and the step's derivative adds ∂r/∂t δt_{n+1}: ∂r/∂t δt_n in the parameters' columns and ∂r/∂t in
 the step size's (:meth:`TransientSensitivities._add_time_columns`); the impulse and the restart at the event
 are taken at t_e + δt_e (:attr:`TransientSensitivities.time_shift`). ∂r/∂t is exact for the laws, a reel and
-prescribed motions (the coupling blocks times the motions' exact rates: latdyn/analyses/prescribed_rates.py), a
-five-point difference in t for prescribed motions on a model with rigid links or guides (docs/parameters.md,
-"Sensitivities through events", "Laws in time").
+prescribed motions (the coupling blocks times the motions' exact rates, on a model with rigid links or guides with
+the dependent nodes they carry: latdyn/analyses/prescribed_rates.py; docs/parameters.md, "Sensitivities through
+events", "Laws in time").
 
 Cables (:class:`CableSensitivities`): their EA, damping and rest length from the generated taut law, and
 their slack/taut changes as events landed on exactly, the event time differentiated from the gap's
@@ -167,9 +167,6 @@ WEIGHT_STEP = 1e-5
 DERIVATIVE_CACHES = ("_kinds", "_sections_only", "_section_layout_made", "_section_scale", "_section_use",
                      "_section_elements_distinct", "_section_values_held", "_load_layout_made", "_load_laws_distinct",
                      "_hinge_uses_found", "_body_uses_found", "_joint_laws", "_link_section_uses")
-#: the time step (times dt) of the five-point central difference in t of the residual through prescribed
-#: motions (:meth:`ExplicitTime.prescribed`: the coupling to the prescribed coordinates is not assembled)
-PRESCRIBED_TIME_STEP = 1e-2
 
 
 class TransientSensitivities(ParameterDerivatives):
@@ -1509,11 +1506,10 @@ class ExplicitTime:
     - prescribed motions (a body's translation and rotation, a hinge's angle): exactly, the blocks of M, C and
       the exact K coupling every row to the prescribed coordinates times the motion laws' exact first, second
       and third time derivatives (:class:`latdyn.analyses.prescribed_rates.PrescribedRates`, one native call,
-      csrc/prescribed_rates.c); on a model with rigid links or guides, or a controller coupling on a prescribed
-      coordinate, where those blocks are not the evaluation's buffers, still a five-point central difference in
-      t with step :data:`PRESCRIBED_TIME_STEP` · dt of the residual evaluated with the motion applied at t ± η
-      (its truncation (ηω)⁴/30 and round-off ε|r|/η are both below 1e-9 of ∂r/∂t for a motion the step
-      resolves)."""
+      csrc/prescribed_rates.c), a continuous controller's coupling on a prescribed coordinate among those blocks;
+      on a model with rigid links or guides the dependent nodes moved with the prescribed coordinates, reduced by
+      Pᵀ, with the links' geometric term (:meth:`~latdyn.analyses.prescribed_rates.PrescribedRates.linked`,
+      csrc/linked_prescribed_rates.c)."""
 
     def __init__(self, owner, laws: dict, prescribed: bool, reels: bool):
         import copy
@@ -1598,31 +1594,13 @@ class ExplicitTime:
 
     def through_prescribed(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
         """∂r/∂t (n,) through the prescribed motions alone (class docstring): the loads, laws and rest
-        lengths read the state's own time; exactly (:class:`latdyn.analyses.prescribed_rates.PrescribedRates`)
-        where the model allows, else the prescribed nodes and angles moved to t ± η, ± 2η; ``on_all``: of the
-        assembled residual and the reactions (n_total + 1,), before the reduction."""
-        if self.motions is not None and self.motions.exact():
-            total = self.motions(state, inertia)
-            return total if on_all else self.owner._on_free_coordinates(state, total[:, None])[:, 0]
-        return self.difference_in_t(state, inertia, on_all)
-
-    def difference_in_t(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
-        """:meth:`through_prescribed` by a five-point central difference in t of the residual (class docstring):
-        the prescribed nodes and angles moved to t ± η, ± 2η (models where the exact coupling is not assembled;
-        the check of the exact one, tests/test_sensitivities_in_loop_prescribed.py)."""
-        assembler = self.owner.assembler
-        eta = PRESCRIBED_TIME_STEP * float(self.owner.scene.solve.dt)
-
-        def residual(shift):
-            moved = state.copy()
-            assembler.apply_prescribed(moved, state.t + shift)
-            moved.t = state.t
-            if on_all:
-                ev = assembler.evaluate_assembled(moved, False, 1.0, inertia)
-                return np.concatenate([ev.residual, ev.reaction, [0.0]])
-            return np.asarray(assembler.evaluate(moved, matrices=False, inertia=inertia).residual, float)
-
-        return (8.0 * (residual(eta) - residual(-eta)) - (residual(2 * eta) - residual(-2 * eta))) / (12.0 * eta)
+        lengths read the state's own time; exactly (:class:`latdyn.analyses.prescribed_rates.PrescribedRates`);
+        ``on_all``: of the assembled residual and the reactions (n_total + 1,), before the reduction."""
+        if self.owner.model.links is not None:
+            total, reduced = self.motions.linked(state, inertia)
+            return total if on_all else reduced
+        total = self.motions(state, inertia)
+        return total if on_all else self.owner._on_free_coordinates(state, total[:, None])[:, 0]
 
 
 def _controller_time_rates(owner):

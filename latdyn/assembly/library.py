@@ -248,7 +248,14 @@ class SensitivityLoopData(ctypes.Structure):
                 ("sampled_held", P), ("n_sampled_hinge_actuators", I64), ("sampled_hinge", P), ("sampled_hinge_of", P),
                 ("sampled_hinge_gain", P), ("n_sampled_load_actuators", I64), ("sampled_load", P),
                 ("sampled_load_component", P), ("sampled_load_of", P), ("sampled_load_gain", P),
-                ("n_sampled_loads", I64)]
+                ("n_sampled_loads", I64),
+                # prescribed motions on a model with rigid links or guides (csrc/linked_prescribed_rates.c), in the
+                # time_rates struct: scratch of the prescribed and dependent coordinates' mask and δq, δv, δa, and
+                # ∂r_all/∂t (n_total + 1, 3 (n_total + 1), n_total + 1)
+                ("linked_motion_mask", P), ("linked_motion_moved", P), ("linked_motion_all", P),
+                # the continuous controllers' coupling rows then columns (2 n_couplings; NULL: none), for a sensor on
+                # a coordinate the prescribed motions move (csrc/prescribed_rates.c)
+                ("motion_couplings", P)]
 
 
 class WorkAccountsData(ctypes.Structure):
@@ -426,7 +433,10 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_linked_reduce_total.restype = None
         library.latdyn_linked_reduce_total.argtypes = [model, P]
         library.latdyn_prescribed_time_rate.restype = None
-        library.latdyn_prescribed_time_rate.argtypes = [model, work, P, P, I64, P, P, P]
+        library.latdyn_prescribed_time_rate.argtypes = [model, work, P, P, I64, P, P, P, P]
+        library.latdyn_linked_prescribed_time_rate.restype = None
+        library.latdyn_linked_prescribed_time_rate.argtypes = [model, work, configuration, P, P, I64, P, P, P, P, P,
+                                                               P, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None

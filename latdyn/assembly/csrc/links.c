@@ -278,6 +278,110 @@ static void combined_block(const double *M, const double *C, const double *K, co
         out[p] = (M ? beta_p * M[p] : 0.0) + (C ? gamma_p * C[p] : 0.0) + K[p] + (D ? D[p] : 0.0);
 }
 
+/* Where geometric_term puts its entries: with `matrix` at their positions in the matrix storage, else (matrix
+ * NULL) times a vector: out[row] += entry · rate[column] for a free row and a column marked in `columns` (the
+ * prescribed coordinates' ∂(Pᵀ)/∂q_p · r_all q̇_p, linked_prescribed_rates.c). */
+typedef struct {
+    const int64_t *columns;   /* (n_total + 1): 1 on the columns taken */
+    const double *rate;       /* (n_total + 1): the vector */
+    int64_t n;                /* the free coordinates (rows below n) */
+    double *out;              /* (n_total + 1) */
+} GeometricProduct;
+
+/* One entry of ∂(Pᵀ)/∂q · r_all: row i, column j of slot s's columns, at `position` in the matrix storage (−1:
+ * not a free coordinates' entry), into `matrix` or, without it, into the product (GeometricProduct). */
+static inline void geometric_entry(const Links *L, double *matrix, int64_t position, int64_t s, int64_t i, int64_t j,
+                                   double value, const GeometricProduct *product)
+{
+    if (matrix != NULL) {
+        if (position >= 0) matrix[position] += value;
+        return;
+    }
+    const int64_t row = L->slot_columns[L->width * s + i], column = L->slot_columns[L->width * s + j];
+    if (row < product->n && product->columns[column]) product->out[row] += value * product->rate[column];
+}
+
+/* ∂(Pᵀ)/∂q · r_all, the geometric stiffness, from the dependent nodes' residual rows in L->wrench (which the closures
+ * change: set them anew before each call) at c, into `matrix` (the matrix storage) or, with matrix NULL, times the
+ * vector of `g_sink` (geometric_entry). */
+static void geometric_term(const Model *m, const Configuration *c, double *matrix, const GeometricProduct *g_sink)
+{
+    const Links *L = m->links;
+    const int64_t W = L->width;
+    /* ∂(Pᵀ)/∂q · r_all: each dependent node's wrench (f, m) at x_c, on its root (root_wrench, by δx_r
+     * and δx_c) and on every hinge or slide of its path (hinge_wrench or slide_wrench, by the edge
+     * parent's δx, δπ and δx_c) */
+    double row[W > 0 ? W : 1];
+    /* closure edges (leaves): their wrench r moves the pin as g = transferᵀ r, whose derivative by the pin's
+     * position D (slider_closure_wrench, rod_closure_wrench) gives J_pᵀ D J_p on the pin's columns; g joins
+     * the pin's wrench (a dependent pin) for the terms of the pin's path below */
+    for (int64_t s = 0; s < L->n_slots; ++s) {
+        const int64_t edge = L->slot_edge[s];
+        if (edge < 0 || L->edge_kind[edge] < 2) continue;
+        const double *r = L->wrench + 6 * s;
+        if (!(r[0] || r[1] || r[2] || r[3] || r[4] || r[5])) continue;
+        const int64_t sp = L->edge_parent_slot[edge], count = L->slot_count[sp];
+        const double *Jp = L->jacobian + 6 * W * sp;
+        const int64_t *position = L->slot_position + W * W * sp;
+        double g[3], D[9];
+        (L->edge_kind[edge] == 2 ? L->slider_closure_wrench : L->rod_closure_wrench)(
+            1, c->x + 3 * L->edge_parent[edge], L->edge_data + 13 * edge, r, g, D);
+        for (int64_t i = 0; i < count; ++i)
+            for (int64_t j = 0; j < count; ++j) {
+                double value = 0.0;
+                for (int a = 0; a < 3; ++a)
+                    for (int b = 0; b < 3; ++b) value += Jp[W * a + i] * D[3 * a + b] * Jp[W * b + j];
+                geometric_entry(L, matrix, position[W * i + j], sp, i, j, value, g_sink);
+            }
+        if (L->slot_edge[sp] >= 0)
+            for (int a = 0; a < 3; ++a) L->wrench[6 * sp + a] += g[a];
+    }
+    for (int64_t s = 0; s < L->n_slots; ++s) {
+        const int64_t edge = L->slot_edge[s];
+        if (edge < 0 || L->edge_kind[edge] >= 2) continue;
+        const double *r = L->wrench + 6 * s;
+        if (!(r[0] || r[1] || r[2] || r[3] || r[4] || r[5])) continue;
+        const int64_t node = L->slot_node[s], count = L->slot_count[s], root = L->slot_root[s];
+        const double *Jc = L->jacobian + 6 * W * s;
+        const int64_t *position = L->slot_position + W * W * s;
+        double input[12], value[6], D[36];
+        memcpy(input, c->x + 3 * L->slot_node[root], 3 * sizeof(double));
+        memcpy(input + 3, c->x + 3 * node, 3 * sizeof(double));
+        memcpy(input + 6, r, 6 * sizeof(double));
+        L->root_wrench(1, input, value, D);
+        for (int i = 0; i < 6; ++i) {  /* the root's column i: δx_r is the identity on columns 0-2 */
+            for (int64_t j = 0; j < count; ++j) {
+                double g = j < 3 ? D[6 * i + j] : 0.0;
+                for (int q = 0; q < 3; ++q) g += D[6 * i + 3 + q] * Jc[W * q + j];
+                row[j] = g;
+            }
+            for (int64_t j = 0; j < count; ++j)
+                geometric_entry(L, matrix, position[W * i + j], s, i, j, row[j], g_sink);
+        }
+        for (int64_t t = s; L->slot_edge[t] >= 0; t = L->edge_parent_slot[L->slot_edge[t]]) {
+            const int64_t k = L->slot_edge[t];
+            if (L->edge_hinge[k] < 0) continue;
+            const int64_t p = L->edge_parent[k], sp = L->edge_parent_slot[k], column = L->slot_count[t] - 1;
+            const double *Jp = L->jacobian + 6 * W * sp;
+            double parent[12], data[7], wrench[9], force, Dh[9];
+            memcpy(parent, c->x + 3 * p, 3 * sizeof(double));
+            memcpy(parent + 3, c->T + 9 * p, 9 * sizeof(double));
+            memcpy(data, L->edge_data + 13 * k, 6 * sizeof(double));
+            data[6] = L->edge_data[13 * k + 9];
+            memcpy(wrench, c->x + 3 * node, 3 * sizeof(double));
+            memcpy(wrench + 3, r, 6 * sizeof(double));
+            (L->edge_kind[k] == 1 ? L->slide_wrench : L->hinge_wrench)(1, parent, data, wrench, &force, Dh);
+            for (int64_t j = 0; j < count; ++j) {
+                double g = 0.0;
+                if (j < L->slot_count[sp])
+                    for (int q = 0; q < 6; ++q) g += Dh[q] * Jp[W * q + j];
+                for (int q = 0; q < 3; ++q) g += Dh[6 + q] * Jc[W * q + j];
+                geometric_entry(L, matrix, position[W * column + j], s, column, j, g, g_sink);
+            }
+        }
+    }
+}
+
 /* The reduced iteration matrix Pᵀ(β′M + γ′C + K)P + γ′ Pᵀ M_·dep ∂c/∂v + ∂(Pᵀ)/∂q · r_all into the
  * matrix storage (assemble's counterpart for a model with rigid links): the blocks without a
  * dependent coordinate as assemble scatters them, the others through their expansions, then the
@@ -361,80 +465,8 @@ static void assemble_linked_into(const Model *m, Work *w, const Configuration *c
         }
         scatter_block(matrix, m->cable_position + 144 * e, NULL, C, K, NULL, 144, beta_p, gamma_p);
     }
-    /* ∂(Pᵀ)/∂q · r_all: each dependent node's wrench (f, m) at x_c, on its root (root_wrench, by δx_r
-     * and δx_c) and on every hinge or slide of its path (hinge_wrench or slide_wrench, by the edge
-     * parent's δx, δπ and δx_c) */
     if (!stiffness) return;
-    double row[W > 0 ? W : 1];
-    /* closure edges (leaves): their wrench r moves the pin as g = transferᵀ r, whose derivative by the pin's
-     * position D (slider_closure_wrench, rod_closure_wrench) gives J_pᵀ D J_p on the pin's columns; g joins
-     * the pin's wrench (a dependent pin) for the terms of the pin's path below */
-    for (int64_t s = 0; s < L->n_slots; ++s) {
-        const int64_t edge = L->slot_edge[s];
-        if (edge < 0 || L->edge_kind[edge] < 2) continue;
-        const double *r = L->wrench + 6 * s;
-        if (!(r[0] || r[1] || r[2] || r[3] || r[4] || r[5])) continue;
-        const int64_t sp = L->edge_parent_slot[edge], count = L->slot_count[sp];
-        const double *Jp = L->jacobian + 6 * W * sp;
-        const int64_t *position = L->slot_position + W * W * sp;
-        double g[3], D[9];
-        (L->edge_kind[edge] == 2 ? L->slider_closure_wrench : L->rod_closure_wrench)(
-            1, c->x + 3 * L->edge_parent[edge], L->edge_data + 13 * edge, r, g, D);
-        for (int64_t i = 0; i < count; ++i)
-            for (int64_t j = 0; j < count; ++j) {
-                if (position[W * i + j] < 0) continue;
-                double value = 0.0;
-                for (int a = 0; a < 3; ++a)
-                    for (int b = 0; b < 3; ++b) value += Jp[W * a + i] * D[3 * a + b] * Jp[W * b + j];
-                matrix[position[W * i + j]] += value;
-            }
-        if (L->slot_edge[sp] >= 0)
-            for (int a = 0; a < 3; ++a) L->wrench[6 * sp + a] += g[a];
-    }
-    for (int64_t s = 0; s < L->n_slots; ++s) {
-        const int64_t edge = L->slot_edge[s];
-        if (edge < 0 || L->edge_kind[edge] >= 2) continue;
-        const double *r = L->wrench + 6 * s;
-        if (!(r[0] || r[1] || r[2] || r[3] || r[4] || r[5])) continue;
-        const int64_t node = L->slot_node[s], count = L->slot_count[s], root = L->slot_root[s];
-        const double *Jc = L->jacobian + 6 * W * s;
-        const int64_t *position = L->slot_position + W * W * s;
-        double input[12], value[6], D[36];
-        memcpy(input, c->x + 3 * L->slot_node[root], 3 * sizeof(double));
-        memcpy(input + 3, c->x + 3 * node, 3 * sizeof(double));
-        memcpy(input + 6, r, 6 * sizeof(double));
-        L->root_wrench(1, input, value, D);
-        for (int i = 0; i < 6; ++i) {  /* the root's column i: δx_r is the identity on columns 0-2 */
-            for (int64_t j = 0; j < count; ++j) {
-                double g = j < 3 ? D[6 * i + j] : 0.0;
-                for (int q = 0; q < 3; ++q) g += D[6 * i + 3 + q] * Jc[W * q + j];
-                row[j] = g;
-            }
-            for (int64_t j = 0; j < count; ++j)
-                if (position[W * i + j] >= 0) matrix[position[W * i + j]] += row[j];
-        }
-        for (int64_t t = s; L->slot_edge[t] >= 0; t = L->edge_parent_slot[L->slot_edge[t]]) {
-            const int64_t k = L->slot_edge[t];
-            if (L->edge_hinge[k] < 0) continue;
-            const int64_t p = L->edge_parent[k], sp = L->edge_parent_slot[k], column = L->slot_count[t] - 1;
-            const double *Jp = L->jacobian + 6 * W * sp;
-            double parent[12], data[7], wrench[9], force, Dh[9];
-            memcpy(parent, c->x + 3 * p, 3 * sizeof(double));
-            memcpy(parent + 3, c->T + 9 * p, 9 * sizeof(double));
-            memcpy(data, L->edge_data + 13 * k, 6 * sizeof(double));
-            data[6] = L->edge_data[13 * k + 9];
-            memcpy(wrench, c->x + 3 * node, 3 * sizeof(double));
-            memcpy(wrench + 3, r, 6 * sizeof(double));
-            (L->edge_kind[k] == 1 ? L->slide_wrench : L->hinge_wrench)(1, parent, data, wrench, &force, Dh);
-            for (int64_t j = 0; j < count; ++j) {
-                double g = 0.0;
-                if (j < L->slot_count[sp])
-                    for (int q = 0; q < 6; ++q) g += Dh[q] * Jp[W * q + j];
-                for (int q = 0; q < 3; ++q) g += Dh[6 + q] * Jc[W * q + j];
-                if (position[W * column + j] >= 0) matrix[position[W * column + j]] += g;
-            }
-        }
-    }
+    geometric_term(m, c, matrix, NULL);
 }
 
 /* The reduced mass matrix Pᵀ M P of the evaluation left in w (with inertia, at c, its dependent nodes

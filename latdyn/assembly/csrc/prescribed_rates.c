@@ -44,10 +44,13 @@ static void prescribed_block(const int64_t *rows, int64_t r, const int64_t *cols
 
 /* ∂r/∂t through the prescribed motions (header) into out (n_total + 1). prescribed: (n_total + 1) 1 on the prescribed
  * coordinates; body_inertia_stiffness: the joint bodies' (b, 6, 6) added to their K with `inertia` (NULL: none);
- * load_columns (n_loads, 6): each load block's columns (Assembler._load_columns). */
+ * load_columns (n_loads, 6): each load block's columns (Assembler._load_columns); couplings (2 m->n_couplings: the
+ * continuous controllers' coupling rows, then their columns, ControlArrays coupling_rows and coupling_cols; NULL:
+ * none): a controller's sensor on a prescribed coordinate, its entry of K (a coordinate or a rotation read) or of C
+ * (a rate read) times the motion's rate or acceleration, last. */
 void latdyn_prescribed_time_rate(const Model *m, const Work *w, const int64_t *prescribed, const double *rates,
                                  int64_t inertia, const double *body_inertia_stiffness, const int64_t *load_columns,
-                                 double *out)
+                                 const int64_t *couplings, double *out)
 {
     const int64_t size = m->n_total + 1;
     memset(out, 0, sizeof(double) * (size_t)size);
@@ -77,5 +80,8 @@ void latdyn_prescribed_time_rate(const Model *m, const Work *w, const int64_t *p
         prescribed_block(dofs, 12, dofs, 12, w->cable_stiffness + 144 * e, NULL, w->cable_damping + 144 * e, NULL,
                          prescribed, rates, size, out);
     }
+    for (int64_t e = 0; couplings != NULL && e < m->n_couplings; ++e)
+        prescribed_block(couplings + e, 1, couplings + m->n_couplings + e, 1, w->coupling_stiffness + e, NULL,
+                         w->coupling_damping + e, NULL, prescribed, rates, size, out);
     out[m->n_total] = 0.0;
 }

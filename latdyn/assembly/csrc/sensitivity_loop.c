@@ -201,6 +201,14 @@ typedef struct SensitivityLoopTag {
     const int64_t *sampled_load, *sampled_load_component, *sampled_load_of;
     const double *sampled_load_gain;
     int64_t n_sampled_loads;            /* the last of the actuated loads: the sampled controllers' */
+    /* prescribed motions on a model with rigid links or guides (linked_prescribed_rates.c), in the time_rates
+     * struct: scratch of the prescribed and dependent coordinates' mask (n_total + 1) and δq, δv, δa
+     * (3 (n_total + 1)), and ∂r_all/∂t (n_total + 1) */
+    int64_t *linked_motion_mask;
+    double *linked_motion_moved, *linked_motion_all;
+    /* the continuous controllers' coupling rows then columns (2 n_couplings), for a sensor on a coordinate the
+     * prescribed motions move (prescribed_rates.c); NULL: none */
+    const int64_t *motion_couplings;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -454,9 +462,15 @@ static void prescribed_time_rate(const Model *m, Work *w, const Configuration *c
     const double *table = r->motion_values + 3 * P * (grid - r->motions_from);
     for (int part = 0; part < 3; ++part)
         for (int64_t q = 0; q < P; ++q) r->motion_rates[part * size + r->motion_coordinates[q]] = table[part * P + q];
-    latdyn_prescribed_time_rate(m, w, r->prescribed_mask, r->motion_rates, 1,
-                                s->body_kernel != NULL ? s->body_stiffness : NULL, r->load_columns,
-                                r->through_prescribed);
+    if (s->linked)   /* the dependent nodes moved with the prescribed ones, Pᵀ and the geometric term */
+        latdyn_linked_prescribed_time_rate(m, w, c, r->prescribed_mask, r->motion_rates, 1,
+                                           s->body_kernel != NULL ? s->linked_body_D : NULL, r->load_columns,
+                                           r->motion_couplings, r->linked_motion_mask, r->linked_motion_moved,
+                                           r->linked_motion_all, r->through_prescribed);
+    else
+        latdyn_prescribed_time_rate(m, w, r->prescribed_mask, r->motion_rates, 1,
+                                    s->body_kernel != NULL ? s->body_stiffness : NULL, r->load_columns,
+                                    r->motion_couplings, r->through_prescribed);
 }
 
 /* The explicit time dependence at the step's end (TransientSensitivities._add_time_columns): ∂r/∂t at c (the hinge
