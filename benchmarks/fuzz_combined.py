@@ -8,7 +8,8 @@ and t, a latch or a stop with restitution, a cable from the base to the tip (som
 controllers reading hinges and points and driving hinge torques and loads, loads of t, energy probes (dissipated,
 external work, total), 1–10 parameters of mixed kinds, sometimes a boom long enough for the sparse LU. For each:
 
-- (a) the loop on and off (the private switch ``SENSITIVITIES_IN_LOOP``): sha-256 of sensitivities.csv, probes.csv
+- (a) the loop on and off (the private switches ``SENSITIVITIES_IN_LOOP``, ``ADJOINT_IN_LOOP`` for the fifth of the
+  cases by the discrete adjoint, ``SENSITIVITY_ROWS_IN_LOOP``): sha-256 of sensitivities.csv, probes.csv
   and summary.json's probe and event sensitivities;
 - (b) ``latdyn.run`` against ``python -m latdyn run SCENE -o OUT -q``: the same files, byte for byte;
 - (c) the run interrupted (Ctrl-C at the first loop of steps from t ≥ t_end/2) and resumed: the same files.
@@ -157,7 +158,10 @@ def random_scene(rng: random.Random) -> str:
             rest = _f(1.002 * d)
         cables.append(f'  tie: {{from: base, to: n{beams_n}, EA: "{EA}", rest_length: {rest}}}')
         probes.append("    pull: {cable: tie, quantity: tension}")
-    for kind in [] if cables else rng.sample((["total", "kinetic"] if event_hinge and loads else ["external_work", "total", "kinetic"]) + ([] if event_hinge else ["dissipated"]), rng.randint(0, 2)):
+    # energies: refused beside cables; the external work with controllers, or through events with loads of t
+    kinds = ["total", "kinetic"] + ([] if event_hinge else ["dissipated", "dissipated"])
+    kinds += [] if controllers or (event_hinge and loads) else ["external_work", "external_work"]
+    for kind in [] if cables else dict.fromkeys(rng.sample(kinds, rng.randint(0, 2))):
         probes.append(f"    e_{kind}: {{energy: {kind}}}")
     # parameters: 1..10 of them, listed
     listed = list(params)
@@ -171,7 +175,8 @@ def random_scene(rng: random.Random) -> str:
     dt = rng.choice([0.005, 0.004])
     controllers = [c.replace("rate: None", f"rate: {rng.choice([40, 50, 100] if dt == 0.005 else [50, 125])}")
                    for c in controllers]
-    adjoint = ""
+    adjoint = ", sensitivity_method: adjoint" if rng.random() < 0.2 else ""
+    adjoint += rng.choice(["", "", ", method: hht-alpha", ", method: newmark", ", rho_inf: 0.6"])
     text = "\n".join(lines)
     text += "\nparameters: {" + ", ".join(f"{k}: {v}" for k, v in params.items()) + "}\n"
     text += "sections:\n" + section + "\n"
@@ -227,13 +232,15 @@ def worker(scene_path: Path, out: Path) -> dict:
         record["on_error"] = f"{type(e).__name__}: {e}"[:300]
         return record
     record["on"] = _digest(out / "on")
-    loop.SENSITIVITIES_IN_LOOP = False
+    import latdyn.analyses.adjoint_in_loop as adjoint_loop
+    import latdyn.timeloop.loop as time_loop
+    loop.SENSITIVITIES_IN_LOOP = adjoint_loop.ADJOINT_IN_LOOP = time_loop.SENSITIVITY_ROWS_IN_LOOP = False
     try:
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)), out / "off")
         record["off"] = _digest(out / "off")
     except Exception as e:   # noqa: BLE001
         record["off_error"] = f"{type(e).__name__}: {e}"[:300]
-    loop.SENSITIVITIES_IN_LOOP = True
+    loop.SENSITIVITIES_IN_LOOP = adjoint_loop.ADJOINT_IN_LOOP = time_loop.SENSITIVITY_ROWS_IN_LOOP = True
     # (c) interrupted at t >= t_end/2 and resumed
     t_stop = yaml.safe_load(text)["solve"]["t_end"] / 2
     originals = {name: getattr(CompiledGeneralizedAlpha, name) for name in ("step", "advance")}
