@@ -225,11 +225,17 @@ def worker(scene_path: Path, out: Path) -> dict:
     text = scene_path.read_text()
     try:
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)), out / "on")
-    except SystemExit as e:
-        record["on_error"] = f"exit {e.code}"
-        return record
     except Exception as e:   # noqa: BLE001
         record["on_error"] = f"{type(e).__name__}: {e}"[:300]
+        # the same refusal or failure with every loop switch off
+        import latdyn.analyses.adjoint_in_loop as adjoint_loop
+        import latdyn.timeloop.loop as time_loop
+        loop.SENSITIVITIES_IN_LOOP = adjoint_loop.ADJOINT_IN_LOOP = time_loop.SENSITIVITY_ROWS_IN_LOOP = False
+        try:
+            latdyn.run(latdyn.load_scene(yaml.safe_load(text)), out / "off")
+            record["off_error"] = "solved"
+        except Exception as e2:   # noqa: BLE001
+            record["off_error"] = f"{type(e2).__name__}: {e2}"[:300]
         return record
     record["on"] = _digest(out / "on")
     import latdyn.analyses.adjoint_in_loop as adjoint_loop
@@ -339,8 +345,9 @@ def judge(record: dict) -> list[str]:
     problems = []
     on = record.get("on")
     if on is None:
-        return []
-    for other in ("off", "cli", "resumed"):
+        return [] if record.get("off_error", record.get("on_error")) == record.get("on_error") else [
+            f"off: {record.get('off_error')}"]
+    for other in ("off", "cli", "resumed", "cli_resumed"):
         if other not in record:
             if f"{other}_error" in record:
                 problems.append(f"{other}: {record[f'{other}_error']}")
@@ -350,9 +357,36 @@ def judge(record: dict) -> list[str]:
                 problems.append(f"{other} != on: {key}")
     if "cli" in record and record["cli"]["in_loop"] != on["in_loop"]:
         problems.append("cli in_loop count differs")
-    if "resumed" in record and record["resumed"]["in_loop"] != on["in_loop"]:
-        problems.append(f"resumed in_loop {record['resumed']['in_loop']} != {on['in_loop']}")
+    for other in ("resumed", "cli_resumed"):
+        if other in record and record[other]["in_loop"] != on["in_loop"]:
+            problems.append(f"{other} in_loop {record[other]['in_loop']} != {on['in_loop']}")
     return problems
+
+
+def _cli_interrupted(case: Path, env: dict, fraction: float) -> dict:
+    """(c) through the command: ``latdyn run`` sent SIGINT (Ctrl-C) at ``fraction`` of its run's time (the process
+    start excluded: at the first probes' row past that share of the rows it takes), then ``latdyn run --resume``."""
+    import signal
+
+    out = case / "cli_resumed"
+    command = [sys.executable, "-m", "latdyn", "run", str(case / "scene.yaml"), "-o", str(out), "-q"]
+    rows = (case / "cli" / "probes.csv").read_text().count("\n")
+    process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    interrupted = False
+    while process.poll() is None:
+        probes = out / "probes.csv"
+        if probes.exists() and probes.stat().st_size and probes.read_text().count("\n") >= fraction * rows:
+            process.send_signal(signal.SIGINT)
+            interrupted = True
+            break
+        time.sleep(0.002)
+    process.wait(timeout=600)
+    if not interrupted or process.returncode == 0:
+        return {"cli_resume_note": "finished before the interruption"}
+    resumed = subprocess.run(command + ["--resume"], env=env, capture_output=True, text=True, timeout=600)
+    if resumed.returncode != 0:
+        return {"cli_resumed_error": resumed.stderr[-300:]}
+    return {"cli_resumed": _digest(out)}
 
 
 def main(argv=None) -> int:
@@ -398,11 +432,12 @@ def main(argv=None) -> int:
                                timeout=args.timeout)
             if c.returncode == 0:
                 record["cli"] = _digest(case / "cli")
+                record.update(_cli_interrupted(case, env, random.Random(f"{args.seed}-{n}-stop").uniform(0.3, 0.9)))
             else:
                 record["cli_error"] = c.stderr[-300:]
         problems = judge(record)
         outcome = ("DIFFERS" if problems else "same") if "on" in record else (
-            "refused/failed" if "on_error" in record else "worker_error")
+            "worker_error" if "on_error" not in record else "REFUSED ONLY IN LOOP" if problems else "refused/failed")
         tally[outcome] = tally.get(outcome, 0) + 1
         record["problems"] = problems
         (case / "record.json").write_text(json.dumps(record, indent=1))
