@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
 
 SUMMARY_KEYS = ("probe_sensitivities", "event_sensitivities", "sensitivity_steps_in_loop", "steps", "events")
 
@@ -194,6 +195,60 @@ def random_scene(rng: random.Random) -> str:
              f"{adjoint}}}\n")
     text += f"output:\n  every: {rng.choice([0.01, 0.02, dt])}\n  probes:\n" + "\n".join(probes) + "\n"
     return text
+
+
+def random_frame(rng: random.Random) -> str:
+    """A random scene on the sparse LU: benchmarks/sparse_sensitivities_loop.py's 9 × 9 double-layer space frame
+    (512 members, 846 coordinates, bandwidth above BAND_LIMIT) with, at random, a PD controller on the centre's
+    sag and rate driving a load there, a sampled one driving a load at another joint, a load of t, a prescribed
+    corner (a translation in t), a cable across the bottom layer, energy probes; 1–10 parameters of mixed kinds."""
+    import yaml
+
+    from benchmarks.sparse_sensitivities_loop import space_frame
+
+    data = space_frame([], 9, dt=0.001, t_end=rng.choice([0.01, 0.012]))
+    params = data["parameters"]
+    chosen = [f"F{i}" for i in rng.sample(range(512), rng.randint(0, 3))]
+    params.update({"P": 1.0, "m": 0.2})
+    data["parameters"] = {k: v for k, v in params.items() if k in chosen or not k.startswith("F")}
+    for name, section in data["sections"].items():
+        if section["EA"] not in chosen:
+            section["EA"] = float(params[section["EA"]])
+    data["loads"][0]["force"] = [0, "3000*P*t", "-20000*P*t"]
+    data["bodies"]["b4_4"]["mass"] = "m"
+    chosen += ["P", "m"]
+    probes = data["output"]["probes"]
+    probes["rate"] = {"point": "t4_4", "quantity": "velocity", "component": "z"}
+    controllers = {}
+    if rng.random() < 0.7:
+        data["parameters"].update({"Kp": 2000.0, "Kd": 5.0})
+        controllers["pd"] = {"output": "-Kp*sag - Kd*rate"}
+        data["loads"].append({"at": "t4_4", "force": [0, 0, "pd"]})
+        chosen += ["Kp", "Kd"]
+    if rng.random() < 0.5:
+        data["parameters"]["G"] = 500.0
+        controllers["dig"] = {"output": "-G*drift", "rate": rng.choice([500, 1000])}
+        data["loads"].append({"at": "t2_6", "force": ["dig", 0, "0.5*dig"]})
+        chosen.append("G")
+    if controllers:
+        data["controllers"] = controllers
+    if rng.random() < 0.4:
+        data["bodies"]["t0_0"] = {"at": [0.0, 0.0, 0.0], "motion": {"translation": ["0.01*sin(40*t)", 0, "5*t**2"]}}
+    if rng.random() < 0.4:
+        data["parameters"]["EA"] = 5.0e5
+        data["cables"] = {"tie": {"from": "b0_0", "to": "b7_7", "EA": "EA", "rest_length": 0.999 * math.dist(
+            [0.5, 0.5, -0.7], [7.5, 7.5, -0.7])}}
+        probes["pull"] = {"cable": "tie", "quantity": "tension"}
+        chosen.append("EA")
+    elif rng.random() < 0.5:
+        probes["e_total"] = {"energy": "total"}
+    rng.shuffle(chosen)
+    data["solve"]["sensitivities"] = chosen[:rng.randint(1, min(10, len(chosen)))]
+    if rng.random() < 0.2:
+        data["solve"]["sensitivity_method"] = "adjoint"
+    data["parameters"] = {k: v for k, v in data["parameters"].items() if k in data["solve"]["sensitivities"]
+                          or not k.startswith("F")}
+    return yaml.safe_dump(data, sort_keys=False, width=1000)
 
 
 # ---------------------------------------------------------------------------------------------------------- worker
@@ -396,6 +451,7 @@ def main(argv=None) -> int:
     parser.add_argument("--first", type=int, default=0)
     parser.add_argument("--keep", type=Path, default=Path("/tmp/fuzz5"))
     parser.add_argument("--show", type=int)
+    parser.add_argument("--frames", action="store_true", help="the sparse space frame's scenes (random_frame)")
     parser.add_argument("--timeout", type=float, default=600)
     parser.add_argument("--worker", nargs=2)
     parser.add_argument("--richardson", nargs=2, help="SCENE OUT: (d) for one scene")
@@ -409,12 +465,12 @@ def main(argv=None) -> int:
         print(json.dumps(record, indent=1))
         return 0
     if args.show is not None:
-        print(random_scene(random.Random(f"{args.seed}-{args.show}")))
+        print((random_frame if args.frames else random_scene)(random.Random(f"{args.seed}-{args.show}")))
         return 0
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     tally: dict[str, int] = {}
     for n in range(args.first, args.first + args.runs):
-        text = random_scene(random.Random(f"{args.seed}-{n}"))
+        text = (random_frame if args.frames else random_scene)(random.Random(f"{args.seed}-{n}"))
         case = args.keep / f"s{args.seed}-{n}"
         case.mkdir(parents=True, exist_ok=True)
         (case / "scene.yaml").write_text(text)
