@@ -14,6 +14,13 @@ external work, total), 1–10 parameters of mixed kinds, sometimes a boom long e
 - (b) ``latdyn.run`` against ``python -m latdyn run SCENE -o OUT -q``: the same files, byte for byte;
 - (c) the run interrupted (Ctrl-C at the first loop of steps from t ≥ t_end/2) and resumed: the same files.
 
+- (c) through the command as well: ``latdyn run`` sent SIGINT at a random share of its rows, then ``--resume``;
+- a refusal or failure with the loop on: the same message with every switch off;
+- (d) ``--richardson SCENE OUT``: the end row against Richardson differences of whole runs (:func:`richardson`).
+
+``--frames``: the scenes are :func:`random_frame`'s, benchmarks/sparse_sensitivities_loop.py's 9 × 9 space frame
+(846 coordinates, the sparse LU) with controllers, a prescribed corner, a cable and energy probes.
+
 ``python benchmarks/fuzz_combined.py --runs 20 --seed 1 --keep DIR`` runs a campaign (from a scratch folder, niced);
 ``--show N --seed S`` prints case N's scene. Each case runs in a process of its own (``--worker``) with a timeout.
 Not run by the suite.
