@@ -522,6 +522,45 @@ def _hinge_force_kernel() -> KernelSpec:
                       intermediates=branch_free.intermediates)
 
 
+HINGE_LAW_CURVATURES = Argument("curvatures", 3, "d2k/dtheta2 d2c/dtheta2 d2tau/dtheta2: the second derivatives by the "
+                                "angle of the stiffness, damping and applied torque laws at the hinge's (theta, "
+                                "theta_dot, t) (SymPy's, compiled as the laws are; 0 for constants and laws of t)")
+
+
+def hinge_stiffness_by_angle(state, laws, curvatures, contact, branch_free=None):
+    """∂K/∂θ of a hinge's K = ∂f/∂θ (:func:`hinge_force`'s f, its stop included) at fixed θ̇ and t: f with each
+    law expanded to second order in the angle, k + ∂k/∂θ dθ + ∂²k/∂θ² dθ²/2 (and c, τ alike), differentiated twice
+    by dθ at 0. A stop's ⟨δ⟩ⁿ⁻² (n(n − 1)⟨δ⟩ⁿ⁻² step(δ)²) is written ⟨δ⟩ⁿ⁻¹/(⟨δ⟩ + KINK): δⁿ⁻² in contact, exactly 0
+    out of it for every n ≥ 1 (0⁻ᵃ would be inf there)."""
+    theta, rate, rest, factor = state
+    branch_free = branch_free or _BranchFree()
+    d_theta = sp.Symbol("dtheta")
+    k, c, tau = ((laws[3 * j] + laws[3 * j + 1] * d_theta + curvatures[j] * d_theta ** 2 / 2) for j in range(3))
+    f = k * (theta + d_theta - rest) + c * rate - factor * tau
+    stop, _, _ = joint_contact(theta + d_theta, rate, contact)
+    curvature = sp.diff(f + stop, d_theta, 2).xreplace({d_theta: 0})
+    exponent = contact[3]
+    curvature = curvature.replace(
+        lambda e: isinstance(e, _PositivePower) and sp.simplify(e.args[1] - (exponent - 2)) == 0,
+        lambda e: _PositivePower(e.args[0], exponent - 1) / (_positive(e.args[0]) + KINK))
+    return branch_free(curvature)
+
+
+def _hinge_stiffness_by_angle_kernel() -> KernelSpec:
+    state, laws, contact = HINGE_STATE.symbols(), HINGE_LAWS.symbols(), JOINT_CONTACT.symbols()
+    curvatures = HINGE_LAW_CURVATURES.symbols()
+    branch_free = _BranchFree()
+    by_angle = hinge_stiffness_by_angle(state, laws, curvatures, contact, branch_free)
+    outputs = [Output("hinge_stiffness_by_angle", (), [by_angle], "∂K/∂θ, K = ∂f/∂θ: 2 ∂k/∂θ + s ∂²k/∂θ² + θ̇ ∂²c/∂θ² "
+                      "− λ ∂²τ/∂θ² + ∂²f_contact/∂θ²: a hinge's part of an event's impulse weight derivative "
+                      "∂(W w)/∂q (latdyn/analyses/weight_derivative.py)")]
+    return KernelSpec(name="hinge_stiffness_by_angle", doc="The derivative by the angle of a hinge's stiffness "
+                      "∂f/∂θ (hinge_force's), from its laws' second derivatives and its compliant stop",
+                      inputs=[HINGE_STATE, HINGE_LAWS, HINGE_LAW_CURVATURES, JOINT_CONTACT], outputs=outputs,
+                      variant="joints", equations="hinge springs, dampers and torques (Eqs. 4, 9) differentiated "
+                      "twice by the angle; Hunt-Crossley contact", intermediates=branch_free.intermediates)
+
+
 def _contact_law_derivative_kernel() -> KernelSpec:
     """∂f/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇): the
     right-hand sides of sensitivities by the stop's stiffness, exponent and damping
@@ -1062,7 +1101,7 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(), _hinged_end_kernel(),
-            _reference_variation_kernel(), _hinge_force_kernel(),
+            _reference_variation_kernel(), _hinge_force_kernel(), _hinge_stiffness_by_angle_kernel(),
             _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),

@@ -1,8 +1,8 @@
 """The impulse weight's derivative along the configuration, H = ∂(W w)/∂q (latdyn/analyses/weight_derivative.py):
 the generated ``beam_stiffness_D_q`` against central differences of (∂F_i/∂q) v on SO(3) at random large-rotation
 states with offsets, hinges and shear (3D, every regime of the log map; planar along the in-plane coordinates), and
-the assembled H of whole models — a planar arm with a joint body under gravity, a follower load and a hinge law
-nonlinear in θ (every non-generated block present), and the genuinely 3D wheel of the event tests — against
+the assembled H of whole models — a planar arm with a joint body under gravity, a follower load (differenced) and a
+hinge law nonlinear in θ (generated: tests/test_weight_derivative_laws.py), and the genuinely 3D wheel of the event tests — against
 Richardson-extrapolated central differences of the evaluation's W w = (M + s K) w along random directions. The runs through latches and
 stops that use it: tests/test_sensitivities_events.py, tests/test_adjoint_events.py."""
 from __future__ import annotations
@@ -132,13 +132,13 @@ def _check_model(text: str, seed: int) -> float:
 
 
 def test_h_of_a_planar_model_with_every_block_is_the_central_difference_of_w_w():
-    """The planar arm: elements and the body's mass and weight generated, the hinge's nonlinear law and the follower
-    load's blocks differenced along their coordinates (measured 1.3e-12; 2.0e-5 without those differences: the
+    """The planar arm: elements, the body's mass and weight and the hinge's nonlinear law generated, the follower
+    load's blocks differenced along their coordinates (measured 1.3e-12 with the hinge differenced too; 2.0e-5 without those differences: the
     hinge's nonlinear law and the follower load are in W w)."""
     prepared = prepare(latdyn.load_scene(yaml.safe_load(ARM_PLANAR)))
     support = rest_support(prepared.assembler)
     model = prepared.model
-    assert len(support) < model.n_dofs and model.hinge_dofs[0] in support
+    assert len(support) < model.n_dofs and model.hinge_dofs[0] not in support   # the hinge's part is generated
     assert _check_model(ARM_PLANAR, 7) < 1e-8
 
 
@@ -152,12 +152,12 @@ WHEEL_UNDER_GRAVITY = (LATCH_3D.replace("sections:", "gravity: [1.0, -2.0, -9.81
 def test_h_of_the_3d_wheel_is_the_central_difference_of_w_w(text):
     """The 3D wheel on its hinge (tests/test_sensitivities_events.py LATCH_3D), out of the coordinate planes: the
     two elements and the wheel's mass — under gravity, heavy on a soft arm, its weight's stiffness too — generated,
-    the hinge's linear spring differenced on its angle alone (measured 1.5e-10; under gravity 1.4e-10, 5.1e-5
+    the hinge's linear spring generated too (hinge_stiffness_by_angle; measured 1.5e-10 with it differenced; under gravity 1.4e-10, 5.1e-5
     without the weight's ``joint_body_gravity_stiffness_D_q``)."""
     _needs("default")
     prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
     assert prepared.assembler.has_gravity == (text is WHEEL_UNDER_GRAVITY)
-    assert list(rest_support(prepared.assembler)) == [prepared.model.hinge_dofs[0]]
+    assert list(rest_support(prepared.assembler)) == []   # the hinge's part generated too: no difference left
     assert _check_model(text, 8) < 1e-8
 
 

@@ -9,7 +9,7 @@ sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp
 so one matrix serves both:
 
     H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
-        + H_rest
+        + Σ_j s (∂K_jj/∂θ_j) w_j e_j e_jᵀ + H_rest
 
 (c_m = 1 with the mass, 0 without; w_e, w_b: w on the element's and the body's coordinates, 0 on those that are
 no free coordinate). Generated and exact:
@@ -21,13 +21,20 @@ no free coordinate). Generated and exact:
   ∂(M a + g − Q)/∂q is then ∂(M a)/∂q;
 * the joint bodies' mass, ∂(M_b a)/∂[d; π] at a = w_b: ``joint_body_inertia_stiffness`` at rest, no gravity;
 * the joint bodies' K, their weight's stiffness G_b = ∂(−[W; r_c × W])/∂π (codegen/joints.py), along w_b:
-  ``joint_body_gravity_stiffness_D_q``.
+  ``joint_body_gravity_stiffness_D_q``;
+* the free hinges' (and a model's guides' alike) diagonal of K, K_jj = ∂f/∂θ of their spring, damper and torque laws
+  and compliant stops, which depends on the hinge's own angle alone: (∂K_jj/∂θ_j) w_j from
+  ``hinge_stiffness_by_angle`` (codegen/joints.py: f with each law expanded to second order in θ, differentiated
+  twice), fed the laws' values and first derivatives at the state and their second derivatives ∂²f/∂θ² — SymPy's,
+  of the law's ∂f/∂θ parsed as a law of the state (:func:`_angle_slope_law`, as the laws' rates in t are), evaluated
+  with NumPy at the event (the events take the Python path; nothing is compiled for them: a scene without events,
+  or without laws of θ, makes nothing new). A hinge that a continuous controller alone drives has no torque law
+  there (csrc/evaluate.c ``hinge_forces``).
 
-Not generated, H_rest: the hinges' diagonal of K (their stiffness, damping-free laws and compliant stops: the
-laws compiled from the scene, codegen/laws.py, give a value and first derivatives, no second), the point loads'
-and cables' stiffness blocks, and the continuous controllers' couplings. Their product (W without the elements and
-the joint bodies) w is differenced centrally along each coordinate those blocks are on (:func:`rest_support`: the
-free hinges' angles, the loaded and cable nodes' coordinates, the couplings' rows and columns), two evaluations per
+Not generated, H_rest: the point loads' and cables' stiffness blocks and the continuous controllers' couplings
+(none has a generated second derivative yet). Their product (W without the elements, the joint bodies and the
+hinges) w is differenced centrally along each coordinate those blocks are on (:func:`rest_support`: the
+loaded and cable nodes' coordinates, the couplings' rows and columns), two evaluations per
 coordinate, step :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale,
 L_min the shortest element where shorter). A model with none of them has H exact with no evaluation.
 Rigid links and guides are not taken here: their reduction's geometric term keeps the difference of W w along
@@ -61,6 +68,9 @@ STIFFNESS_BLOCKS = ("elements", "joint bodies", "joints", "loads and cables", "c
 #: (their largest, or 1): small enough to stay on one side of a law's kinks, large enough that a rate's term of
 #: 1e-12 of its entry moves the entry's last bits
 RATES_MOVE = 1e-3
+#: id(law) -> (the law, its :func:`_angle_slope_law`): parsed once per law in a process (the law kept, so that its id
+#: is not reused)
+_SLOPES: dict = {}
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -163,27 +173,108 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
 
 
 def rest_support(assembler) -> np.ndarray:
-    """The free coordinates the blocks of H_rest are on (module docstring), sorted: the free hinges' angles, the
+    """The free coordinates the blocks of H_rest are on (module docstring), sorted: the
     point loads' nodes and frame bodies, the cable elements' nodes, and the continuous controllers' couplings' rows
     and columns. Empty where the model has none of them."""
     model = assembler.model
     n = model.n_dofs
-    found = [model.hinge_dofs[model.free_hinges].ravel()]
+    found = []
     if len(assembler.loads):
         found += [model.node_dofs[assembler._load_nodes].ravel(), assembler._load_columns().ravel()]
     found.append(assembler.cable_dofs().ravel())
     control = assembler.control
     found += [np.asarray(control.coupling_rows).ravel(), np.asarray(control.coupling_cols).ravel()]
-    every = np.concatenate([np.asarray(f, np.int64) for f in found])
+    every = np.concatenate([np.asarray(f, np.int64) for f in found] + [np.zeros(0, np.int64)])
     return np.unique(every[(every >= 0) & (every < n)])
 
 
+def _angle_slope_law(law, scene, key: str):
+    """∂f/∂θ of a hinge law of the angle as a law of the state itself (a :class:`latdyn.scene.expressions.HingeLaw`
+    of SymPy's derivative's text, deltas dropped as for its first derivatives), whose own ``d_theta`` is then
+    SymPy's ∂²f/∂θ²; kept in the expression cache (kind "angle_slope"). None where the law has no SymPy
+    expression or its derivative does not parse."""
+    import re
+
+    from latdyn.errors import SceneError
+    from latdyn.scene import expressions as scene_expressions
+
+    source = repr((str(law.source), "d/dtheta"))
+    cached = scene_expressions.cached_entry("angle_slope", source)
+    text = cached.get("text") if cached is not None else None
+    if not isinstance(text, str):
+        held = law.expressions
+        if held is None:
+            return None
+        _, (_, by_angle, _) = held
+        text = re.sub(r"\bAbs\(", "abs(", str(by_angle))
+        scene_expressions.keep_entry("angle_slope", source, {"text": text}, {}, ())
+    try:
+        with scene_expressions.reading_inputs(scene.inputs):
+            return scene_expressions.parse_hinge_law(text, scene.file, f"{key} (its slope in the angle)")
+    except SceneError:
+        return None
+
+
+def _law_curvature(law, scene, key: str, theta: float, rate: float, t: float) -> float:
+    """∂²f/∂θ² of a hinge law at (θ, θ̇, t): 0 for a constant and a law without θ, else SymPy's second derivative
+    (:func:`_angle_slope_law`). ValueError where a law of θ has no SymPy expression."""
+    if law is None or "theta" not in law.depends_on:
+        return 0.0
+    slope = _SLOPES.get(id(law))
+    if slope is None or slope[0] is not law:
+        slope = _SLOPES[id(law)] = (law, _angle_slope_law(law, scene, key))
+    if slope[1] is None:
+        raise ValueError(f"{key}: the hinge law {law.source!r} has no second derivative in the angle")
+    return slope[1].d_theta(theta, rate, t)
+
+
+def _hinge_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, values) of the hinges' part of H, on its diagonal: s (∂K_jj/∂θ_j) w_j for each free hinge j with
+    w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated ``hinge_stiffness_by_angle``,
+    codegen/joints.py, from the laws' values, first and second derivatives in θ at the state; a hinge driven by a
+    continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces)."""
+    from latdyn.assembly.native_model import joint_contact_rows
+
+    model = assembler.model
+    n = model.n_dofs
+    free = np.asarray(model.free_hinges, np.int64)
+    dofs = np.asarray(model.hinge_dofs, np.int64)[free] if len(free) else np.zeros(0, np.int64)
+    on = [(j, d) for j, d in zip(free, dofs) if d < n and w[d] != 0.0]
+    if not on:
+        return np.zeros(0, np.int64), np.zeros(0)
+    kernels, scene = assembler.kernels, model.scene
+    driven = getattr(getattr(assembler, "control", None), "hinge_controller", None)
+    contact_rows = joint_contact_rows(model.hinges)
+    states, laws, curvatures, contacts = [], [], [], []
+    for j, _ in on:
+        hinge = model.hinges[j]
+        theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), float(state.t)
+        torque = hinge.torque if driven is None or driven[j] < 0 else None
+        row, curvature = np.zeros(9), np.zeros(3)
+        for slot, (key, law) in enumerate((("stiffness", hinge.stiffness), ("damping", hinge.damping),
+                                           ("torque", torque))):
+            if law is None:
+                continue
+            row[3 * slot:3 * slot + 3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+            curvature[slot] = _law_curvature(law, scene, f"joints.{hinge.name}.{key}", theta, rate, t)
+        states.append([theta, rate, hinge.rest_angle, 1.0])
+        laws.append(row)
+        curvatures.append(curvature)
+        contacts.append(contact_rows[j])
+    rows = lambda a: np.ascontiguousarray(np.asarray(a, float))  # noqa: E731
+    by_angle = np.asarray(kernels.hinge_stiffness_by_angle(rows(states), rows(laws), rows(curvatures),
+                                                           rows(contacts))[0]).reshape(-1)
+    hinge_rows = np.array([d for _, d in on], np.int64)
+    return hinge_rows, scale * by_angle * w[hinge_rows]
+
+
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
-    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements' and the joint bodies' blocks
-    (the generated part), times w."""
+    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements', the joint bodies' and the
+    hinges' blocks (the generated part; the hinges' diagonal, which depends on each hinge's own angle alone, is
+    :func:`_hinge_part`'s), times w."""
     ev = assembler.evaluate(state, matrices=True)
     stiffness = ev.flat_blocks("stiffness")
-    parts = [0.0 * stiffness[0], 0.0 * stiffness[1]] + [scale * b for b in stiffness[2:]]
+    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], 0.0 * stiffness[2]] + [scale * b for b in stiffness[3:]]
     if mass:
         inertia = ev.flat_blocks("mass")
         parts = parts[:2] + [p + m for p, m in zip(parts[2:], inertia[2:])]
@@ -204,6 +295,9 @@ def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: floa
                          "(TransientSensitivities._linked_weight_derivative)")
     n = model.n_dofs
     rows, cols, values = _generated(assembler, state, w, scale, mass)
+    hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale)
+    rows, cols, values = (np.concatenate([rows, hinge_rows]), np.concatenate([cols, hinge_rows]),
+                          np.concatenate([values, hinge_values]))
     support = rest_support(assembler)
     if len(support):
         columns = []
