@@ -122,3 +122,24 @@ def test_a_latch_with_nonlinear_laws_through_the_cli_and_the_api_agrees_with_dif
     assert main(["run", str(scene), "-o", str(tmp_path / "out")]) == 0
     written = np.genfromtxt(tmp_path / "out" / "sensitivities.csv", delimiter=",", names=True)
     assert written.size > 0
+
+
+def test_the_loop_of_steps_keeps_the_python_paths_bits_through_the_latch(monkeypatch):
+    """The wheel with its nonlinear laws and compliant stop, sensitivities by k and c: the loop of steps on and off
+    give the same sensitivities to the bit (the latch's H, exact now, is the Python path's on both), with steps in
+    the loop."""
+    data = yaml.safe_load(WHEEL_LAWS)
+    data["solve"]["sensitivities"] = ["k", "c"]
+    runs = {}
+    for in_loop in (True, False):
+        with monkeypatch.context() as patch:
+            patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
+            runs[in_loop] = latdyn.run(latdyn.load_scene(data))
+    native, python = runs[True], runs[False]
+    assert native.summary["event_sensitivities"] and native.summary["event_sensitivities"][0]["kind"] == "latch"
+    assert native.summary["sensitivity_steps_in_loop"] > 0 == python.summary["sensitivity_steps_in_loop"]
+    assert native.sensitivities.keys() == python.sensitivities.keys()
+    for key, values in python.sensitivities.items():
+        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
