@@ -143,3 +143,17 @@ def test_the_loop_of_steps_keeps_the_python_paths_bits_through_the_latch(monkeyp
         np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
     assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
     assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
+
+
+@pytest.mark.parametrize("stiffness, exact", [("g*(1 + 0.5*sin(2*theta))", False), ("k*(1 + abs(theta))", True)],
+                         ids=["naming_an_input", "abs"])
+def test_a_law_naming_an_input_keeps_the_difference_along_its_angle(stiffness, exact):
+    """A hinge law of θ that names an input (its value the runtime's) keeps the central difference along its angle
+    (:func:`latdyn.analyses.weight_derivative.exact_hinges`); a law with a kink (abs: its slope sign(θ)) is generated;
+    H against Richardson differences of W w either way."""
+    text = WHEEL_LAWS.replace(f'stiffness: "{STIFFNESS}"', f'stiffness: "{stiffness}"').replace(
+        "sections:", "inputs: {g: 2.0}\nsections:", 1)
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    support = list(rest_support(prepared.assembler))
+    assert support == ([] if exact else [prepared.model.hinge_dofs[0]])
+    assert _check_model(text.replace("limits: [-0.2, 2.0]", "limits: [0.0, 2.0]"), 9) < 1e-8

@@ -29,7 +29,8 @@ no free coordinate). Generated and exact:
   of the law's ∂f/∂θ parsed as a law of the state (:func:`_angle_slope_law`, as the laws' rates in t are), evaluated
   with NumPy at the event (the events take the Python path; nothing is compiled for them: a scene without events,
   or without laws of θ, makes nothing new). A hinge that a continuous controller alone drives has no torque law
-  there (csrc/evaluate.c ``hinge_forces``).
+  there (csrc/evaluate.c ``hinge_forces``). A hinge with a law of θ that names an input or a controller, or whose
+  ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along its angle.
 
 Not generated, H_rest: the point loads' and cables' stiffness blocks and the continuous controllers' couplings
 (none has a generated second derivative yet). Their product (W without the elements, the joint bodies and the
@@ -59,7 +60,7 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["configuration_tangent_of_weight", "needs_the_kernel", "refuse_without_kernel", "rest_support",
+__all__ = ["configuration_tangent_of_weight", "exact_hinges", "needs_the_kernel", "refuse_without_kernel", "rest_support",
            "stiffness_moving_with_rates", "times", "transposed_times"]
 
 #: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
@@ -173,12 +174,12 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
 
 
 def rest_support(assembler) -> np.ndarray:
-    """The free coordinates the blocks of H_rest are on (module docstring), sorted: the
-    point loads' nodes and frame bodies, the cable elements' nodes, and the continuous controllers' couplings' rows
+    """The free coordinates the blocks of H_rest are on (module docstring), sorted: the angles of the free hinges
+    whose part is not generated (:func:`exact_hinges`), the point loads' nodes and frame bodies, the cable elements' nodes, and the continuous controllers' couplings' rows
     and columns. Empty where the model has none of them."""
     model = assembler.model
     n = model.n_dofs
-    found = []
+    found = [model.hinge_dofs[model.free_hinges][~exact_hinges(assembler)].ravel()]
     if len(assembler.loads):
         found += [model.node_dofs[assembler._load_nodes].ravel(), assembler._load_columns().ravel()]
     found.append(assembler.cable_dofs().ravel())
@@ -215,17 +216,38 @@ def _angle_slope_law(law, scene, key: str):
         return None
 
 
-def _law_curvature(law, scene, key: str, theta: float, rate: float, t: float) -> float:
-    """∂²f/∂θ² of a hinge law at (θ, θ̇, t): 0 for a constant and a law without θ, else SymPy's second derivative
-    (:func:`_angle_slope_law`). ValueError where a law of θ has no SymPy expression."""
-    if law is None or "theta" not in law.depends_on:
-        return 0.0
+def _slope_law(law, scene, key: str):
+    """:func:`_angle_slope_law` of ``law``, parsed once per law in a process (:data:`_SLOPES`)."""
     slope = _SLOPES.get(id(law))
     if slope is None or slope[0] is not law:
         slope = _SLOPES[id(law)] = (law, _angle_slope_law(law, scene, key))
-    if slope[1] is None:
-        raise ValueError(f"{key}: the hinge law {law.source!r} has no second derivative in the angle")
-    return slope[1].d_theta(theta, rate, t)
+    return slope[1]
+
+
+def _hinge_laws(assembler, j: int) -> tuple:
+    """((key, law or None) × 3): hinge ``j``'s stiffness, damping and torque laws as csrc/evaluate.c hinge_forces
+    takes them (a hinge that a continuous controller alone drives: no torque law)."""
+    hinge = assembler.model.hinges[j]
+    driven = getattr(getattr(assembler, "control", None), "hinge_controller", None)
+    torque = hinge.torque if driven is None or driven[j] < 0 else None
+    return (("stiffness", hinge.stiffness), ("damping", hinge.damping), ("torque", torque))
+
+
+def exact_hinges(assembler) -> np.ndarray:
+    """(free hinges,) bool: whether the free hinge's part of H is generated (:func:`_hinge_part`): each of its laws
+    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`) and naming no input or
+    controller (their values are the runtime's, read by the compiled laws); otherwise its angle stays in
+    :func:`rest_support`, differenced as before."""
+    model = assembler.model
+    out = np.ones(len(model.free_hinges), bool)
+    for i, j in enumerate(model.free_hinges):
+        for key, law in _hinge_laws(assembler, int(j)):
+            if law is None or "theta" not in law.depends_on:
+                continue
+            if getattr(law, "input_names", ()) or _slope_law(law, model.scene,
+                                                             f"joints.{model.hinges[j].name}.{key}") is None:
+                out[i] = False
+    return out
 
 
 def _hinge_part(assembler, state, w: np.ndarray, scale: float):
@@ -239,24 +261,22 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float):
     n = model.n_dofs
     free = np.asarray(model.free_hinges, np.int64)
     dofs = np.asarray(model.hinge_dofs, np.int64)[free] if len(free) else np.zeros(0, np.int64)
-    on = [(j, d) for j, d in zip(free, dofs) if d < n and w[d] != 0.0]
+    on = [(j, d) for j, d, exact in zip(free, dofs, exact_hinges(assembler)) if exact and d < n and w[d] != 0.0]
     if not on:
         return np.zeros(0, np.int64), np.zeros(0)
     kernels, scene = assembler.kernels, model.scene
-    driven = getattr(getattr(assembler, "control", None), "hinge_controller", None)
     contact_rows = joint_contact_rows(model.hinges)
     states, laws, curvatures, contacts = [], [], [], []
     for j, _ in on:
         hinge = model.hinges[j]
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), float(state.t)
-        torque = hinge.torque if driven is None or driven[j] < 0 else None
         row, curvature = np.zeros(9), np.zeros(3)
-        for slot, (key, law) in enumerate((("stiffness", hinge.stiffness), ("damping", hinge.damping),
-                                           ("torque", torque))):
+        for slot, (key, law) in enumerate(_hinge_laws(assembler, int(j))):
             if law is None:
                 continue
             row[3 * slot:3 * slot + 3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
-            curvature[slot] = _law_curvature(law, scene, f"joints.{hinge.name}.{key}", theta, rate, t)
+            if "theta" in law.depends_on:
+                curvature[slot] = _slope_law(law, scene, f"joints.{hinge.name}.{key}").d_theta(theta, rate, t)
         states.append([theta, rate, hinge.rest_angle, 1.0])
         laws.append(row)
         curvatures.append(curvature)
@@ -270,11 +290,12 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float):
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
     """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements', the joint bodies' and the
-    hinges' blocks (the generated part; the hinges' diagonal, which depends on each hinge's own angle alone, is
-    :func:`_hinge_part`'s), times w."""
+    generated hinges' blocks (the generated part; a hinge's diagonal, which depends on its own angle alone, is
+    :func:`_hinge_part`'s where :func:`exact_hinges`), times w."""
     ev = assembler.evaluate(state, matrices=True)
     stiffness = ev.flat_blocks("stiffness")
-    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], 0.0 * stiffness[2]] + [scale * b for b in stiffness[3:]]
+    hinges = np.where(exact_hinges(assembler), 0.0, scale * stiffness[2])   # the generated hinges' out
+    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], hinges] + [scale * b for b in stiffness[3:]]
     if mass:
         inertia = ev.flat_blocks("mass")
         parts = parts[:2] + [p + m for p, m in zip(parts[2:], inertia[2:])]
