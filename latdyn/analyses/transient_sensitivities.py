@@ -1471,27 +1471,15 @@ def _time_rate_law(law, scene, key: str):
     drops them), which :class:`latdyn.analyses.derivative_laws.DerivativeLaws` compiles as the parameters' derivative
     laws (the same C on the per-step path and in the loop of steps); the text kept in the expression cache (kind
     "time_rate"). None where the law has no SymPy expression or its derivative does not parse."""
-    import re
-
     from latdyn.scene import expressions as scene_expressions
 
-    source = repr((str(law.source), "d/dt"))
-    cached = scene_expressions.cached_entry("time_rate", source)
-    text = cached.get("text") if cached is not None else None
-    if not isinstance(text, str):
-        held = law.expressions
-        if held is None:
-            return None
+    def rate(held):
         import sympy as sp
 
         symbols, (expr, *_) = held
-        text = re.sub(r"\bAbs\(", "abs(", str(_drop_deltas(sp.diff(expr, symbols[2]))))
-        scene_expressions.keep_entry("time_rate", source, {"text": text}, {}, ())
-    try:
-        with scene_expressions.reading_inputs(scene.inputs):
-            return scene_expressions.parse_hinge_law(text, scene.file, f"{key} (its rate in t)")
-    except SceneError:
-        return None
+        return _drop_deltas(sp.diff(expr, symbols[2]))
+
+    return scene_expressions.derivative_as_law(law, scene, key, "time_rate", "d/dt", "its rate in t", rate)
 
 
 class ExplicitTime:

@@ -194,26 +194,10 @@ def _angle_slope_law(law, scene, key: str):
     of SymPy's derivative's text, deltas dropped as for its first derivatives), whose own ``d_theta`` is then
     SymPy's ∂²f/∂θ²; kept in the expression cache (kind "angle_slope"). None where the law has no SymPy
     expression or its derivative does not parse."""
-    import re
-
-    from latdyn.errors import SceneError
     from latdyn.scene import expressions as scene_expressions
 
-    source = repr((str(law.source), "d/dtheta"))
-    cached = scene_expressions.cached_entry("angle_slope", source)
-    text = cached.get("text") if cached is not None else None
-    if not isinstance(text, str):
-        held = law.expressions
-        if held is None:
-            return None
-        _, (_, by_angle, _) = held
-        text = re.sub(r"\bAbs\(", "abs(", str(by_angle))
-        scene_expressions.keep_entry("angle_slope", source, {"text": text}, {}, ())
-    try:
-        with scene_expressions.reading_inputs(scene.inputs):
-            return scene_expressions.parse_hinge_law(text, scene.file, f"{key} (its slope in the angle)")
-    except SceneError:
-        return None
+    return scene_expressions.derivative_as_law(law, scene, key, "angle_slope", "d/dtheta", "its slope in the angle",
+                                               lambda held: held[1][1])
 
 
 def _slope_law(law, scene, key: str):

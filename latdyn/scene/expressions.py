@@ -1017,6 +1017,30 @@ def parse_hinge_law(value: Any, file: str | None, key: str) -> HingeLaw:
     return HingeLaw(value, file=file, key=key)
 
 
+def derivative_as_law(law, scene, key: str, kind: str, by: str, what: str, derivative):
+    """A derivative of a hinge or guide law of the state as a law of the state itself (a :class:`HingeLaw` of
+    SymPy's derivative's text), which the laws' compiler or its own first derivatives then take:
+    ``derivative(law.expressions)`` is the SymPy expression (∂f/∂t with deltas dropped, ∂f/∂θ), ``by`` names it in the
+    expression cache's key (kind ``kind``: "time_rate", "angle_slope"), ``what`` in a message. The text is kept in the
+    expression cache, so a later process needs no SymPy for it. None where the law has no SymPy expression or its
+    derivative does not parse (latdyn/analyses/transient_sensitivities.py ``_time_rate_law``,
+    latdyn/analyses/weight_derivative.py ``_angle_slope_law``)."""
+    source = repr((str(law.source), by))
+    cached = cached_entry(kind, source)
+    text = cached.get("text") if cached is not None else None
+    if not isinstance(text, str):
+        held = law.expressions
+        if held is None:
+            return None
+        text = re.sub(r"\bAbs\(", "abs(", str(derivative(held)))
+        keep_entry(kind, source, {"text": text}, {}, ())
+    try:
+        with reading_inputs(scene.inputs):
+            return parse_hinge_law(text, scene.file, f"{key} ({what})")
+    except SceneError:
+        return None
+
+
 # --------------------------------------------------------------------------- controller expressions
 def parse_named_expression(text: Any, names: tuple[str, ...], file: str | None, key: str, what: str):
     """A controller's expression (SCENE.md ``controllers``): a number or a text in ``t`` and ``names``
