@@ -99,14 +99,6 @@ def _datatype(kind) -> bytes:
     raise ValueError(f"a dataset or attribute of {dtype} is not written")
 
 
-def _itemsize(kind) -> int:
-    if kind == VLEN_STR:
-        return 16
-    if isinstance(kind, tuple):
-        return kind[1]
-    return np.dtype(kind).itemsize
-
-
 def _dataspace(shape: tuple | None, maxshape: tuple | None = None) -> bytes:
     """The Dataspace message (version 2): ``shape`` None or () is scalar; ``maxshape`` None: the shape
     (not stored), a None dimension unlimited."""
