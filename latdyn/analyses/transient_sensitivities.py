@@ -131,8 +131,9 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
-from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, needs_the_kernel,
-                                               refuse_without_kernel, stiffness_moving_with_rates, times)
+from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, linked_configuration_tangent,
+                                               linked_remainder_product, needs_the_kernel, refuse_without_kernel,
+                                               stiffness_moving_with_rates, times)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
 from latdyn.errors import SceneError, SolverError
@@ -927,36 +928,48 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _linked_weight_derivative(self, state, w: np.ndarray, dq: np.ndarray, scale: float, mass: bool,
                                   rates) -> np.ndarray:
-        """∂(W w)/∂q δq (n, k) of :meth:`_weight_derivative` with guides or rigid links: a central difference of
-        W w (the reduction's) along each column's δq, the free rates moved along ``rates`` = (δv, δv̇) too (the
-        dependent ones completed), each move in its own units (a configuration, a rate and an acceleration over
-        the nominal step): the rates' derivatives, large in a rate's units, must not shrink the configuration's
-        step to where the difference of W w (of the stiffness's size) is round-off (a latch of rigid links)."""
+        """∂(W w)/∂q δq (n, k) of :meth:`_weight_derivative` with guides or rigid links (the reduction's W w,
+        latdyn/analyses/weight_derivative.py "Rigid links and guides"): the generated blocks' part Pᵀ W_gen P w exactly
+        (:func:`latdyn.analyses.weight_derivative.linked_configuration_tangent`), and the rest — the blocks not
+        generated and the reduction's geometric term s ∂(Pᵀ r_all)/∂q[w], whose derivative holds the links' second
+        derivatives and r_all's move with q, the rates and the accelerations
+        (:func:`latdyn.analyses.weight_derivative.linked_remainder_product`) — a central difference along each
+        column's move (:meth:`_linked_move`)."""
         model, assembler, k = self.model, self.assembler, len(self.names)
-        length = self.length or 1.0
-        out = np.zeros((model.n_dofs, k))
-
-        def product(moved):
-            return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
-
-        def moved(eta, c):
-            ahead = assembler.advance(state, eta * dq[:, c])
-            if rates is not None:
-                unpack_free(model, free_velocity(model, state) + eta * rates[0][:, c], ahead.v, ahead.w, ahead.theta_dot)
-                unpack_free(model, free_acceleration(model, state) + eta * rates[1][:, c], ahead.a, ahead.alpha,
-                            ahead.theta_ddot)
-                assembler.complete_links(ahead)
-            return ahead
-
-        dt = self.scene.solve.dt
+        out = linked_configuration_tangent(assembler, state, w, dq, scale, mass)
         for c in range(k):
-            moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt] if rates is not None else [])
-            size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
-            if size == 0.0:
+            eta = self._linked_move_step(dq, rates, c)
+            if eta is None:
                 continue
-            eta = WEIGHT_STEP * length / size
-            out[:, c] = (product(moved(eta, c)) - product(moved(-eta, c))) / (2 * eta)
+            ahead, behind = (self._linked_move(state, dq, rates, c, s * eta) for s in (1.0, -1.0))
+            out[:, c] += (linked_remainder_product(assembler, ahead, assembler.evaluate(ahead, matrices=True), w, scale,
+                                                   mass)
+                          - linked_remainder_product(assembler, behind, assembler.evaluate(behind, matrices=True), w,
+                                                     scale, mass)) / (2 * eta)
         return out
+
+    def _linked_move_step(self, dq: np.ndarray, rates, c: int):
+        """The step of :meth:`_linked_weight_derivative`'s difference along column ``c`` (None: no move),
+        :data:`WEIGHT_STEP` ℓ over the move's size, each move in its own units (a configuration, a rate and an
+        acceleration over the nominal step): the rates' derivatives, large in a rate's units, must not shrink the
+        configuration's step to where the difference (of the stiffness's size) is round-off (a latch of rigid
+        links)."""
+        dt = self.scene.solve.dt
+        moves = [dq[:, c]] + ([rates[0][:, c] * dt, rates[1][:, c] * dt * dt] if rates is not None else [])
+        size = float(max(np.max(np.abs(m), initial=0.0) for m in moves))
+        return None if size == 0.0 else WEIGHT_STEP * (self.length or 1.0) / size
+
+    def _linked_move(self, state, dq: np.ndarray, rates, c: int, eta: float):
+        """``state`` moved by ``eta`` along column ``c``: the configuration along δq, the free rates along
+        ``rates`` = (δv, δv̇) too (the dependent ones completed)."""
+        model, assembler = self.model, self.assembler
+        ahead = assembler.advance(state, eta * dq[:, c])
+        if rates is not None:
+            unpack_free(model, free_velocity(model, state) + eta * rates[0][:, c], ahead.v, ahead.w, ahead.theta_dot)
+            unpack_free(model, free_acceleration(model, state) + eta * rates[1][:, c], ahead.a, ahead.alpha,
+                        ahead.theta_ddot)
+            assembler.complete_links(ahead)
+        return ahead
 
     def _geometric_derivative(self, state, w: np.ndarray, eta: float) -> np.ndarray:
         """∂Pᵀ/∂q[w] · (∂r_all/∂p with the inertia forces less without) (n, k): the part of ∂K/∂p w of a

@@ -38,8 +38,27 @@ hinges) w is differenced centrally along each coordinate those blocks are on (:f
 loaded and cable nodes' coordinates, the couplings' rows and columns), two evaluations per
 coordinate, step :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale,
 L_min the shortest element where shorter). A model with none of them has H exact with no evaluation.
-Rigid links and guides are not taken here: their reduction's geometric term keeps the difference of W w along
-δq (``TransientSensitivities._weight_derivative``).
+
+Rigid links and guides: the reduced weight is W_red = Pᵀ W_all P + s ∂(Pᵀ r_all)/∂q (latdyn/assembly/linked.py: W_all
+the blocks on the assembled coordinates, free and dependent, P = [I; J] the projection, r_all the residual before the
+reduction, with the inertia forces at the state's rates). :func:`configuration_tangent_of_weight` does not take them
+(its free coordinates are the assembled ones); ``TransientSensitivities._linked_weight_derivative`` splits W_red w:
+
+* exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`exact_hinges`) through the
+  reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
+  ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
+  on every assembled coordinate (the dependent nodes' elements and bodies too), ∂(Pᵀ y)/∂q at fixed y the forward
+  step's geometric term of y (csrc/links.c ``geometric_term`` from the generated wrench kernels, times δq:
+  csrc/linked_weight.c), ∂(J w)/∂q the compiled links' rates' derivative at rates w (csrc/links.c
+  ``dependent_rates_tangent``, the generated edge kernels' ``*_rates_D_q``): the derivative of P along δq applied
+  to w, exact for every edge kind (hinges, slides, closures), where a polarisation of the links' quadratic term
+  would hold for their positions' rows alone (on the 3D gimbal of skew hinges ∂(J w)/∂q δq and ∂(J δq)/∂q w differ
+  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations');
+* differenced, :func:`linked_remainder_product` (Pᵀ W_rest P w and s ∂(Pᵀ r_all)/∂q[w], each computed directly:
+  the reduced W w less the exact part carried its round-off, 1e-8 of H δq over the step on the slider-crank),
+  centrally along each column's δq with the free rates moved along δv, δv̇ as before: the blocks not generated (as
+  H_rest), and the geometric term's own derivative, which holds the links' second derivatives (no generated
+  kernel) and r_all's move with the configuration, the rates and the accelerations.
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
 evaluations a parameter; its transpose in the adjoint, two a free rate). Which terms of K move with the rates is
@@ -125,11 +144,14 @@ def refuse_without_kernel(assembler) -> None:
                      f"{variant})")
 
 
-def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
-    """(rows, cols, values) of the generated part of H (module docstring): the elements' and the joint bodies'."""
+def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool, full: np.ndarray | None = None):
+    """(rows, cols, values) of the generated part of H (module docstring): the elements' and the joint bodies'.
+    ``full`` (n_total + 1; default w on the free coordinates, 0 elsewhere): the direction on every coordinate, the
+    dependent nodes' too (a model with rigid links or guides: P w, :func:`linked_configuration_tangent`)."""
     model, kernels = assembler.model, assembler.kernels
-    full = np.zeros(model.n_total + 1)
-    full[:model.n_dofs] = w
+    if full is None:
+        full = np.zeros(model.n_total + 1)
+        full[:model.n_dofs] = w
     rows, cols, values = [], [], []
     dofs = model.element_dofs
     along = full[dofs]
@@ -150,7 +172,7 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
         values.append(blocks.ravel())
     nodes = model.body_nodes
     d = model.node_dofs[nodes]                                                       # (b, 6): [d; π]
-    moving = full[np.where(d < model.n_dofs, d, model.n_total)]
+    moving = full[np.where(d < model.n_assembled, d, model.n_total)]   # free (and dependent) coordinates
     if len(nodes) and np.any(moving) and (mass or assembler.has_gravity):
         moving = np.ascontiguousarray(moving)
         section = np.ascontiguousarray(np.concatenate([model.body_mass[:, None], model.body_com,
@@ -343,3 +365,123 @@ def stiffness_moving_with_rates(assembler, state) -> tuple:
     here = assembler.evaluate(state, matrices=True).flat_blocks("stiffness")
     there = assembler.evaluate(moved, matrices=True).flat_blocks("stiffness")
     return tuple(name for name, a, b in zip(STIFFNESS_BLOCKS, here, there) if not np.array_equal(a, b))
+
+
+def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, generated: bool):
+    """W_gen (``generated``) or W_rest on the assembled coordinates (n_assembled², free and dependent; dense or CSR as
+    :meth:`latdyn.assembly.assembler.Assembler.assemble`) of a model with rigid links or guides, from the blocks of
+    ``ev`` before the reduction (latdyn/assembly/linked.py ``LinkedEvaluation.blocks``): W_gen c_m M + s K of the
+    elements, the joint bodies and the free hinges whose part of H is generated (``exact``: :func:`exact_hinges`),
+    W_rest the other blocks' (the other hinges', the loads' and cables', the controllers' couplings', as
+    :func:`_rest_product`'s); W_gen + W_rest = c_m M + s K before the reduction."""
+    from latdyn.assembly.evaluation import Evaluation
+
+    raw = Evaluation(residual=None, reaction=None, blocks=ev.blocks, assembler=assembler)
+    stiffness, inertia = raw.flat_blocks("stiffness"), raw.flat_blocks("mass")
+    cm = 1.0 if mass else 0.0
+    if generated:
+        return assembler.assemble([cm * inertia[0] + scale * stiffness[0], cm * inertia[1] + scale * stiffness[1],
+                                   np.where(exact, scale * stiffness[2], 0.0), 0.0 * stiffness[3], 0.0 * stiffness[4]])
+    rest = [0.0 * stiffness[0], 0.0 * stiffness[1], np.where(exact, 0.0, scale * stiffness[2])] + \
+        [scale * b for b in stiffness[3:]]
+    if mass:
+        rest = rest[:2] + [p + m for p, m in zip(rest[2:], inertia[2:])]
+    return assembler.assemble(rest)
+
+
+def linked_remainder_product(assembler, state, ev, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
+    """The part of the reduced W w at ``state`` (evaluated: ``ev``) whose derivative along δq is not exact (n,): the
+    blocks not generated, Pᵀ W_rest P w (:func:`_linked_weight`), and the reduction's geometric term
+    s ∂(Pᵀ r_all)/∂q[w] at the evaluation's r_all (``LinkedEvaluation.assembled_residual``, csrc/links.c
+    ``geometric_term`` times w, ``latdyn_linked_geometric_product``), each computed directly (not as W w less the
+    exact part, whose round-off over a difference's step is 1e-8 of H δq on the slider-crank)."""
+    import ctypes
+
+    model = assembler.model
+    n, n_asm, size = model.n_dofs, model.n_assembled, model.n_total + 1
+    P = ev.projection
+    W_rest = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=False)
+    out = np.asarray(P.T @ (W_rest @ np.asarray(P @ w))).reshape(-1)
+    y, vector, marked, product = np.zeros(size), np.zeros(size), np.zeros(size, np.int64), np.zeros(size)
+    y[:n_asm] = ev.assembled_residual
+    vector[:n] = w
+    marked[:n] = 1
+    native = assembler.native()
+    native.library.latdyn_linked_geometric_product(native.model_ref, ctypes.byref(native.configuration(state)),
+                                                   y.ctypes.data, marked.ctypes.data, vector.ctypes.data,
+                                                   product.ctypes.data)
+    return out + scale * product[:n]
+
+
+def _rates_jacobian_derivative(assembler, state, w: np.ndarray) -> np.ndarray:
+    """∂(J w)/∂q (6 n_dep × n) at ``state``: the dependent nodes' rates' derivative by the free coordinates at fixed
+    free rates w, every other rate (the prescribed coordinates') 0 — ∂P/∂q[δq] w is its product with δq on the
+    dependent rows (P = [I; J]). The compiled links' own (csrc/links.c ``dependent_rates_tangent``: the generated
+    edge kernels' ``*_rates_D_q`` composed along the tree) at a copy of the state with those rates; the links'
+    buffers completed again at the state after it."""
+    from latdyn.assembly.assembler import unpack_free
+    from latdyn.assembly.linked import _rates_tangent
+
+    model = assembler.model
+    links = model.links
+    moved = state.copy()
+    for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
+        getattr(moved, name)[...] = 0.0
+    unpack_free(model, w, moved.v, moved.w, moved.theta_dot)
+    native = assembler.native()
+    native.complete_links(moved)
+    columns = links.columns(model)
+    by_velocity, _ = _rates_tangent(assembler, moved, native.links, links, columns, columns < model.n_dofs, True)
+    native.complete_links(state.copy())   # the links' buffers (∂c/∂v moves with the rates) at the state again
+    return by_velocity
+
+
+def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray, scale: float,
+                                 mass: bool) -> np.ndarray:
+    """∂(Pᵀ W_gen P w)/∂q δq (n, k) for each column of ``dq`` on a model with rigid links or guides, exactly (module
+    docstring, "Rigid links and guides"): W_gen the generated blocks on the assembled coordinates
+    (:func:`_linked_weight`), P = [I; J] the reduction's projection, u = P w, y = W_gen u:
+
+        Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq)
+
+    with H_gen = ∂(W_gen u)/∂q_all the generated elements' and joint bodies' parts at u on every assembled coordinate
+    (:func:`_generated`) and the generated hinges' diagonal (:func:`_hinge_part`; a hinge's coordinate is free, so P
+    does not move its row), ∂(Pᵀ y)/∂q at fixed y the reduction's geometric term of y (the forward step's,
+    csrc/links.c ``geometric_term``, times δq: ``latdyn_linked_geometric_product``, csrc/linked_weight.c), and
+    ∂(J w)/∂q the compiled links' rates' derivative at rates w (:func:`_rates_jacobian_derivative`)."""
+    import ctypes
+
+    model = assembler.model
+    n, n_asm, size = model.n_dofs, model.n_assembled, model.n_total + 1
+    ev = assembler.evaluate(state, matrices=True)
+    P = ev.projection
+    W_gen = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=True)
+    u = np.zeros(size)
+    u[:n_asm] = np.asarray(P @ w).reshape(-1)
+    y = np.zeros(size)
+    y[:n_asm] = np.asarray(W_gen @ u[:n_asm]).reshape(-1)
+    rows, cols, values = _generated(assembler, state, w, scale, mass, full=u)
+    keep = (rows < n_asm) & (cols < n_asm)
+    H_gen = csr.CSR.from_coo(values[keep], rows[keep], cols[keep], (n_asm, n_asm))
+    hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale)
+    by_rates = _rates_jacobian_derivative(assembler, state, w)
+    dependent_rows = model.node_dofs[model.links.dependent].ravel()
+    native = assembler.native()
+    configuration = native.configuration(state)
+    marked = np.zeros(size, np.int64)
+    marked[:n] = 1
+    vector, product = np.zeros(size), np.zeros(size)
+    out = np.zeros((n, dq.shape[1]))
+    for c in range(dq.shape[1]):
+        along = dq[:, c]
+        moved_all = np.asarray(P @ along).reshape(-1)
+        moved_w = np.zeros(n_asm)
+        moved_w[dependent_rows] = by_rates @ along
+        inner = csr.times(H_gen, moved_all) + np.asarray(W_gen @ moved_w).reshape(-1)
+        column = np.asarray(P.T @ inner).reshape(-1)
+        column[hinge_rows] += hinge_values * along[hinge_rows]
+        vector[:n] = along
+        native.library.latdyn_linked_geometric_product(native.model_ref, ctypes.byref(configuration), y.ctypes.data,
+                                                       marked.ctypes.data, vector.ctypes.data, product.ctypes.data)
+        out[:, c] = column + product[:n]
+    return out

@@ -437,6 +437,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_linked_prescribed_time_rate.restype = None
         library.latdyn_linked_prescribed_time_rate.argtypes = [model, work, configuration, P, P, I64, P, P, P, P, P,
                                                                P, P]
+        library.latdyn_linked_geometric_product.restype = None
+        library.latdyn_linked_geometric_product.argtypes = [model, configuration, P, P, P, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None

@@ -44,7 +44,7 @@ class LinkedEvaluation(SeparateMatrices):
         self.hinge_damper_torque = np.zeros(0) if hinge_damper_torque is None else hinge_damper_torque
         self.cable_work = np.zeros((0, 4)) if cable_work is None else cable_work
         self.blocks, self.assembler = blocks, assembler
-        self.projection = self.velocity_derivative = self.dependent_rows = None
+        self.projection = self.velocity_derivative = self.dependent_rows = self.assembled_residual = None
         #: ∂(v, w)/∂q and ∂(a, alpha)/∂q of the dependent rows at fixed independent rates (6 n_dep × n), or None
         self.rates_tangent = None
         #: M, C, K and K without the geometric term on the minimum coordinates (latdyn_linked_matrices), each the
@@ -168,6 +168,9 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
                            external_power=full.external_power, blocks=full.blocks, assembler=assembler,
                            hinge_work_torque=full.hinge_work_torque, hinge_damper_torque=full.hinge_damper_torque,
                            cable_work=full.cable_work)
+    # r_all, the residual on the assembled coordinates before the reduction: its dependent rows make the geometric
+    # term (an event weight's derivative, latdyn/analyses/weight_derivative.py ``linked_remainder_product``)
+    out.assembled_residual = np.array(full.residual)
     if matrices:
         small = n_asm <= DENSE_LIMIT
         free_cols = columns < n

@@ -31,6 +31,7 @@
 
 #include "prescribed_rates.c" /* ∂r/∂t through the prescribed motions, exactly, for the sensitivities */
 #include "linked_prescribed_rates.c" /* the same with rigid links or guides: the dependent nodes moved too */
+#include "linked_weight.c" /* the reduction's geometric term times vectors: an event weight's derivative with links */
 #include "sensitivity_loop.c" /* the transient sensitivities' smooth step in the loop of steps */
 #include "adjoint_trajectory.c" /* the discrete adjoint's forward pass: the accepted steps stored */
 #include "adjoint_reverse.c" /* the discrete adjoint's reverse pass: a smooth step in one call */

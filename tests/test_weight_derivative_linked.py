@@ -1,0 +1,117 @@
+"""The impulse weight's derivative on models with rigid links and guides (latdyn/analyses/weight_derivative.py,
+"Rigid links and guides"; docs/parameters.md, "The impulse weight's derivative"): the exact part
+∂(Pᵀ W_gen P w)/∂q δq (the generated elements', joint bodies' and hinges' H on the assembled coordinates, the
+reduction's geometric term of W_gen P w, the links' ∂(J w)/∂q) against Richardson-extrapolated central differences
+on a 3D gimbal of skew hinges, a slider-crank on a guide and one closed by a rigid rod (closure edges); and the whole
+∂(W w)/∂q δq at the events of YAML scenes run through the API (the gimbal latching and bouncing, the slider-crank
+between its stops, a swing on a prescribed crank), against Richardson-extrapolated differences of the reduced
+W w, closer than the single central difference of W w that it replaces (measured in docs/performance.md, "The impulse weight's
+derivative on linked models exact (issue 34)")."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from latdyn.analyses.transient_sensitivities import TransientSensitivities
+from latdyn.assembly.assembler import unpack_free
+from latdyn.assembly.prepare import prepare
+from tests.test_sensitivities_in_loop_linked2 import CRANK_STOP
+from tests.test_sensitivities_rigid_links import CLOSED_SLIDER_CRANK, GIMBAL, LATCH, SLIDER_CRANK, STOP
+
+
+def _generated_product(assembler, state, w, scale, mass):
+    """Pᵀ W_gen P w at ``state`` (the part whose derivative is exact)."""
+    from latdyn.analyses.weight_derivative import _linked_weight, exact_hinges
+
+    ev = assembler.evaluate(state, matrices=True)
+    W_gen = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=True)
+    P = ev.projection
+    return np.asarray(P.T @ (W_gen @ np.asarray(P @ w))).reshape(-1)
+
+
+@pytest.mark.parametrize("text", [GIMBAL, SLIDER_CRANK, CLOSED_SLIDER_CRANK],
+                         ids=["3D gimbal of skew hinges", "slider-crank on a guide", "slider-crank closed by a rod"])
+def test_the_exact_part_is_the_richardson_difference_of_the_generated_product(text):
+    """∂(Pᵀ W_gen P w)/∂q δq (``linked_configuration_tangent``) at a turned, deformed state with random rates, random
+    w and δq, W = M + 1e-4 K and W = K, against Richardson-extrapolated central differences of Pᵀ W_gen P w along δq
+    (measured 2e-13 – 5e-11; 6e-12 – 1.4e-11 at the events of the gimbal and the slider-crank)."""
+    from latdyn.analyses.weight_derivative import linked_configuration_tangent
+
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    assembler, model = prepared.assembler, prepared.model
+    rng = np.random.default_rng(3)
+    n = model.n_dofs
+    state = assembler.advance(prepared.state, 0.05 * rng.normal(size=n))
+    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
+    unpack_free(model, rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
+    assembler.complete_links(state)
+    compared = []
+    for mass, scale in ((True, 1e-4), (False, 1.0)):
+        w, dq = rng.normal(size=n), rng.normal(size=(n, 1))
+        exact = linked_configuration_tangent(assembler, state, w, dq, scale, mass)[:, 0]
+
+        def central(h):
+            ahead, behind = (_generated_product(assembler, assembler.advance(state, s * h * dq[:, 0]), w, scale, mass)
+                             for s in (1.0, -1.0))
+            return (ahead - behind) / (2 * h)
+
+        d1, d2, d3 = central(4e-4), central(2e-4), central(1e-4)
+        reference = (16 * (4 * d3 - d2) / 3 - (4 * d2 - d1) / 3) / 15
+        compared.append(float(np.max(np.abs(reference))))
+        assert np.max(np.abs(exact - reference)) <= 1e-9 * compared[-1]
+    assert max(compared) > 0.0   # the closed slider-crank's rigid rod: no element, no K of its own (W = K: 0)
+
+
+def _reference(owner, state, w, dq, scale, mass, rates):
+    """Richardson-extrapolated central differences (steps 40, 20, 10 × the package's) of the reduced W w along each
+    column's move (δq, the free rates along δv, δv̇: ``TransientSensitivities._linked_move``), as the package took
+    ∂(W w)/∂q δq before its generated part was exact."""
+    model, assembler = owner.model, owner.assembler
+    out = np.zeros((model.n_dofs, dq.shape[1]))
+
+    def product(eta, c):
+        moved = owner._linked_move(state, dq, rates, c, eta)
+        return np.asarray(assembler.evaluate(moved, matrices=True).combined(1.0 if mass else 0.0, 0.0, scale) @ w)
+
+    for c in range(dq.shape[1]):
+        step = owner._linked_move_step(dq, rates, c)
+        if step is None:
+            continue
+        d1, d2, d3 = ((product(h, c) - product(-h, c)) / (2 * h) for h in (40 * step, 20 * step, 10 * step))
+        out[:, c] = (16 * (4 * d3 - d2) / 3 - (4 * d2 - d1) / 3) / 15
+    return out
+
+
+#: scene, the events, and the largest error of ∂(W w)/∂q δq at its events relative to the largest |∂(W w)/∂q δq|
+#: asserted (measured exact / the single difference it replaced: docs/performance.md)
+#: (on 6cda559, the single difference: 1.5e-10, 9.4e-10, 6.8e-8, 1.8e-6; exact: 3.7e-11, 3.4e-10, 9.1e-9, 3.9e-7, the
+#: last at a restart after a stop, δq = 0: the rates' move alone, differenced)
+EVENTS = {"the gimbal latching": (LATCH, ["latch"], 8e-11),
+          "the gimbal bouncing on a stop": (STOP, ["stop", "stop"], 6e-10),
+          "the slider-crank between its stops": (SLIDER_CRANK, ["stop", "stop"], 2e-8),
+          "a swing on a prescribed crank": (CRANK_STOP, ["stop", "stop"], 8e-7)}
+
+
+@pytest.mark.parametrize("name", list(EVENTS))
+def test_the_weight_derivative_at_linked_events_agrees_with_richardson_closer_than_one_difference(name, monkeypatch):
+    """At every event of the scene (through the API), the package's ∂(W w)/∂q δq against the test's
+    Richardson-extrapolated differences of the reduced W w: within the tolerance of :data:`EVENTS`, which the
+    single central difference of W w (6cda559) exceeded."""
+    text, events, tolerance = EVENTS[name]
+    method = TransientSensitivities._linked_weight_derivative
+    errors = []
+
+    def checked(self, state, w, dq, scale, mass, rates):
+        out = method(self, state, w, dq, scale, mass, rates)
+        reference = _reference(self, state, w, dq, scale, mass, rates)
+        size = float(np.max(np.abs(reference)))
+        if size > 0.0:
+            errors.append(float(np.max(np.abs(out - reference))) / size)
+        return out
+
+    monkeypatch.setattr(TransientSensitivities, "_linked_weight_derivative", checked)
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert [e["kind"] for e in result.summary["events"]] == events
+    assert errors and max(errors) < tolerance, errors
