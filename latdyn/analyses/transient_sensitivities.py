@@ -131,9 +131,11 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
-from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, linked_configuration_tangent,
-                                               linked_remainder_product, needs_the_kernel, refuse_without_kernel,
-                                               stiffness_moving_with_rates, times)
+from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, geometric_product,
+                                               linked_configuration_tangent,
+                                               linked_geometric_derivative, linked_has_rest, linked_rest_product,
+                                               needs_the_kernel, refuse_without_kernel, stiffness_moving_with_rates,
+                                               times)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
 from latdyn.errors import SceneError, SolverError
@@ -801,12 +803,11 @@ class TransientSensitivities(ParameterDerivatives):
         (:meth:`_stiffness_derivative`: the section values' part generated, the rest differenced along w).
 
         With guides or rigid links (their reduction, latdyn/assembly/linked.py) K also holds the geometric term
-        ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq is then a central difference of W w along
-        δq that moves the free rates along ``rates`` = (δv, δv̇) too (the dependent ones completed,
-        :meth:`_linked_weight_derivative`), and ∂K/∂p adds that term of the inertia forces' ∂r_all/∂p
-        (:meth:`_geometric_derivative`)."""
+        ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq moves the free rates along ``rates`` =
+        (δv, δv̇) too (the dependent ones following; :meth:`_linked_weight_derivative`: exact but for the links'
+        second derivatives and the blocks not generated), and ∂K/∂p adds that term of the inertia forces'
+        ∂r_all/∂p (:meth:`_geometric_derivative`, exact)."""
         model, assembler = self.model, self.assembler
-        length = self.length or 1.0
         linked = model.links is not None
         if linked:
             out = self._linked_weight_derivative(state, w, dq, scale, mass, rates)
@@ -814,13 +815,11 @@ class TransientSensitivities(ParameterDerivatives):
             out = times(configuration_tangent_of_weight(assembler, state, w, scale, mass, self.coordinate_step()), dq)
             if rates is not None and self.stiffness_moves_with_rates(state):   # W moves with δv too
                 out += scale * self._stiffness_by_rates(state, w, rates[0])
-        size = float(np.max(np.abs(w), initial=0.0))
-        if size == 0.0:
+        if not np.any(w):
             return out
-        eta = WEIGHT_STEP * length / size
         out += scale * self._stiffness_derivative(state, w)
         if linked:
-            out += scale * self._geometric_derivative(state, w, eta)
+            out += scale * self._geometric_derivative(state, w)
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
@@ -930,22 +929,24 @@ class TransientSensitivities(ParameterDerivatives):
                                   rates) -> np.ndarray:
         """∂(W w)/∂q δq (n, k) of :meth:`_weight_derivative` with guides or rigid links (the reduction's W w,
         latdyn/analyses/weight_derivative.py "Rigid links and guides"): the generated blocks' part Pᵀ W_gen P w exactly
-        (:func:`latdyn.analyses.weight_derivative.linked_configuration_tangent`), and the rest — the blocks not
-        generated and the reduction's geometric term s ∂(Pᵀ r_all)/∂q[w], whose derivative holds the links' second
-        derivatives and r_all's move with q, the rates and the accelerations
-        (:func:`latdyn.analyses.weight_derivative.linked_remainder_product`) — a central difference along each
-        column's move (:meth:`_linked_move`)."""
-        model, assembler, k = self.model, self.assembler, len(self.names)
+        (:func:`latdyn.analyses.weight_derivative.linked_configuration_tangent`), the reduction's geometric term
+        s ∂(Pᵀ r_all)/∂q[w] exactly but for the links' second derivatives, a difference of the links alone
+        (:func:`latdyn.analyses.weight_derivative.linked_geometric_derivative`), and the blocks not generated,
+        Pᵀ W_rest P w where the model has them (:func:`latdyn.analyses.weight_derivative.linked_has_rest`), a central
+        difference along each column's move (:meth:`_linked_move`)."""
+        assembler = self.assembler
         out = linked_configuration_tangent(assembler, state, w, dq, scale, mass)
-        for c in range(k):
+        out += linked_geometric_derivative(assembler, state, w, dq, scale, rates, self.length or 1.0)
+        if not linked_has_rest(assembler):
+            return out
+        for c in range(dq.shape[1]):
             eta = self._linked_move_step(dq, rates, c)
             if eta is None:
                 continue
             ahead, behind = (self._linked_move(state, dq, rates, c, s * eta) for s in (1.0, -1.0))
-            out[:, c] += (linked_remainder_product(assembler, ahead, assembler.evaluate(ahead, matrices=True), w, scale,
-                                                   mass)
-                          - linked_remainder_product(assembler, behind, assembler.evaluate(behind, matrices=True), w,
-                                                     scale, mass)) / (2 * eta)
+            out[:, c] += (linked_rest_product(assembler, assembler.evaluate(ahead, matrices=True), w, scale, mass)
+                          - linked_rest_product(assembler, assembler.evaluate(behind, matrices=True), w, scale,
+                                                mass)) / (2 * eta)
         return out
 
     def _linked_move_step(self, dq: np.ndarray, rates, c: int):
@@ -971,20 +972,25 @@ class TransientSensitivities(ParameterDerivatives):
             assembler.complete_links(ahead)
         return ahead
 
-    def _geometric_derivative(self, state, w: np.ndarray, eta: float) -> np.ndarray:
+    def _geometric_derivative(self, state, w: np.ndarray) -> np.ndarray:
         """∂Pᵀ/∂q[w] · (∂r_all/∂p with the inertia forces less without) (n, k): the part of ∂K/∂p w of a
         reduction's geometric term ∂Pᵀ/∂q · r_all (latdyn/assembly/linked.py; r_all with the inertia
         forces) that the static ∂r/∂p (without the elements' gravity load) differenced along w leaves out;
-        ∂Pᵀ/∂q[w] by a central difference of the projection P along w."""
+        (∂P[w])ᵀ y = ∂(Pᵀ y)/∂q[w] at fixed y, the forward step's geometric term of each column y times w
+        (:func:`latdyn.analyses.weight_derivative.geometric_product`, exact; a central difference of P along w
+        before)."""
         model, assembler = self.model, self.assembler
         n_asm = model.n_assembled
         inertial = (self.residual_derivatives(state, 1.0, inertia=True, on_all=True)
                     - self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False))[:n_asm]
+        out = np.zeros((model.n_dofs, len(self.names)))
         if not np.any(inertial):
-            return np.zeros((model.n_dofs, len(self.names)))
-        ahead = assembler.evaluate(assembler.advance(state, eta * w), matrices=True).projection
-        behind = assembler.evaluate(assembler.advance(state, -eta * w), matrices=True).projection
-        return np.asarray((ahead - behind).T @ inertial) / (2 * eta)
+            return out
+        assembler.complete_links(state)   # J of the state in the links' buffers
+        for c in range(len(self.names)):
+            if np.any(inertial[:, c]):
+                out[:, c] = geometric_product(assembler, state, inertial[:, c], w)
+        return out
 
     def after_events(self, carried: dict, new) -> dict:
         """``carried`` after the events of the step ended at ``new`` (its coordinates renumbered, its

@@ -54,11 +54,17 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   to w, exact for every edge kind (hinges, slides, closures), where a polarisation of the links' quadratic term
   would hold for their positions' rows alone (on the 3D gimbal of skew hinges ∂(J w)/∂q δq and ∂(J δq)/∂q w differ
   by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations');
-* differenced, :func:`linked_remainder_product` (Pᵀ W_rest P w and s ∂(Pᵀ r_all)/∂q[w], each computed directly:
-  the reduced W w less the exact part carried its round-off, 1e-8 of H δq over the step on the slider-crank),
-  centrally along each column's δq with the free rates moved along δv, δv̇ as before: the blocks not generated (as
-  H_rest), and the geometric term's own derivative, which holds the links' second derivatives (no generated
-  kernel) and r_all's move with the configuration, the rates and the accelerations.
+* the geometric term's own derivative, :func:`linked_geometric_derivative`: along (δq, δv, δv̇),
+  s ∂(Pᵀ δr_all)/∂q[w] exactly (δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction
+  with the inertia tangent, the dependent rates following the links through their compiled buffers), plus
+  s ∂/∂q(∂(Pᵀ r)/∂q[w]) δq at fixed r = r_all — the links' second derivatives, which no generated kernel holds: a
+  Richardson-extrapolated central difference of the links alone (:data:`LINKS_STEP`; their kinematics completed at
+  the moved configurations, the geometric term of the fixed r_all, no evaluation of the model);
+* differenced, the blocks not generated (as H_rest: loads, cables, couplings, hinges outside :func:`exact_hinges`),
+  Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
+  part's round-off, 1e-8 of H δq over the step on the slider-crank), centrally along each column's move (δq, the free
+  rates along δv, δv̇, the dependent ones completed) as before, two evaluations a parameter — none where the model
+  has no such block (:func:`linked_has_rest`).
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
 evaluations a parameter; its transpose in the adjoint, two a free rate). Which terms of K move with the rates is
@@ -79,8 +85,9 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["configuration_tangent_of_weight", "exact_hinges", "needs_the_kernel", "refuse_without_kernel", "rest_support",
-           "stiffness_moving_with_rates", "times", "transposed_times"]
+__all__ = ["configuration_tangent_of_weight", "exact_hinges", "geometric_product", "linked_configuration_tangent",
+           "linked_geometric_derivative", "linked_has_rest", "linked_rest_product", "needs_the_kernel",
+           "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
 #: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
 STIFFNESS_BLOCKS = ("elements", "joint bodies", "joints", "loads and cables", "controllers' couplings")
@@ -389,28 +396,103 @@ def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, g
     return assembler.assemble(rest)
 
 
-def linked_remainder_product(assembler, state, ev, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
-    """The part of the reduced W w at ``state`` (evaluated: ``ev``) whose derivative along δq is not exact (n,): the
-    blocks not generated, Pᵀ W_rest P w (:func:`_linked_weight`), and the reduction's geometric term
-    s ∂(Pᵀ r_all)/∂q[w] at the evaluation's r_all (``LinkedEvaluation.assembled_residual``, csrc/links.c
-    ``geometric_term`` times w, ``latdyn_linked_geometric_product``), each computed directly (not as W w less the
-    exact part, whose round-off over a difference's step is 1e-8 of H δq on the slider-crank)."""
+def linked_has_rest(assembler) -> bool:
+    """Whether a model with rigid links or guides has blocks whose part of H is not generated (W_rest of
+    :func:`_linked_weight`): point loads, cable elements, continuous controllers' couplings, or a free hinge not in
+    :func:`exact_hinges`. Without them W_rest is 0 and its difference takes no evaluation."""
+    return bool(len(assembler.loads) or len(assembler.cable_dofs()) or len(assembler.control.coupling_rows)
+                or not np.all(exact_hinges(assembler)))
+
+
+def linked_rest_product(assembler, ev, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
+    """Pᵀ W_rest P w (n,) at the linked evaluation ``ev``: the blocks not generated (:func:`_linked_weight`), whose
+    derivative along δq stays a difference (``TransientSensitivities._linked_weight_derivative``); computed on its own
+    (the reduced W w less the exact part carried that part's round-off, 1e-8 of H δq over the step on the
+    slider-crank)."""
+    P = ev.projection
+    W_rest = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=False)
+    return np.asarray(P.T @ (W_rest @ np.asarray(P @ w))).reshape(-1)
+
+
+def geometric_product(assembler, state, y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """∂(Pᵀ y)/∂q at fixed y, times w (n,), at ``state`` (its dependent nodes completed: J of it in the links'
+    buffers): the forward step's geometric term of y's dependent rows (y on the assembled coordinates), csrc/links.c
+    ``geometric_term`` through ``latdyn_linked_geometric_product`` (csrc/linked_weight.c)."""
     import ctypes
 
     model = assembler.model
-    n, n_asm, size = model.n_dofs, model.n_assembled, model.n_total + 1
-    P = ev.projection
-    W_rest = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=False)
-    out = np.asarray(P.T @ (W_rest @ np.asarray(P @ w))).reshape(-1)
-    y, vector, marked, product = np.zeros(size), np.zeros(size), np.zeros(size, np.int64), np.zeros(size)
-    y[:n_asm] = ev.assembled_residual
+    n, size = model.n_dofs, model.n_total + 1
+    full, vector, marked, out = np.zeros(size), np.zeros(size), np.zeros(size, np.int64), np.zeros(size)
+    full[:len(y)] = y
     vector[:n] = w
     marked[:n] = 1
     native = assembler.native()
     native.library.latdyn_linked_geometric_product(native.model_ref, ctypes.byref(native.configuration(state)),
-                                                   y.ctypes.data, marked.ctypes.data, vector.ctypes.data,
-                                                   product.ctypes.data)
-    return out + scale * product[:n]
+                                                   full.ctypes.data, marked.ctypes.data, vector.ctypes.data,
+                                                   out.ctypes.data)
+    return out[:n]
+
+
+#: the configuration step of the links' own difference in :func:`linked_geometric_derivative` (its second
+#: derivatives: no generated kernel), relative to the length scale over the move's size, and Richardson-extrapolated
+#: from it and its half: the links' kinematics alone, no evaluation, so a step far above round-off
+LINKS_STEP = 1e-3
+
+
+def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray, scale: float, rates,
+                                length: float) -> np.ndarray:
+    """The derivative of the reduction's geometric term in W w, s ∂(Pᵀ r_all)/∂q[w] (module docstring, "Rigid links
+    and guides"), along each column's move (δq, the free rates along ``rates`` = (δv, δv̇), the dependent ones
+    following; None: none moved, the dependent ones still following the configuration) (n, k):
+
+        s ∂(Pᵀ δr_all)/∂q[w] + s ∂/∂q (∂(Pᵀ r)/∂q[w]) δq at fixed r = r_all
+
+    the first exact — δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction with the
+    inertia tangent (the exact ∂r_all/∂q), δq_all = P δq, δv_all = P δv + ∂(J v)/∂q δq,
+    δa_all = P δv̇ + ∂(J a + c)/∂q δq + ∂c/∂v δv (the compiled links' buffers, as csrc/linked_prescribed_rates.c
+    moves the dependent nodes), through the geometric term of δr_all (:func:`_geometric_product`) — the second the
+    links' second derivatives, which no kernel holds: a Richardson-extrapolated central difference of the geometric
+    term at fixed r along δq (:data:`LINKS_STEP`), the links completed at each configuration, no evaluation."""
+    model = assembler.model
+    n, n_asm = model.n_dofs, model.n_assembled
+    ev = assembler.evaluate(state, matrices=True, inertia_tangent=True)
+    P, r_all = ev.projection, ev.assembled_residual
+    K_all, C_all, M_all = ev._assembled(0.0, 0.0, 1.0, True), ev._assembled(0.0, 1.0, 0.0, True), \
+        ev._assembled(1.0, 0.0, 0.0, True)
+    by_velocity, by_acceleration = ev.rates_tangent
+    by_velocity, by_acceleration = np.asarray(by_velocity), np.asarray(by_acceleration)
+    convective = np.asarray(ev.velocity_derivative.toarray() if hasattr(ev.velocity_derivative, "toarray")
+                            else ev.velocity_derivative)
+    dependent = ev.dependent_rows
+    native = assembler.native()
+    out = np.zeros((n, dq.shape[1]))
+    for c in range(dq.shape[1]):
+        along = dq[:, c]
+        dv = rates[0][:, c] if rates is not None else np.zeros(n)
+        dvdot = rates[1][:, c] if rates is not None else np.zeros(n)
+        dq_all = np.asarray(P @ along).reshape(-1)
+        dv_all = np.asarray(P @ dv).reshape(-1)
+        da_all = np.asarray(P @ dvdot).reshape(-1)
+        dv_all[dependent] += by_velocity @ along
+        da_all[dependent] += by_acceleration @ along + convective @ dv
+        moved_residual = K_all @ dq_all + C_all @ dv_all + M_all @ da_all
+        out[:, c] = geometric_product(assembler, state, moved_residual, w)
+
+    def links_term(along, eta):   # the geometric term at fixed r_all, the links completed at the moved configuration
+        moved = assembler.advance(state, eta * along)
+        native.complete_links(moved)
+        return geometric_product(assembler, moved, r_all, w)
+
+    for c in range(dq.shape[1]):   # after every exact column: this moves the links' buffers off the state
+        along = dq[:, c]
+        size = float(np.max(np.abs(along), initial=0.0))
+        if size == 0.0:
+            continue
+        h = LINKS_STEP * length / size
+        central = [(links_term(along, step) - links_term(along, -step)) / (2 * step) for step in (h, h / 2)]
+        out[:, c] += (4 * central[1] - central[0]) / 3
+    native.complete_links(state)
+    return scale * out
 
 
 def _rates_jacobian_derivative(assembler, state, w: np.ndarray) -> np.ndarray:

@@ -169,7 +169,7 @@ def reduce_linked(links, assembler, state, full, matrices: bool, inertia: bool,
                            hinge_work_torque=full.hinge_work_torque, hinge_damper_torque=full.hinge_damper_torque,
                            cable_work=full.cable_work)
     # r_all, the residual on the assembled coordinates before the reduction: its dependent rows make the geometric
-    # term (an event weight's derivative, latdyn/analyses/weight_derivative.py ``linked_remainder_product``)
+    # term (an event weight's derivative, latdyn/analyses/weight_derivative.py ``linked_geometric_derivative``)
     out.assembled_residual = np.array(full.residual)
     if matrices:
         small = n_asm <= DENSE_LIMIT
