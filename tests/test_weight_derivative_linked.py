@@ -10,6 +10,8 @@ W w, closer than the single central difference of W w that it replaces (measured
 derivative on linked models exact (issue 34)")."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import yaml
@@ -18,6 +20,7 @@ import latdyn
 from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.assembly.assembler import unpack_free
 from latdyn.assembly.prepare import prepare
+from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_in_loop_linked2 import CRANK_STOP
 from tests.test_sensitivities_rigid_links import CLOSED_SLIDER_CRANK, GIMBAL, LATCH, SLIDER_CRANK, STOP
 
@@ -151,3 +154,16 @@ def test_the_geometric_terms_derivative_is_the_richardson_difference_along_confi
     reference = (16 * (4 * d3 - d2) / 3 - (4 * d2 - d1) / 3) / 15
     assert np.max(np.abs(reference)) > 0.0
     assert np.max(np.abs(exact - reference)) <= 1e-10 * np.max(np.abs(reference))
+
+
+def test_the_gimbal_bouncing_through_the_cli_writes_the_apis_sensitivities_loop_on_and_off(tmp_path):
+    """A guard (it passes on 6cda559 too: the events take the Python path on both sides of the loop's switch): the 3D
+    gimbal bouncing twice on its inner ring's stop through ``latdyn run`` — steps in the loop, the loop off writing the
+    same files byte for byte (and the same event sensitivities), the API's event sensitivities the CLI's."""
+    run, out = latdyn_run(tmp_path, STOP, quiet=True)
+    assert run.returncode == 0, run.stderr
+    summary = summary_of(out)
+    assert summary["sensitivity_steps_in_loop"] > 0 and [e["kind"] for e in summary["events"]] == ["stop", "stop"]
+    the_loop_off_writes_the_same(tmp_path, out)
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(STOP)))
+    assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
