@@ -271,14 +271,14 @@ def test_root_moment_closed_loop_is_open_loop_plus_bkc(axis, tip, moment):
     assert np.max(np.abs(closed["A"] - opened["A"])) > 1e-3 * np.max(np.abs(opened["A"]))  # the loop acts
 
 
-def test_sensitivities_through_a_section_force_sensor_are_refused(tmp_path):
+def test_sensitivities_through_a_section_force_sensor_by_its_sections_value_are_refused(tmp_path):
     """Exit 2 naming solve.sensitivities: the section force's explicit dependence on the section's law is not
-    differentiated."""
-    text = BAR.format(solve="{t_end: 0.1, dt: 0.002, sensitivities: [g]}").replace(
-        "inputs: {g: 2.0, F0: 30.0}", "parameters: {g: 2.0, F0: 30.0}")
+    taken through the controller (its gain g is: tests/test_sensitivities_in_loop_controller_reads.py)."""
+    text = BAR.format(solve="{t_end: 0.1, dt: 0.002, sensitivities: [g, EA]}").replace(
+        "inputs: {g: 2.0, F0: 30.0}", "parameters: {g: 2.0, F0: 30.0, EA: 400.0}").replace("EA: 400.0,", 'EA: "EA",')
     completed, _ = latdyn_run(tmp_path, text)
     assert completed.returncode == 2, completed.stderr
-    assert "solve.sensitivities" in completed.stderr and "reads a force (a cable's tension" in completed.stderr
+    assert "solve.sensitivities" in completed.stderr and "sections.s.EA" in completed.stderr
     assert "Traceback" not in completed.stderr
 
 

@@ -1262,19 +1262,55 @@ class ArcLengthSensitivities(StaticSensitivities):
 
 
 def _force_sensor_refusal(scene) -> str | None:
-    """A continuous controller that reads a cable's tension, an element's section force or a joint's force
-    (latdyn/assembly/control.py ``CABLE_TENSION``, ``SECTION_FORCE``, ``JOINT_FORCE``): the force's explicit
-    dependence on its law's parameters (a cable's EA, damping, rest length; a section's EA, EI, GJ; a
-    joint's stiffness, damping, torque) is not differentiated here, so such runs are refused."""
-    forces = {p.name for p in scene.output.probes if (p.kind == "cable" and p.quantity == "tension")
+    """Why a continuous controller that reads a force (a cable's tension, an element's section force, a free joint's
+    torque or force: latdyn/assembly/control.py ``CABLE_TENSION``, ``SECTION_FORCE``, ``JOINT_FORCE``) keeps the
+    sensitivities from being exact, or None. Along the carried δq, δv the sensor's derivative is in the step's exact
+    K and C already (the coupling entries, from the generated cable_tension, beam_section_forces_D_q and the joint's
+    hinge_force: csrc/evaluate.c ``sensor_jacobian``), and the controller's ∂f/∂p is read at the sensor's value (the
+    evaluation's, :meth:`ControllerTerms.sensed_in_c`); the force's own explicit dependence on a parameter (∂F/∂p of
+    the cable's EA, damping or rest length, the element's section values or a geometry parameter, the joint's laws)
+    and on t beside events (∂F/∂t δt) is not taken through the controller yet, so those are refused (a parameter
+    used in the sensed force's laws, a sensed law of t in a run with events), as are readers with states or sampled
+    ones (their δs along δq)."""
+    forces = {p.name: p for p in scene.output.probes if (p.kind == "cable" and p.quantity == "tension")
               or p.kind == "element" or (p.kind in ("hinge", "guide") and p.quantity in ("torque", "force"))}
+    uses = {used: name for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)}
+    timed = _law_in_time(scene)
     for c in scene.controllers.values():
-        read = sorted(forces & set(c.reads))
-        if read and not c.sampled:
-            return (f"sensitivities of runs with a continuous controller that reads a force (a cable's tension, a "
-                    f"section or joint force: {c.name} reads {read[0]!r}) are not computed yet; expected "
-                    "coordinates (a cable's length, an angle, a point), or no sensitivities")
+        read = sorted(set(forces) & set(c.reads))
+        if not read or c.sampled:
+            continue
+        if c.states:
+            return (f"sensitivities of runs with a continuous controller with states that reads a force (a cable's "
+                    f"tension, a section or joint force: {c.name} reads {read[0]!r}) are not computed yet; expected "
+                    "coordinates (a cable's length, an angle, a point), or a controller without states")
+        for name in read:
+            prefixes, laws = _sensed_force_laws(scene, forces[name])
+            moved = sorted(used for used in uses if used.startswith(prefixes)
+                           or (forces[name].kind == "element" and GEOMETRY_KEY.match(used)))
+            if moved:
+                return (f"controller {c.name!r} reads the force {name!r}, whose law parameter {uses[moved[0]]!r} "
+                        f"moves ({moved[0]}): the force's own derivative by a parameter is not taken through a "
+                        "controller yet; expected the parameters elsewhere (the controller's output, loads, …)")
+            if has_events(scene) and any(timed(law) for law in laws):
+                return (f"controller {c.name!r} reads the force {name!r}, whose law depends on t, in a run with "
+                        "events (a latch, a stop, a cable's change): its rate in t is not taken through a controller "
+                        "yet; expected a law of the state alone")
     return None
+
+
+def _sensed_force_laws(scene, probe) -> tuple:
+    """(the key prefixes of the laws a force probe's value reads, those laws) for :func:`_force_sensor_refusal`."""
+    if probe.kind == "cable":
+        return (f"cables.{probe.beam}.",), [scene.cables[probe.beam].rest_length]
+    if probe.kind == "element":
+        section = scene.beams[probe.beam].section
+        return tuple(f"sections.{n}." for n, s in scene.sections.items() if s is section), []
+    if probe.kind == "hinge":
+        joint = next(h for beam, which, h in scene.hinges if (beam, which) == (probe.beam, probe.end))
+        return (f"beams.{probe.beam}.{probe.end}.hinge.",), [joint.stiffness, joint.damping, joint.torque]
+    joint = scene.bodies[probe.body].guide
+    return (f"bodies.{probe.body}.guide.",), [joint.stiffness, joint.damping, joint.force]
 
 
 class ControllerTerms:

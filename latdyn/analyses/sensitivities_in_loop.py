@@ -386,8 +386,8 @@ def _controller_refusal(owner) -> str | None:
     torques, guide forces or, without rigid links or guides, load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add)."""
     from latdyn.analyses.derivative_laws import chained_outputs
-    from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CONTROLLER, OFFSET_POSITION, \
-        OFFSET_VELOCITY, POSITION, RATE, VELOCITY
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_TENSION, CONTROLLER, JOINT_FORCE, \
+        OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
 
     terms = owner.controllers
     linked = owner.model.links is not None
@@ -401,7 +401,9 @@ def _controller_refusal(owner) -> str | None:
     if not continuous:
         return None
     kinds = (ANGLE, RATE) if linked else (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY,
-                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER)
+                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER, CABLE_TENSION, SECTION_FORCE,
+                                          JOINT_FORCE)
+    inputs = set(owner.scene.inputs.names) if owner.scene.inputs is not None else set()
     chained = set(chained_outputs(terms))
     if any(name not in terms.compiled.outputs for name in chained):
         return "controllers of a chain whose outputs did not compile"
@@ -410,11 +412,12 @@ def _controller_refusal(owner) -> str | None:
         if c.name not in terms.partials and c.name not in chained:
             continue
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
-        if tuple(c.reads) != wiring.sensor_names(k) or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
+        if tuple(r for r in c.reads if r not in inputs) != wiring.sensor_names(k) \
+                or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
             return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
-                    + ("other than hinge angles and rates (a model with rigid links or guides)" if linked else
-                       "an input or a probe other than joint coordinates and rates and points' positions and "
-                       "velocities"))
+                    + ("other than hinge angles and rates and inputs (a model with rigid links or guides)" if linked
+                       else "a probe other than joint coordinates and rates, points' positions and velocities, "
+                       "cables' tensions, elements' section forces and joints' forces, or an input"))
         if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
                           if int(of) == k):
             return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
@@ -453,6 +456,30 @@ def _time_refusal(owner) -> str | None:
         elif not _LOAD_KEY.match(key):
             return f"explicit time dependence beside events: {key}"
     return None
+
+
+def _reads(wiring, inputs) -> tuple:
+    """The arguments of each continuous controller's compiled laws in its reads' order (ControllerTerms.add's), as
+    csrc/sensitivity_loop.c ``controller_parameter_forces`` reads them: (each one's first entry, then the total; kinds;
+    indices) — a sensor of the wiring as kind 0 (a hinge's θ, index the hinge), 1 (its θ̇), 3 (an earlier controller's
+    output, index its place) or 2 (a value the evaluation left in Work's sensor_values: points, forces; index the
+    sensor's place), an input (``inputs``: the scene's inputs' names) as kind 4, index its place in their array."""
+    from latdyn.assembly.control import ANGLE, CONTROLLER, RATE
+
+    start, kinds, indices = [0], [], []
+    for k, c in enumerate(wiring.controllers):
+        sensors = dict(zip(wiring.sensor_names(k), range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))))
+        for name in c.reads:
+            i = sensors.get(name)
+            if i is None:   # an input (_controller_refusal: every other read is one of its sensors)
+                kinds.append(4)
+                indices.append(list(inputs).index(name))
+                continue
+            kind = {ANGLE: 0, RATE: 1, CONTROLLER: 3}.get(int(wiring.sensor_kind[i]), 2)
+            kinds.append(kind)
+            indices.append(i if kind == 2 else int(wiring.sensor_index[i]))
+        start.append(len(kinds))
+    return start, kinds, indices
 
 
 class SensitivityLoop:
@@ -760,9 +787,7 @@ class SensitivityLoop:
     def _controllers(self) -> None:
         """The continuous controllers' parameter uses (ControllerTerms.add), in its order: each use's controller (its
         place in the wiring) and column, its law's number its place (ControllerPartials); the sensors of each
-        controller; the hinge actuators in the wiring's order."""
-        from latdyn.assembly.control import ANGLE, CONTROLLER, RATE
-
+        controller (:func:`_reads`); the hinge actuators in the wiring's order."""
         owner, d = self.owner, self.data
         terms = owner.controllers
         d.n_partials, d.sampled_held, d.n_actuated_loads, d.n_sampled_loads = 0, None, 0, 0
@@ -780,17 +805,17 @@ class SensitivityLoop:
         d.partial_controller = ints([place[name] for name, _, _ in uses])
         d.partial_column = ints([column for _, column, _ in uses])
         d.n_partial_controllers = wiring.n
-        d.read_start = ints(wiring.sensor_start[:wiring.n + 1])
-        d.read_kind = ints([{ANGLE: 0, RATE: 1, CONTROLLER: 3}.get(int(kind), 2)
-                            for kind in wiring.sensor_kind[:wiring.n_sensors]])
-        d.read_index = ints(wiring.sensor_index[:wiring.n_sensors])
+        inputs = owner.scene.inputs
+        start, kinds, indices = _reads(wiring, inputs.names if inputs is not None else ())
+        d.read_start, d.read_kind, d.read_index = ints(start), ints(kinds), ints(indices)
+        d.input_values = inputs.values.ctypes.data if inputs is not None else None   # (never reallocated)
         hinges = [(int(index), int(of), float(gain) if gain else 1.0) for kind, index, of, gain in zip(
             wiring.actuator_kind, wiring.actuator_index, wiring.actuator_controller, wiring.actuator_gain) if kind == 0]
         d.n_hinge_actuators = len(hinges)
         d.actuator_hinge, d.actuator_of = ints([h for h, _, _ in hinges]), ints([of for _, of, _ in hinges])
         d.actuator_factor = self._pointer(np.array([factor for _, _, factor in hinges], float))
         d.controller_slopes = self._pointer(np.zeros(wiring.n * len(owner.names)))
-        width = max([1] + [int(wiring.sensor_start[k + 1] - wiring.sensor_start[k]) for k in range(wiring.n)])
+        width = max([1] + [int(start[k + 1] - start[k]) for k in range(wiring.n)])
         d.controller_scratch = self._pointer(np.zeros(2 * width + 1))
         d.output_law = ints([terms.compiled.outputs.get(c.name, -1) for c in wiring.controllers])
         d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)
