@@ -62,10 +62,15 @@ no other explicit time dependence or controller, ``_reels_alone``) and through h
 t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
-clip) for controllers without states that read hinge angles and rates alone and drive hinge torques, and on a model
+clip) for controllers without states that read hinge angles and rates and inputs (constant in a run: the compiled laws
+read the scene's inputs' array, bound before each call of the loop; the law's argument read from that array,
+``_reads`` kind 4) and drive hinge torques, and on a model
 without rigid links or guides also for those that read points' positions, displacements and velocities (global, or in a
-body's axes: the values the evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
-Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c), that read earlier
+body's axes), cables' tensions, elements' section forces and free joints' torques and forces (the values the
+evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
+Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
+δq, δv is in the exact K and C on both paths, and where a parameter moves the force's own laws both paths refuse the
+run: sensitivities._force_sensor_refusal), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -96,9 +101,8 @@ energy_sensitivities.external_work_after_event). Not native (the Python path): h
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
-sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a
-parameter reads and that reads one), chains, sensors other than hinge and guide angles and rates and load actuators
-on a model with rigid links or guides, controllers reading cables', elements' or joints' forces, explicit time
+sampled ones on a model with rigid links or guides, chains, sensors other than hinge and guide angles and rates and
+inputs, and load actuators, on a model with rigid links or guides, controllers reading cables' lengths, explicit time
 dependence beside events through reels beside other explicit time dependence
 or controllers, controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
@@ -378,9 +382,10 @@ def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
     without states (sampled ones, states: the Python path) whose parameters' partials compiled
     (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
-    controller reads (derivative_laws.chained_outputs) reads only probes and earlier continuous controllers (no input:
-    its reads are its wiring's sensors) — hinge and guide angles and rates, and on a model without rigid links or guides
-    also the global components of a point's position, displacement or velocity and their components in a body's axes
+    controller reads (derivative_laws.chained_outputs) reads only inputs (:func:`_reads`), probes and earlier continuous
+    controllers — hinge and guide angles and rates, and on a model without rigid links or guides
+    also the global components of a point's position, displacement or velocity and their components in a body's axes,
+    cables' tensions, elements' section forces and free joints' forces
     (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or, without rigid links or guides, load components (:func:`controller_parameter_forces` of
