@@ -6,10 +6,10 @@ latdyn/analyses/sensitivities.py ``_force_sensor_refusal``).
 An input is constant in a run: the compiled laws read the scene's inputs' array (bound before each call of the loop),
 ∂/∂p and ∂/∂t of it are 0. A force sensor's coupling along δq, δv is in the step's exact K and C (csrc/evaluate.c
 ``sensor_jacobian``: the generated cable_tension, beam_section_forces_D_q, the joint's hinge_force), the controller's
-∂f/∂p is read at the value the evaluation left in Work (``sensor_values``, the same C on both paths); a parameter in
-the sensed force's own laws is refused (its ∂F/∂p is not taken through the controller yet). Each scene is 3D; the loop's
+∂f/∂p is read at the value the evaluation left in Work (``sensor_values``, the same C on both paths). Each scene is 3D; the loop's
 sensitivities are the per-step Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, and they
-agree with Richardson-extrapolated central differences."""
+agree with Richardson-extrapolated central differences. A parameter in the sensed force's own laws is differentiated
+on the Python path (its ∂F/∂p through ∂f/∂s), which the loop does not take yet."""
 from __future__ import annotations
 
 import numpy as np
@@ -101,14 +101,9 @@ def _scene(text: str, only: str | None = None, **values):
     return latdyn.load_scene(data)
 
 
-@pytest.mark.parametrize("text, name", [(BOOM_INPUT, "Kp"), (ARM_TORQUE, "Kt"), (ARM_AXIAL, "Ka"), (CABLE_LIMIT, "Kt")],
-                         ids=["input set point", "hinge torque", "axial force", "cable tension"])
-def test_the_sensitivities_agree_with_differences(text, name):
-    """The sensitivities by the gain on the input or the force, every probe over the rows, against
-    Richardson-extrapolated central differences (steps 1e-4 and 5e-5 of the value): measured 4e-9 to 4e-8 of each
-    probe's largest."""
-    result = latdyn.run(_scene(text, name))
-    assert result.summary["sensitivity_steps_in_loop"] > 0
+def _agree(result, text: str, name: str) -> None:
+    """``result``'s sensitivities by ``name``, every probe over the rows, within 1e-6 of each probe's largest of
+    Richardson-extrapolated central differences of whole runs (steps 1e-4 and 5e-5 of the value)."""
     p0 = yaml.safe_load(text)["parameters"][name]
     central = []
     for step in (1e-4 * abs(p0), 5e-5 * abs(p0)):
@@ -118,6 +113,17 @@ def test_the_sensitivities_agree_with_differences(text, name):
         expected = (4 * central[1][probe] - central[0][probe]) / 3
         error = np.abs(result.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max()
         assert error <= 1e-6, (probe, name, error)
+
+
+@pytest.mark.parametrize("text, name", [(BOOM_INPUT, "Kp"), (ARM_TORQUE, "Kt"), (ARM_AXIAL, "Ka"), (CABLE_LIMIT, "Kt")],
+                         ids=["input set point", "hinge torque", "axial force", "cable tension"])
+def test_the_sensitivities_agree_with_differences(text, name):
+    """The sensitivities by the gain on the input or the force, every probe over the rows, against
+    Richardson-extrapolated central differences (steps 1e-4 and 5e-5 of the value): measured 4e-9 to 4e-8 of each
+    probe's largest."""
+    result = latdyn.run(_scene(text, name))
+    assert result.summary["sensitivity_steps_in_loop"] > 0
+    _agree(result, text, name)
 
 
 def test_an_input_set_before_the_run_is_the_one_the_loop_reads(monkeypatch):
@@ -147,14 +153,34 @@ def test_the_cli_writes_the_python_paths_files_for_the_tension_limit(tmp_path):
     the_loop_off_writes_the_same(tmp_path, out)
 
 
-@pytest.mark.parametrize("text, old, new, moved", [
-    (ARM_TORQUE, "stiffness: 30.0", 'stiffness: "30*E"', "beams.b.start.hinge.stiffness"),
-    (ARM_AXIAL, "[F, Ka, m]", "[F, Ka, E]", "sections.s.EA"),
-    (CABLE_LIMIT, "[Kp, Kt, EI, m]", "[Kp, Kt, EA]", "cables.stay.EA")], ids=["hinge", "element", "cable"])
-def test_a_parameter_in_the_sensed_forces_law_is_refused_naming_it(text, old, new, moved):
-    """The force's own ∂F/∂p is not taken through the controller yet: a SceneError naming solve.sensitivities, the
-    parameter and the key it moves."""
-    assert old in text
+#: the scenes with a parameter in the sensed force's own laws: the hinge's stiffness 30 E, the section's E (EA, EI, GJ
+#: of the element read), the cable's EA, damping and rest length
+TORQUE_K = ARM_TORQUE.replace("stiffness: 30.0", 'stiffness: "30*E"')
+AXIAL_E = ARM_AXIAL.replace("[F, Ka, m]", "[F, Ka, E]")
+CABLE_EA = CABLE_LIMIT.replace("[Kp, Kt, EI, m]", "[Kp, Kt, EA, c]")
+assert 'stiffness: "30*E"' in TORQUE_K and "[F, Ka, E]" in AXIAL_E and "[Kp, Kt, EA, c]" in CABLE_EA
+
+
+@pytest.mark.parametrize("text, name", [(TORQUE_K, "E"), (AXIAL_E, "E"), (CABLE_EA, "EA")],
+                         ids=["hinge stiffness", "section values", "cable EA"])
+def test_a_parameter_in_the_sensed_forces_laws_is_differentiated_on_the_python_path(text, name, monkeypatch):
+    """The force's own ∂F/∂p through ∂f/∂s (ControllerTerms.sensed_force_slopes: the probes' explicit parts, the
+    generated beam_section_forces_D_section, cable_force, hinge_force): every step from Python (the loop refuses it:
+    not in C yet), the same bits with the switch either way, and agreement with Richardson differences (measured
+    1.1e-9–5.6e-8, the cable's damping c too, 3.3e-8; without the term 2.4e-2 on the hinge)."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert native.summary["sensitivity_steps_in_loop"] == 0 and native.summary["time_loop"] == "python"
+    _same(native, python)
+    result = latdyn.run(_scene(text, name))
+    _agree(result, text, name)
+
+
+def test_a_force_read_by_a_controller_with_states_is_refused_naming_it():
+    """A controller with states reading the hinge's torque: its states' step would need the force's δs along δq; a
+    SceneError naming solve.sensitivities and the controller."""
+    text = ARM_TORQUE.replace('"Kt*tq + 0.2*hinge", limits: [-6, 6]}', '"Kt*tq + 0.2*hinge + I", states: {I: "tq"}}')
+    assert "states: {I:" in text
     with pytest.raises(SceneError) as refused:
-        latdyn.run(latdyn.load_scene(yaml.safe_load(text.replace(old, new))))
-    assert "solve.sensitivities" in str(refused.value) and moved in str(refused.value), str(refused.value)
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert "solve.sensitivities" in str(refused.value) and "relief reads 'tq'" in str(refused.value), str(refused.value)
+    assert "with states that reads a force" in str(refused.value), str(refused.value)

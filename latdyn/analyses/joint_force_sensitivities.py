@@ -72,7 +72,8 @@ def refusal(scene, probe) -> str | None:
                 f"(bodies.{guides[0]}.guide): its sensors' derivatives through the guides' reduction are not part of "
                 "the joint's force derivative yet")
     # a continuous controller without states reading the force: its coupling is in K and C, its ∂f/∂p at the
-    # force's value (sensitivities._force_sensor_refusal says where); states and samples would need δs along δq
+    # force's value and ∂f/∂s ∂F/∂p (sensitivities.ControllerTerms.sensed_force_slopes); states and samples would
+    # need δs along δq
     readers = sorted(c.name for c in (getattr(scene, "controllers", None) or {}).values()
                      if probe.name in c.reads and (c.states or c.sampled))
     if readers:

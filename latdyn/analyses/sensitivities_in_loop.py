@@ -69,8 +69,8 @@ without rigid links or guides also for those that read points' positions, displa
 body's axes), cables' tensions, elements' section forces and free joints' torques and forces (the values the
 evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
-δq, δv is in the exact K and C on both paths, and where a parameter moves the force's own laws both paths refuse the
-run: sensitivities._force_sensor_refusal), that read earlier
+δq, δv is in the exact K and C on both paths; where a parameter moves the force's own laws, its ∂F/∂p through ∂f/∂s
+is the Python path's alone: ControllerTerms.sensed_force_slopes), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -102,7 +102,8 @@ names θ, θ̇ or an input and does not compile (every form of the expression la
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
 sampled ones on a model with rigid links or guides, chains, sensors other than hinge and guide angles and rates and
-inputs, and load actuators, on a model with rigid links or guides, controllers reading cables' lengths, explicit time
+inputs, and load actuators, on a model with rigid links or guides, controllers reading cables' lengths or a force
+whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C), explicit time
 dependence beside events through reels beside other explicit time dependence
 or controllers, controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
@@ -398,6 +399,9 @@ def _controller_refusal(owner) -> str | None:
     linked = owner.model.links is not None
     if terms.states is not None:
         return "controllers with states"
+    moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads)
+    if moved:   # ∂f/∂s ∂F/∂p (ControllerTerms.sensed_force_slopes): NumPy and the probes' kernels, not in C yet
+        return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
     if terms.sampled is not None and linked:
         return "sampled controllers on a model with rigid links or guides"
     continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
