@@ -66,7 +66,7 @@ clip) for controllers without states that read hinge angles and rates and inputs
 read the scene's inputs' array, bound before each call of the loop; the law's argument read from that array,
 ``_reads`` kind 4) and drive hinge torques, and on a model
 without rigid links or guides also for those that read points' positions, displacements and velocities (global, or in a
-body's axes), cables' tensions, elements' section forces and free joints' torques and forces (the values the
+body's axes), cables' lengths and tensions, elements' section forces and free joints' torques and forces (the values the
 evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
 δq, δv is in the exact K and C on both paths; where a parameter moves the force's own laws, its ∂F/∂p through ∂f/∂s
@@ -102,7 +102,7 @@ names θ, θ̇ or an input and does not compile (every form of the expression la
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
 sampled ones on a model with rigid links or guides, chains, sensors other than hinge and guide angles and rates and
-inputs, and load actuators, on a model with rigid links or guides, controllers reading cables' lengths or a force
+inputs, and load actuators, on a model with rigid links or guides, controllers reading a force
 whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C), explicit time
 dependence beside events through reels beside other explicit time dependence
 or controllers, controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
@@ -386,14 +386,14 @@ def _controller_refusal(owner) -> str | None:
     controller reads (derivative_laws.chained_outputs) reads only inputs (:func:`_reads`), probes and earlier continuous
     controllers — hinge and guide angles and rates, and on a model without rigid links or guides
     also the global components of a point's position, displacement or velocity and their components in a body's axes,
-    cables' tensions, elements' section forces and free joints' forces
+    cables' lengths and tensions, elements' section forces and free joints' forces
     (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or, without rigid links or guides, load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add)."""
     from latdyn.analyses.derivative_laws import chained_outputs
-    from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_TENSION, CONTROLLER, JOINT_FORCE, \
-        OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_LENGTH, CABLE_TENSION, CONTROLLER, \
+        JOINT_FORCE, OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
 
     terms = owner.controllers
     linked = owner.model.links is not None
@@ -410,8 +410,8 @@ def _controller_refusal(owner) -> str | None:
     if not continuous:
         return None
     kinds = (ANGLE, RATE) if linked else (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY,
-                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER, CABLE_TENSION, SECTION_FORCE,
-                                          JOINT_FORCE)
+                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER, CABLE_LENGTH, CABLE_TENSION,
+                                          SECTION_FORCE, JOINT_FORCE)
     inputs = set(owner.scene.inputs.names) if owner.scene.inputs is not None else set()
     chained = set(chained_outputs(terms))
     if any(name not in terms.compiled.outputs for name in chained):
@@ -426,7 +426,7 @@ def _controller_refusal(owner) -> str | None:
             return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
                     + ("other than hinge angles and rates and inputs (a model with rigid links or guides)" if linked
                        else "a probe other than joint coordinates and rates, points' positions and velocities, "
-                       "cables' tensions, elements' section forces and joints' forces, or an input"))
+                       "cables' lengths and tensions, elements' section forces and joints' forces, or an input"))
         if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
                           if int(of) == k):
             return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
