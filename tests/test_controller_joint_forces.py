@@ -144,14 +144,17 @@ def test_a_joint_force_driven_by_a_continuous_controller_or_on_a_static_path_is_
         assert "controllers.ctl.output" in str(refused.value) and says in str(refused.value), str(refused.value)
 
 
-def test_sensitivities_through_a_joint_force_sensor_are_refused(tmp_path):
-    """Exit 2 naming solve.sensitivities: the joint force's explicit dependence on its law's parameters is not
-    differentiated."""
-    text = guided().replace("inputs: {g: 1.5, u: 0.0}", "parameters: {g: 1.5}").replace(
-        "solve: {t_end: 1.5, dt: 0.002}", "solve: {t_end: 0.1, dt: 0.002, sensitivities: [g]}")
+def test_sensitivities_through_a_joint_force_read_by_a_controller_with_states_are_refused(tmp_path):
+    """Exit 2 naming solve.sensitivities: a controller with states would need the joint force's derivative along δq
+    in its states' step (a stateless reader is differentiated, by its gain and the joint's own laws:
+    tests/test_sensitivities_in_loop_controller_reads.py)."""
+    text = guided().replace("inputs: {g: 1.5, u: 0.0}", "parameters: {g: 1.5, k: 30.0}").replace(
+        "solve: {t_end: 1.5, dt: 0.002}", "solve: {t_end: 0.1, dt: 0.002, sensitivities: [g, k]}").replace(
+        "stiffness: 30.0", 'stiffness: "k"').replace('ctl: {output: "g*F"}', 'ctl: {output: "g*F + I", states: {I: "F"}}')
+    assert "states: {I:" in text
     completed, _ = latdyn_run(tmp_path, text)
     assert completed.returncode == 2, completed.stderr
-    assert "solve.sensitivities" in completed.stderr and "reads a force (a cable's tension" in completed.stderr
+    assert "solve.sensitivities" in completed.stderr and "with states that reads a force" in completed.stderr
     assert "Traceback" not in completed.stderr
 
 

@@ -271,14 +271,17 @@ def test_root_moment_closed_loop_is_open_loop_plus_bkc(axis, tip, moment):
     assert np.max(np.abs(closed["A"] - opened["A"])) > 1e-3 * np.max(np.abs(opened["A"]))  # the loop acts
 
 
-def test_sensitivities_through_a_section_force_sensor_are_refused(tmp_path):
-    """Exit 2 naming solve.sensitivities: the section force's explicit dependence on the section's law is not
-    differentiated."""
-    text = BAR.format(solve="{t_end: 0.1, dt: 0.002, sensitivities: [g]}").replace(
-        "inputs: {g: 2.0, F0: 30.0}", "parameters: {g: 2.0, F0: 30.0}")
+def test_sensitivities_through_a_section_force_read_by_a_controller_with_states_are_refused(tmp_path):
+    """Exit 2 naming solve.sensitivities: a controller with states would need the section force's derivative along
+    δq in its states' step (a stateless reader is differentiated, by its gain and the section's own values:
+    tests/test_sensitivities_in_loop_controller_reads.py)."""
+    text = BAR.format(solve="{t_end: 0.1, dt: 0.002, sensitivities: [g, EA]}").replace(
+        "inputs: {g: 2.0, F0: 30.0}", "parameters: {g: 2.0, F0: 30.0, EA: 400.0}").replace("EA: 400.0,", 'EA: "EA",')
+    text = text.replace('ctl: {output: "F0 - g*N"}', 'ctl: {output: "F0 - g*N + I", states: {I: "0.1*N"}}')
+    assert "states: {I:" in text
     completed, _ = latdyn_run(tmp_path, text)
     assert completed.returncode == 2, completed.stderr
-    assert "solve.sensitivities" in completed.stderr and "reads a force (a cable's tension" in completed.stderr
+    assert "solve.sensitivities" in completed.stderr and "with states that reads a force" in completed.stderr
     assert "Traceback" not in completed.stderr
 
 

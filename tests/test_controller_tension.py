@@ -214,14 +214,19 @@ def test_a_sampled_controller_holds_the_tension_the_probe_records(tmp_path):
     assert np.max(np.abs(p["held"][at_samples] - p["T"][at_samples])) <= 1e-12 * np.max(np.abs(p["T"]))
 
 
-def test_sensitivities_through_a_tension_sensor_are_refused(tmp_path):
-    """Exit 2 naming solve.sensitivities: the tension's explicit dependence on the cable's law is not
-    differentiated."""
-    text = held().replace("inputs: {kp: 3.0, ref: 10.0, u: 0.0}", "parameters: {kp: 3.0, ref: 10.0}").replace(
-        "solve: {t_end: 1.0, dt: 0.002}", "solve: {t_end: 0.1, dt: 0.002, sensitivities: [kp]}")
+def test_sensitivities_through_a_tension_read_by_a_controller_with_states_are_refused(tmp_path):
+    """Exit 2 naming solve.sensitivities: a controller with states would need the tension's derivative along δq in
+    its states' step (a stateless reader is differentiated, by its gain and the cable's own values:
+    tests/test_sensitivities_in_loop_controller_reads.py)."""
+    text = held(output="-kp*(T - ref) + I").replace("inputs: {kp: 3.0, ref: 10.0, u: 0.0}",
+                                                    f"parameters: {{kp: 3.0, ref: 10.0, EA: {EA}}}")
+    text = text.replace("solve: {t_end: 1.0, dt: 0.002}", "solve: {t_end: 0.1, dt: 0.002, sensitivities: [kp, EA]}")
+    text = text.replace(f"EA: {EA}, damping", 'EA: "EA", damping').replace('"-kp*(T - ref) + I"}',
+                                                                          '"-kp*(T - ref) + I", states: {I: "0.1*T"}}')
+    assert "states: {I:" in text
     completed, _ = latdyn_run(tmp_path, text)
     assert completed.returncode == 2, completed.stderr
-    assert "solve.sensitivities" in completed.stderr and "reads a force (a cable's tension" in completed.stderr
+    assert "solve.sensitivities" in completed.stderr and "with states that reads a force" in completed.stderr
     assert "Traceback" not in completed.stderr
 
 

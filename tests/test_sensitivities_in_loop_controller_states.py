@@ -74,13 +74,15 @@ def test_the_rate_in_t_agrees_with_central_differences():
     print("worst", _agree(result, TIMED_LATCH, "g", tolerance=1e-5, event_tolerance=1e-6))
 
 
-def test_an_output_of_t_reading_an_input_keeps_the_python_path(monkeypatch):
-    """A guard: a feed-forward of t without parameters that reads an input and pushes the wheel, beside the latch and
-    the parameters' controller, keeps every step on the Python path (its rate in t reaches a controller that reads an input:
-    ``_time_refusal`` through ``_controller_refusal``), its sensitivities still computed."""
+def test_an_output_of_t_reading_an_input_takes_the_loop(monkeypatch):
+    """A feed-forward of t without parameters that reads an input and pushes the wheel, beside the latch and the
+    parameters' controller: its rate in t reaches a controller that reads an input, which the loop now reads too
+    (tests/test_sensitivities_in_loop_controller_reads.py): the smooth steps in the loop, the Python path's bits."""
     text = (TIMED_LATCH.replace("solve: {", 'inputs: {u: 0.05}\nloads:\n  - {at: wheel, force: [0, "ff", 0]}\nsolve: {', 1)
             .replace('"Kp*(a0 + g*sin(3*t) - angle)"}', '"Kp*(a0 + g*sin(3*t) - angle)"}\n  ff: {output: "0.1*sin(4*t) + u"}'))
     assert 'ff: {output: "0.1*sin(4*t) + u"}' in text and 'force: [0, "ff", 0]' in text
-    result = _run(text, monkeypatch, True)
-    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["events"][0]["kind"] == "latch"
-    assert abs(result.summary["event_sensitivities"][0]["dt"]["g"]) > 0.0
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled" and native.summary["events"][0]["kind"] == "latch"
+    assert native.summary["steps"] - 5 <= native.summary["sensitivity_steps_in_loop"] < native.summary["steps"]
+    assert abs(native.summary["event_sensitivities"][0]["dt"]["g"]) > 0.0
+    _same(native, python)

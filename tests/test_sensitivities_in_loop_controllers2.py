@@ -96,11 +96,3 @@ def test_a_controller_with_a_state_keeps_the_python_path(monkeypatch):
     assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
     assert np.abs(result.sensitivities[("tip_z", "Ki")]).max() > 0.0
 
-
-def test_a_controller_reading_an_input_in_a_chain_keeps_the_python_path(monkeypatch):
-    """The chain with the estimator reading an input besides the probes: every step from Python (the loop reads only
-    probes and earlier controllers)."""
-    text = CHAIN.replace("parameters: {", "inputs: {u: 0.1}\nparameters: {").replace('"angle + 0.1*tip_y', '"angle + u*tip_y')
-    assert "u*tip_y" in text
-    result = _run(text, monkeypatch, True)
-    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"

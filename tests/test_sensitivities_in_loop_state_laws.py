@@ -169,12 +169,12 @@ def test_the_cli_writes_the_python_paths_files_for_the_pd_controlled_arm(tmp_pat
     assert summary["probe_sensitivities"] == summary_of(reference)["probe_sensitivities"]
 
 
-def test_controllers_the_loop_does_not_take_keep_the_python_path(monkeypatch):
-    """The PD arm whose controller reads an input besides its hinge takes every step from Python (the loop reads only
-    probes and earlier controllers; tests/test_sensitivities_in_loop_controllers2.py has the wheel and the points'
-    sensors the loop now takes, and the controllers with states and sampled ones it does not)."""
+def test_a_controller_reading_an_input_takes_the_loop(monkeypatch):
+    """The PD arm whose controller reads an input besides its hinge takes every step in the loop (the input's value
+    from the scene's inputs' array: tests/test_sensitivities_in_loop_controller_reads.py), the Python path's bits."""
     reading = ARM_PD.replace('"Kp*(ref - angle) - Kd*omega"}', '"Kp*(ref - angle) - Kd*omega - 0.5*u"}').replace(
         "parameters: {", "inputs: {u: 0.2}\nparameters: {")
     assert "0.5*u" in reading and "inputs: {u: 0.2}" in reading
-    result = _run(reading, monkeypatch, True)
-    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
+    native, python = _run(reading, monkeypatch, True), _run(reading, monkeypatch, False)
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] > 0
+    _same(native, python)

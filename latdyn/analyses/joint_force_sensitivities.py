@@ -31,7 +31,7 @@ columns and the discrete adjoint seeds (latdyn/analyses/adjoint_sensitivities.py
 
 Not differentiated (refused by :func:`refusal`, naming ``solve.sensitivities``): a joint whose torque or
 force a controller drives beside a controller with states or a sampled one, or in a model with guides; a joint
-force a controller reads; static paths (their rows' joint forces are evaluated at the row's λ,
+force a controller with states or a sampled one reads; static paths (their rows' joint forces are evaluated at the row's λ,
 ``ProbeSet.load_factor``, but their derivatives through λ along the path are not built).
 """
 from __future__ import annotations
@@ -71,10 +71,15 @@ def refusal(scene, probe) -> str | None:
         return (f"the joint-force probe {probe.name!r}: controller {named[0]!r} drives {where} in a model with guides "
                 f"(bodies.{guides[0]}.guide): its sensors' derivatives through the guides' reduction are not part of "
                 "the joint's force derivative yet")
-    readers = sorted(c.name for c in (getattr(scene, "controllers", None) or {}).values() if probe.name in c.reads)
+    # a continuous controller without states reading the force: its coupling is in K and C, its ∂f/∂p at the
+    # force's value and ∂f/∂s ∂F/∂p (sensitivities.ControllerTerms.sensed_force_slopes); states and samples would
+    # need δs along δq
+    readers = sorted(c.name for c in (getattr(scene, "controllers", None) or {}).values()
+                     if probe.name in c.reads and (c.states or c.sampled))
     if readers:
-        return (f"controller {readers[0]!r} reads the joint-force probe {probe.name!r}: a sensor's derivative by a "
-                "joint force is not computed yet")
+        return (f"controller {readers[0]!r} reads the joint-force probe {probe.name!r} and has states or is sampled: "
+                "a sensor's derivative by a joint force is not computed there yet (a continuous controller without "
+                "states may read it)")
     return None
 
 

@@ -1262,19 +1262,64 @@ class ArcLengthSensitivities(StaticSensitivities):
 
 
 def _force_sensor_refusal(scene) -> str | None:
-    """A continuous controller that reads a cable's tension, an element's section force or a joint's force
-    (latdyn/assembly/control.py ``CABLE_TENSION``, ``SECTION_FORCE``, ``JOINT_FORCE``): the force's explicit
-    dependence on its law's parameters (a cable's EA, damping, rest length; a section's EA, EI, GJ; a
-    joint's stiffness, damping, torque) is not differentiated here, so such runs are refused."""
-    forces = {p.name for p in scene.output.probes if (p.kind == "cable" and p.quantity == "tension")
+    """Why a continuous controller that reads a force (a cable's tension, an element's section force, a free joint's
+    torque or force: latdyn/assembly/control.py ``CABLE_TENSION``, ``SECTION_FORCE``, ``JOINT_FORCE``) keeps the
+    sensitivities from being exact, or None. Along the carried δq, δv the sensor's derivative is in the step's exact
+    K and C already (the coupling entries, from the generated cable_tension, beam_section_forces_D_q and the joint's
+    hinge_force: csrc/evaluate.c ``sensor_jacobian``), and the controller's ∂f/∂p is read at the sensor's value (the
+    evaluation's, :meth:`ControllerTerms.sensed_in_c`); the force's own explicit dependence on a parameter (∂F/∂p of
+    the cable's EA, damping or rest length, the element's section values, the joint's laws) enters through ∂f/∂s
+    (:meth:`ControllerTerms.sensed_force_slopes`). Refused: a geometry parameter that moves a sensed section force,
+    a sensed law of t in a run with events (∂F/∂t δt is not taken through the controller), and readers with states
+    (their δs along δq)."""
+    forces = {p.name: p for p in scene.output.probes if (p.kind == "cable" and p.quantity == "tension")
               or p.kind == "element" or (p.kind in ("hinge", "guide") and p.quantity in ("torque", "force"))}
+    uses = {used: name for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)}
+    timed = _law_in_time(scene)
     for c in scene.controllers.values():
-        read = sorted(forces & set(c.reads))
-        if read and not c.sampled:
-            return (f"sensitivities of runs with a continuous controller that reads a force (a cable's tension, a "
-                    f"section or joint force: {c.name} reads {read[0]!r}) are not computed yet; expected "
-                    "coordinates (a cable's length, an angle, a point), or no sensitivities")
+        read = sorted(set(forces) & set(c.reads))
+        if not read or c.sampled:
+            continue
+        if c.states:
+            return (f"sensitivities of runs with a continuous controller with states that reads a force (a cable's "
+                    f"tension, a section or joint force: {c.name} reads {read[0]!r}) are not computed yet; expected "
+                    "coordinates (a cable's length, an angle, a point), or a controller without states")
+        for name in read:
+            _, laws = _sensed_force_laws(scene, forces[name])
+            moved = sorted(used for used in uses if forces[name].kind == "element" and GEOMETRY_KEY.match(used))
+            if moved:
+                return (f"controller {c.name!r} reads the force {name!r}, which the geometry parameter "
+                        f"{uses[moved[0]]!r} moves ({moved[0]}): its derivative by a geometry parameter is not taken "
+                        "through a controller yet; expected the parameters elsewhere")
+            if has_events(scene) and any(timed(law) for law in laws):
+                return (f"controller {c.name!r} reads the force {name!r}, whose law depends on t, in a run with "
+                        "events (a latch, a stop, a cable's change): its rate in t is not taken through a controller "
+                        "yet; expected a law of the state alone")
     return None
+
+
+def moved_forces(scene) -> dict:
+    """The force probes (a cable's tension, an element's section force, a joint's torque or force) that a continuous
+    controller reads and whose own laws a parameter of ``solve.sensitivities`` moves, by name."""
+    uses = {used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)}
+    read = {r for c in scene.controllers.values() if not c.sampled for r in c.reads}
+    return {p.name: p for p in scene.output.probes if p.name in read
+            and ((p.kind == "cable" and p.quantity == "tension") or p.kind == "element" or is_joint_force(p))
+            and any(used.startswith(_sensed_force_laws(scene, p)[0]) for used in uses)}
+
+
+def _sensed_force_laws(scene, probe) -> tuple:
+    """(the key prefixes of the laws a force probe's value reads, those laws) for :func:`_force_sensor_refusal`."""
+    if probe.kind == "cable":
+        return (f"cables.{probe.beam}.",), [scene.cables[probe.beam].rest_length]
+    if probe.kind == "element":
+        section = scene.beams[probe.beam].section
+        return tuple(f"sections.{n}." for n, s in scene.sections.items() if s is section), []
+    if probe.kind == "hinge":
+        joint = next(h for beam, which, h in scene.hinges if (beam, which) == (probe.beam, probe.end))
+        return (f"beams.{probe.beam}.{probe.end}.hinge.",), [joint.stiffness, joint.damping, joint.torque]
+    joint = scene.bodies[probe.body].guide
+    return (f"bodies.{probe.body}.guide.",), [joint.stiffness, joint.damping, joint.force]
 
 
 class ControllerTerms:
@@ -1331,6 +1376,11 @@ class ControllerTerms:
         #: controller name -> {an earlier controller it reads: the index of ∂f/∂y_j in its
         #: ``Controller.output_gradient``}
         self.chained = {c.name: {r: i for i, r in enumerate(c.reads) if r in names} for c in self.continuous}
+        #: controller name -> {a force it reads whose own laws a parameter moves: its place in the reads}, and
+        #: those forces' probes by name (:meth:`sensed_force_slopes`)
+        self.moved_forces = moved_forces(scene)
+        self.forces_read = {c.name: {r: i for i, r in enumerate(c.reads) if r in self.moved_forces}
+                            for c in self.continuous}
         self.sensors = ProbeSet(assembler, assembler.initial_state())
         self.assembler, self.owner = assembler, owner
         #: controller name -> dS_{n+1}/dp at the step's end configuration held fixed (p_c, k), set by
@@ -1402,6 +1452,35 @@ class ControllerTerms:
         sensed = native.buffers["sensor_values"]
         return {name: float(sensed[i]) for i, name in wanted}
 
+    def sensed_force_slopes(self, state) -> dict:
+        """∂F/∂p (k,) at ``state`` (the configuration and rates held) of each force a continuous controller reads whose
+        own laws a parameter moves (:func:`moved_forces`), by probe name: a section force's and a cable's tension's
+        explicit part as their probes' sensitivities take it (latdyn/analyses/probe_derivatives.py: the generated
+        beam_section_forces_D_section, cable_force), a free joint's −∂f/∂p of its laws (the generated hinge_force
+        through :meth:`ParameterDerivatives._hinge_force`, its compliant stops' contact_force_D_law), as
+        joint_force_sensitivities.joint_force_forms takes it."""
+        owner, model = self.owner, self.model
+        zero = np.zeros((model.n_dofs, self.k))
+        out = {}
+        for name, probe in self.moved_forces.items():
+            if is_joint_force(probe):
+                j = model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else \
+                    model.hinge_index(probe.body, "guide")
+                d = model.hinge_dofs[j]
+                laws = np.zeros((model.n_total + 1, self.k))
+                for key, by_column in owner.derivatives.items():
+                    _, hinge = owner._key_kinds(key)
+                    if hinge and model.hinge_index(hinge["beam"], hinge["end"]) == j:
+                        for column, law in by_column.items():
+                            laws[d, column] += owner._hinge_force(state, j, hinge["law"], law, 1.0)
+                owner._contact_forces(state, laws)
+                out[name] = -laws[d]
+            else:
+                moved = owner._by_parameter(zero, state)
+                out[name] = np.asarray(probe_derivatives(owner, probe, state, *moved,
+                                                         owner._rates_by_parameter(zero)), float)
+        return out
+
     @staticmethod
     def _laws_naming(scene, controllers: set) -> dict[str, list]:
         """The scene's parsed laws (hinge, guide and cable laws, load components, prescribed motions:
@@ -1436,12 +1515,12 @@ class ControllerTerms:
         if self.sampled is not None:   # the held outputs' δy (SampledTerms)
             self.sampled.add(state, total)
         w = self.assembler.control   # the wiring of the current numbering
-        if not (self.partials or self.held) or not len(w.actuator_kind):
+        if not (self.partials or self.held or any(self.forces_read.values())) or not len(w.actuator_kind):
             return
         values = self.signal_values(state)
         if self.compiled is not None and self.states is None:
             values.update(self.sensed_in_c(state))   # what the loop of steps reads (:meth:`sensed_in_c`)
-        outputs, slopes = {}, {}
+        outputs, slopes, forces = {}, {}, None
         for c in self.continuous:
             arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads],
                          *self.state_values(c)]
@@ -1452,6 +1531,13 @@ class ControllerTerms:
                 for column, partial in self.partials.get(c.name, {}).items():
                     slope[column] += (float(partial(*arguments)) if self.compiled is None else
                                       self.compiled.value(partial, arguments))
+                if self.forces_read.get(c.name):   # ∂f/∂s ∂F/∂p of the forces whose laws a parameter moves
+                    gradient = (c.output_gradient(*arguments) if self.compiled is None else
+                                self.compiled.gradient(c, arguments))
+                    if forces is None:
+                        forces = self.sensed_force_slopes(state)
+                    for read, i in self.forces_read[c.name].items():
+                        slope += gradient[i] * forces[read]
                 if self.chained[c.name] or c.name in self.held:
                     gradient = (c.output_gradient(*arguments) if self.compiled is None else
                                 self.compiled.gradient(c, arguments))

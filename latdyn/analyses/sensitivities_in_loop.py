@@ -62,10 +62,15 @@ no other explicit time dependence or controller, ``_reels_alone``) and through h
 t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
-clip) for controllers without states that read hinge angles and rates alone and drive hinge torques, and on a model
+clip) for controllers without states that read hinge angles and rates and inputs (constant in a run: the compiled laws
+read the scene's inputs' array, bound before each call of the loop; the law's argument read from that array,
+``_reads`` kind 4) and drive hinge torques, and on a model
 without rigid links or guides also for those that read points' positions, displacements and velocities (global, or in a
-body's axes: the values the evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
-Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c), that read earlier
+body's axes), cables' lengths and tensions, elements' section forces and free joints' torques and forces (the values the
+evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
+Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
+δq, δv is in the exact K and C on both paths; where a parameter moves the force's own laws, its ∂F/∂p through ∂f/∂s
+is the Python path's alone: ControllerTerms.sensed_force_slopes), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -96,9 +101,9 @@ energy_sensitivities.external_work_after_event). Not native (the Python path): h
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
-sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a
-parameter reads and that reads one), chains, sensors other than hinge and guide angles and rates and load actuators
-on a model with rigid links or guides, controllers reading cables', elements' or joints' forces, explicit time
+sampled ones on a model with rigid links or guides, chains, sensors other than hinge and guide angles and rates and
+inputs, and load actuators, on a model with rigid links or guides, controllers reading a force
+whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C), explicit time
 dependence beside events through reels beside other explicit time dependence
 or controllers, controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
@@ -378,21 +383,25 @@ def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
     without states (sampled ones, states: the Python path) whose parameters' partials compiled
     (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
-    controller reads (derivative_laws.chained_outputs) reads only probes and earlier continuous controllers (no input:
-    its reads are its wiring's sensors) — hinge and guide angles and rates, and on a model without rigid links or guides
-    also the global components of a point's position, displacement or velocity and their components in a body's axes
+    controller reads (derivative_laws.chained_outputs) reads only inputs (:func:`_reads`), probes and earlier continuous
+    controllers — hinge and guide angles and rates, and on a model without rigid links or guides
+    also the global components of a point's position, displacement or velocity and their components in a body's axes,
+    cables' lengths and tensions, elements' section forces and free joints' forces
     (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or, without rigid links or guides, load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add)."""
     from latdyn.analyses.derivative_laws import chained_outputs
-    from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CONTROLLER, OFFSET_POSITION, \
-        OFFSET_VELOCITY, POSITION, RATE, VELOCITY
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_LENGTH, CABLE_TENSION, CONTROLLER, \
+        JOINT_FORCE, OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
 
     terms = owner.controllers
     linked = owner.model.links is not None
     if terms.states is not None:
         return "controllers with states"
+    moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads)
+    if moved:   # ∂f/∂s ∂F/∂p (ControllerTerms.sensed_force_slopes): NumPy and the probes' kernels, not in C yet
+        return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
     if terms.sampled is not None and linked:
         return "sampled controllers on a model with rigid links or guides"
     continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
@@ -401,7 +410,9 @@ def _controller_refusal(owner) -> str | None:
     if not continuous:
         return None
     kinds = (ANGLE, RATE) if linked else (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY,
-                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER)
+                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER, CABLE_LENGTH, CABLE_TENSION,
+                                          SECTION_FORCE, JOINT_FORCE)
+    inputs = set(owner.scene.inputs.names) if owner.scene.inputs is not None else set()
     chained = set(chained_outputs(terms))
     if any(name not in terms.compiled.outputs for name in chained):
         return "controllers of a chain whose outputs did not compile"
@@ -410,11 +421,12 @@ def _controller_refusal(owner) -> str | None:
         if c.name not in terms.partials and c.name not in chained:
             continue
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
-        if tuple(c.reads) != wiring.sensor_names(k) or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
+        if tuple(r for r in c.reads if r not in inputs) != wiring.sensor_names(k) \
+                or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
             return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
-                    + ("other than hinge angles and rates (a model with rigid links or guides)" if linked else
-                       "an input or a probe other than joint coordinates and rates and points' positions and "
-                       "velocities"))
+                    + ("other than hinge angles and rates and inputs (a model with rigid links or guides)" if linked
+                       else "a probe other than joint coordinates and rates, points' positions and velocities, "
+                       "cables' lengths and tensions, elements' section forces and joints' forces, or an input"))
         if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
                           if int(of) == k):
             return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
@@ -453,6 +465,30 @@ def _time_refusal(owner) -> str | None:
         elif not _LOAD_KEY.match(key):
             return f"explicit time dependence beside events: {key}"
     return None
+
+
+def _reads(wiring, inputs) -> tuple:
+    """The arguments of each continuous controller's compiled laws in its reads' order (ControllerTerms.add's), as
+    csrc/sensitivity_loop.c ``controller_parameter_forces`` reads them: (each one's first entry, then the total; kinds;
+    indices) — a sensor of the wiring as kind 0 (a hinge's θ, index the hinge), 1 (its θ̇), 3 (an earlier controller's
+    output, index its place) or 2 (a value the evaluation left in Work's sensor_values: points, forces; index the
+    sensor's place), an input (``inputs``: the scene's inputs' names) as kind 4, index its place in their array."""
+    from latdyn.assembly.control import ANGLE, CONTROLLER, RATE
+
+    start, kinds, indices = [0], [], []
+    for k, c in enumerate(wiring.controllers):
+        sensors = dict(zip(wiring.sensor_names(k), range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))))
+        for name in c.reads:
+            i = sensors.get(name)
+            if i is None:   # an input (_controller_refusal: every other read is one of its sensors)
+                kinds.append(4)
+                indices.append(list(inputs).index(name))
+                continue
+            kind = {ANGLE: 0, RATE: 1, CONTROLLER: 3}.get(int(wiring.sensor_kind[i]), 2)
+            kinds.append(kind)
+            indices.append(i if kind == 2 else int(wiring.sensor_index[i]))
+        start.append(len(kinds))
+    return start, kinds, indices
 
 
 class SensitivityLoop:
@@ -760,9 +796,7 @@ class SensitivityLoop:
     def _controllers(self) -> None:
         """The continuous controllers' parameter uses (ControllerTerms.add), in its order: each use's controller (its
         place in the wiring) and column, its law's number its place (ControllerPartials); the sensors of each
-        controller; the hinge actuators in the wiring's order."""
-        from latdyn.assembly.control import ANGLE, CONTROLLER, RATE
-
+        controller (:func:`_reads`); the hinge actuators in the wiring's order."""
         owner, d = self.owner, self.data
         terms = owner.controllers
         d.n_partials, d.sampled_held, d.n_actuated_loads, d.n_sampled_loads = 0, None, 0, 0
@@ -780,17 +814,17 @@ class SensitivityLoop:
         d.partial_controller = ints([place[name] for name, _, _ in uses])
         d.partial_column = ints([column for _, column, _ in uses])
         d.n_partial_controllers = wiring.n
-        d.read_start = ints(wiring.sensor_start[:wiring.n + 1])
-        d.read_kind = ints([{ANGLE: 0, RATE: 1, CONTROLLER: 3}.get(int(kind), 2)
-                            for kind in wiring.sensor_kind[:wiring.n_sensors]])
-        d.read_index = ints(wiring.sensor_index[:wiring.n_sensors])
+        inputs = owner.scene.inputs
+        start, kinds, indices = _reads(wiring, inputs.names if inputs is not None else ())
+        d.read_start, d.read_kind, d.read_index = ints(start), ints(kinds), ints(indices)
+        d.input_values = inputs.values.ctypes.data if inputs is not None else None   # (never reallocated)
         hinges = [(int(index), int(of), float(gain) if gain else 1.0) for kind, index, of, gain in zip(
             wiring.actuator_kind, wiring.actuator_index, wiring.actuator_controller, wiring.actuator_gain) if kind == 0]
         d.n_hinge_actuators = len(hinges)
         d.actuator_hinge, d.actuator_of = ints([h for h, _, _ in hinges]), ints([of for _, of, _ in hinges])
         d.actuator_factor = self._pointer(np.array([factor for _, _, factor in hinges], float))
         d.controller_slopes = self._pointer(np.zeros(wiring.n * len(owner.names)))
-        width = max([1] + [int(wiring.sensor_start[k + 1] - wiring.sensor_start[k]) for k in range(wiring.n)])
+        width = max([1] + [int(start[k + 1] - start[k]) for k in range(wiring.n)])
         d.controller_scratch = self._pointer(np.zeros(2 * width + 1))
         d.output_law = ints([terms.compiled.outputs.get(c.name, -1) for c in wiring.controllers])
         d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)

@@ -255,7 +255,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("linked_motion_mask", P), ("linked_motion_moved", P), ("linked_motion_all", P),
                 # the continuous controllers' coupling rows then columns (2 n_couplings; NULL: none), for a sensor on
                 # a coordinate the prescribed motions move (csrc/prescribed_rates.c)
-                ("motion_couplings", P)]
+                ("motion_couplings", P),
+                # controllers that read inputs: the scene's inputs' values (read_kind 4)
+                ("input_values", P)]
 
 
 class WorkAccountsData(ctypes.Structure):

@@ -209,6 +209,11 @@ typedef struct SensitivityLoopTag {
     /* the continuous controllers' coupling rows then columns (2 n_couplings), for a sensor on a coordinate the
      * prescribed motions move (prescribed_rates.c); NULL: none */
     const int64_t *motion_couplings;
+    /* controllers that read inputs (SCENE.md ``inputs``: constant in a step, set from outside between advances):
+     * read_kind 4, read_index the input's place in the scene's inputs' array (Inputs.values, never reallocated),
+     * its value in the law's argument as the Python step passes it (the compiled laws read the bound array itself);
+     * with it read_kind 2's read_index is the sensor's place in Work's sensor_values */
+    const double *input_values;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -414,7 +419,8 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
         for (int64_t i = first; i < s->read_start[ctl + 1]; ++i) {
             const int64_t kind = s->read_kind[i], index = s->read_index[i];
             args[count++] = kind == 0 ? c->theta[index] : kind == 1 ? c->theta_dot[index] :
-                            kind == 2 ? w->sensor_values[i] : s->held_outputs[index];
+                            kind == 2 ? w->sensor_values[index] : kind == 4 ? s->input_values[index] :
+                            s->held_outputs[index];
             chained += kind == 3;
         }
         double *out = args + count;
