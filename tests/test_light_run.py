@@ -132,12 +132,15 @@ _PLAIN_TEXTS = [
     "x:\n  - {p: [1, 2, [3, [4, {q: r}]]]}\n  -\n  - !!str 5\n  - !!float 1\n  - !!int '7'\n",
     "title: |\n  two\n  lines\nnext: >\n  folded\n  text\n",
     "just a word\n", "- 1\n- [2]\n", "a: &x 1\nb: *x\nc: [*x, *x]\n",
+    "a: " + "[" * 199 + "]" * 199 + "\n",  # as deep as the walk goes (loader._PLAIN_DEPTH)
 ]
 _OTHER_TEXTS = [
     "a: &x [1, 2]\nb: *x\n", "base: &b {k: 1}\nd:\n  <<: *b\n  j: 2\n",
     "when: 2001-12-14\n", "s: !!set {a, b}\n", "b: !!binary aGk=\n", "o: !!omap [{a: 1}]\n",
     "a: 1\na: 2\n", "a: 1\n'a': 2\n", "? [k]\n: v\n", "a: !!int abc\n", "a: !!bool maybe\n",
     "a: !!str {k: v}\n", "a: !!map [1]\n", "{1: a, '1': b}\n", "= : 1\n", "a: !!python/name:os.system ''\n",
+    "a: 0b_\n", "a: !!float x\n", "a: " + "9" * 5000 + "\n",  # an int, a float its constructor cannot read
+    "a: " + "[" * 200 + "]" * 200 + "\n",  # deeper than the walk goes: the constructor's data
 ]
 
 
@@ -167,6 +170,27 @@ def test_a_plain_document_is_read_in_one_walk_as_the_constructor_reads_it(text):
         assert read is loader._MISSING or read is SceneError
     else:
         assert read is not loader._MISSING and _typed(read) == _typed(expected)
+
+
+class _FaultyTags:
+    """A stand-in for the walk's table of tags whose every look-up fails as a bug would."""
+
+    def __contains__(self, tag):
+        raise AttributeError("a fault inside the walk")
+
+
+def test_a_fault_inside_the_one_walk_reader_is_raised_not_hidden_behind_the_constructor(tmp_path, monkeypatch):
+    """``loader._plain_document`` leaves a document to the constructor only for what it decides is outside its
+    subset (other tags, aliases of collections, duplicated or non-scalar keys, a scalar its constructor cannot
+    read, nesting deeper than ``_PLAIN_DEPTH``): an error of any other kind inside it reaches the caller, through
+    ``latdyn.load_scene`` too, rather than the scene being read again the slow way as if nothing happened."""
+    pytest.importorskip("yaml.cyaml")
+    scene = tmp_path / "spin.yaml"
+    scene.write_text(SPIN, encoding="utf-8")
+    assert latdyn.load_scene(scene).beams
+    monkeypatch.setattr(loader, "_PLAIN_SCALAR_TAGS", _FaultyTags())
+    with pytest.raises(AttributeError, match="a fault inside the walk"):
+        latdyn.load_scene(scene)
 
 
 def test_the_shipped_scenes_are_read_in_one_walk_as_the_constructor_reads_them():
