@@ -650,7 +650,7 @@ def test_csr_products_are_scipys_to_the_last_bit(direct_keys, monkeypatch):
 
 
 def test_the_impulses_csr_operations_are_scipys_to_the_last_bit():
-    """What the latch's impulse does without SciPy (latdyn.timeloop.impulse._response_csr) against what it does with
+    """What the latch's impulse does without SciPy (latdyn.timeloop.impulse._response on _OwnMatrices) against what it does with
     SciPy's matrices: M + h²K on one pattern with its zeros dropped, a basis's columns, Q_cᵀ K Q_c and Q_mᵀ K Q_c,
     the block matrix, Q X and Q_cᵀ X for X of several columns: the same entries, the same bits."""
     sps = pytest.importorskip("scipy.sparse")
