@@ -46,6 +46,47 @@ def test_reverse_cuthill_mckee_is_scipys_order_to_the_last_index():
         assert np.array_equal(reverse_cuthill_mckee(rows, cols, n), expected)
 
 
+#: NumPy's CPU dispatch a test process can leave out (NPY_DISABLE_CPU_FEATURES): none, AVX-512, AVX-512 and AVX2.
+_DISPATCH = ("", "X86_V4 AVX512_ICL AVX512_SPR", "X86_V3 X86_V4 AVX512_ICL AVX512_SPR")
+
+#: The orders small_rcm_band gives the right-angle cantilever's patterns (120 coordinates) in a run of two steps.
+_SMALL_ORDERS = """
+import hashlib, sys
+import yaml
+import latdyn
+from latdyn.assembly import factorization
+found, original = [], factorization.small_rcm_band
+def ordered(rows, cols, n):
+    order = original(rows, cols, n)
+    found.append(hashlib.sha256(order[0].tobytes()).hexdigest())
+    return order
+factorization.small_rcm_band = ordered
+scene = yaml.safe_load(open(sys.argv[1]).read())
+scene["solve"]["t_end"] = 2 * scene["solve"]["dt"]
+latdyn.run(latdyn.load_scene(scene))
+print(found)
+"""
+
+
+def test_a_small_models_band_order_is_the_same_whatever_simd_numpy_dispatches():
+    """``small_rcm_band`` (the order of models of at most DENSE_LIMIT coordinates) sorts degrees stably: its order,
+    and so a small model's band LU, does not depend on which of NumPy's sorts the CPU dispatches. NumPy's default
+    ``argsort`` breaks ties differently under AVX-512, AVX2 and none (x86-simd-sort): ``reverse_cuthill_mckee``, which
+    keeps SciPy's order, gives the cantilever's 120-coordinate pattern another order without AVX2 (and the 16-bay
+    lattice's another under each), so small models keep their own search (the session of 2026-11-28, eleventh)."""
+    scene = ROOT / "examples" / "benchmarks" / "D2_right_angle_cantilever.yaml"
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    orders = []
+    for disabled in _DISPATCH:
+        done = subprocess.run([sys.executable, "-c", _SMALL_ORDERS, str(scene)], capture_output=True, text=True,
+                              env={**env, "NPY_DISABLE_CPU_FEATURES": disabled}, timeout=300)
+        if done.returncode != 0 and "NPY_DISABLE_CPU_FEATURES" in done.stderr:
+            continue   # a NumPy built without this dispatch
+        assert done.returncode == 0, done.stderr[-2000:]
+        orders.append(done.stdout.strip().splitlines()[-1])
+    assert orders[0] != "[]" and all(order == orders[0] for order in orders)
+
+
 # ----------------------------------------------------------------------------- YAML in C
 SCENE = """\
 title: a skew arm on a hub, as typed
