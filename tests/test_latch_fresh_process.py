@@ -1,6 +1,6 @@
 """A fresh ``latdyn run`` of a model the dense or band LU serves does not import scipy.sparse at a latch
 (docs/performance.md, "The latch without SciPy's sparse package (issue 31/34)"): the impulse
-(latdyn.timeloop.impulse._response_csr) and, with ``solve.sensitivities``, the latch's weight derivative
+(latdyn.timeloop.impulse._response on _OwnMatrices) and, with ``solve.sensitivities``, the latch's weight derivative
 (latdyn.analyses.weight_derivative._sparse) take latdyn.numerics.csr's CSR, and the files are those of the
 impulse through SciPy's matrices, to the bit.
 """

@@ -46,6 +46,47 @@ def test_reverse_cuthill_mckee_is_scipys_order_to_the_last_index():
         assert np.array_equal(reverse_cuthill_mckee(rows, cols, n), expected)
 
 
+#: NumPy's CPU dispatch a test process can leave out (NPY_DISABLE_CPU_FEATURES): none, AVX-512, AVX-512 and AVX2.
+_DISPATCH = ("", "X86_V4 AVX512_ICL AVX512_SPR", "X86_V3 X86_V4 AVX512_ICL AVX512_SPR")
+
+#: The orders small_rcm_band gives the right-angle cantilever's patterns (120 coordinates) in a run of two steps.
+_SMALL_ORDERS = """
+import hashlib, sys
+import yaml
+import latdyn
+from latdyn.assembly import factorization
+found, original = [], factorization.small_rcm_band
+def ordered(rows, cols, n):
+    order = original(rows, cols, n)
+    found.append(hashlib.sha256(order[0].tobytes()).hexdigest())
+    return order
+factorization.small_rcm_band = ordered
+scene = yaml.safe_load(open(sys.argv[1]).read())
+scene["solve"]["t_end"] = 2 * scene["solve"]["dt"]
+latdyn.run(latdyn.load_scene(scene))
+print(found)
+"""
+
+
+def test_a_small_models_band_order_is_the_same_whatever_simd_numpy_dispatches():
+    """``small_rcm_band`` (the order of models of at most DENSE_LIMIT coordinates) sorts degrees stably: its order,
+    and so a small model's band LU, does not depend on which of NumPy's sorts the CPU dispatches. NumPy's default
+    ``argsort`` breaks ties differently under AVX-512, AVX2 and none (x86-simd-sort): ``reverse_cuthill_mckee``, which
+    keeps SciPy's order, gives the cantilever's 120-coordinate pattern another order without AVX2 (and the 16-bay
+    lattice's another under each), so small models keep their own search (the session of 2026-11-28, eleventh)."""
+    scene = ROOT / "examples" / "benchmarks" / "D2_right_angle_cantilever.yaml"
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    orders = []
+    for disabled in _DISPATCH:
+        done = subprocess.run([sys.executable, "-c", _SMALL_ORDERS, str(scene)], capture_output=True, text=True,
+                              env={**env, "NPY_DISABLE_CPU_FEATURES": disabled}, timeout=300)
+        if done.returncode != 0 and "NPY_DISABLE_CPU_FEATURES" in done.stderr:
+            continue   # a NumPy built without this dispatch
+        assert done.returncode == 0, done.stderr[-2000:]
+        orders.append(done.stdout.strip().splitlines()[-1])
+    assert orders[0] != "[]" and all(order == orders[0] for order in orders)
+
+
 # ----------------------------------------------------------------------------- YAML in C
 SCENE = """\
 title: a skew arm on a hub, as typed
@@ -132,12 +173,15 @@ _PLAIN_TEXTS = [
     "x:\n  - {p: [1, 2, [3, [4, {q: r}]]]}\n  -\n  - !!str 5\n  - !!float 1\n  - !!int '7'\n",
     "title: |\n  two\n  lines\nnext: >\n  folded\n  text\n",
     "just a word\n", "- 1\n- [2]\n", "a: &x 1\nb: *x\nc: [*x, *x]\n",
+    "a: " + "[" * 199 + "]" * 199 + "\n",  # as deep as the walk goes (loader._PLAIN_DEPTH)
 ]
 _OTHER_TEXTS = [
     "a: &x [1, 2]\nb: *x\n", "base: &b {k: 1}\nd:\n  <<: *b\n  j: 2\n",
     "when: 2001-12-14\n", "s: !!set {a, b}\n", "b: !!binary aGk=\n", "o: !!omap [{a: 1}]\n",
     "a: 1\na: 2\n", "a: 1\n'a': 2\n", "? [k]\n: v\n", "a: !!int abc\n", "a: !!bool maybe\n",
     "a: !!str {k: v}\n", "a: !!map [1]\n", "{1: a, '1': b}\n", "= : 1\n", "a: !!python/name:os.system ''\n",
+    "a: 0b_\n", "a: !!float x\n", "a: " + "9" * 5000 + "\n",  # an int, a float its constructor cannot read
+    "a: " + "[" * 200 + "]" * 200 + "\n",  # deeper than the walk goes: the constructor's data
 ]
 
 
@@ -167,6 +211,27 @@ def test_a_plain_document_is_read_in_one_walk_as_the_constructor_reads_it(text):
         assert read is loader._MISSING or read is SceneError
     else:
         assert read is not loader._MISSING and _typed(read) == _typed(expected)
+
+
+class _FaultyTags:
+    """A stand-in for the walk's table of tags whose every look-up fails as a bug would."""
+
+    def __contains__(self, tag):
+        raise AttributeError("a fault inside the walk")
+
+
+def test_a_fault_inside_the_one_walk_reader_is_raised_not_hidden_behind_the_constructor(tmp_path, monkeypatch):
+    """``loader._plain_document`` leaves a document to the constructor only for what it decides is outside its
+    subset (other tags, aliases of collections, duplicated or non-scalar keys, a scalar its constructor cannot
+    read, nesting deeper than ``_PLAIN_DEPTH``): an error of any other kind inside it reaches the caller, through
+    ``latdyn.load_scene`` too, rather than the scene being read again the slow way as if nothing happened."""
+    pytest.importorskip("yaml.cyaml")
+    scene = tmp_path / "spin.yaml"
+    scene.write_text(SPIN, encoding="utf-8")
+    assert latdyn.load_scene(scene).beams
+    monkeypatch.setattr(loader, "_PLAIN_SCALAR_TAGS", _FaultyTags())
+    with pytest.raises(AttributeError, match="a fault inside the walk"):
+        latdyn.load_scene(scene)
 
 
 def test_the_shipped_scenes_are_read_in_one_walk_as_the_constructor_reads_them():
@@ -626,7 +691,7 @@ def test_csr_products_are_scipys_to_the_last_bit(direct_keys, monkeypatch):
 
 
 def test_the_impulses_csr_operations_are_scipys_to_the_last_bit():
-    """What the latch's impulse does without SciPy (latdyn.timeloop.impulse._response_csr) against what it does with
+    """What the latch's impulse does without SciPy (latdyn.timeloop.impulse._response on _OwnMatrices) against what it does with
     SciPy's matrices: M + h²K on one pattern with its zeros dropped, a basis's columns, Q_cᵀ K Q_c and Q_mᵀ K Q_c,
     the block matrix, Q X and Q_cᵀ X for X of several columns: the same entries, the same bits."""
     sps = pytest.importorskip("scipy.sparse")
@@ -1053,16 +1118,21 @@ NOT_IMPORTED_BY_A_PLAIN_RUN = ("argparse", "gettext", "traceback")
 
 def test_a_plain_run_imports_no_argparse_and_no_traceback(tmp_path):
     """``latdyn run SCENE -o OUT -q`` in a fresh process imports none of :data:`NOT_IMPORTED_BY_A_PLAIN_RUN`;
-    its files are those of the same run whose command line argparse read (``--backend=auto``)."""
+    its files are those of the same run whose command line argparse read (``--backend=auto``). Its laws compiled
+    and cached by a first run: compiling the hub's law of t (SymPy's ``lambdify``) imports numpy.testing, and with
+    it unittest, argparse and traceback, so with an empty cache the check failed or passed by the tests' order."""
     scene = tmp_path / "spin.yaml"
     scene.write_text(SPIN)
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    first = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(tmp_path / "first"), "-q"],
+                           capture_output=True, text=True, env=env, timeout=300)
+    assert first.returncode == 0, first.stderr[-2000:]
     code = textwrap.dedent("""
         import json, sys
         from latdyn.cli import main
         code = main(sys.argv[1:])
         print(json.dumps({"code": code, "imported": [m for m in MODULES if m in sys.modules]}))
         """).replace("MODULES", repr(NOT_IMPORTED_BY_A_PLAIN_RUN))
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     found = []
     for k, how in enumerate((["-q"], ["-q", "--backend=auto"])):
         done = subprocess.run([sys.executable, "-c", code, "run", str(scene), "-o", str(tmp_path / f"out{k}"), *how],

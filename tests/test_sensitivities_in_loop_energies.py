@@ -16,6 +16,7 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, summary_of
+from tests.sensitivity_equality import assert_same_sensitivities
 from tests.test_sensitivities_energies import ENERGY_PROBES
 from tests.test_sensitivities_events import LATCH_3D, LATCH_PLANAR
 from tests.test_sensitivities_in_loop import ARM_3D
@@ -77,13 +78,7 @@ def _run(text: str, monkeypatch, in_loop: bool):
 
 def _same(native, python, beside_the_loop: int = 0) -> None:
     """The two runs' sensitivities and the summary's, to the bit; the loop took every step but ``beside_the_loop``."""
-    assert python.summary["sensitivity_steps_in_loop"] == 0
-    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] - beside_the_loop > 0
-    assert native.sensitivities.keys() == python.sensitivities.keys()
-    for key, values in python.sensitivities.items():
-        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
-    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
-    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
+    assert_same_sensitivities(native, python, in_loop_but=beside_the_loop)
 
 
 @pytest.mark.parametrize("text", [SPINUP, ARM_ENERGIES, FREE_BEAM], ids=["spin-up", "3D hinged arm", "free 3D beam"])

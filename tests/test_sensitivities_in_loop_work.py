@@ -20,6 +20,7 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.sensitivity_equality import assert_same_sensitivities
 from tests.test_sensitivities_events import LATCH_3D, STOP_3D
 from tests.test_sensitivities_in_loop import ARM_3D_JOINTS
 
@@ -118,12 +119,7 @@ def _run(text: str, monkeypatch, in_loop: bool):
 
 def _same(native, python) -> None:
     """The two runs' sensitivities and the summary's, to the bit."""
-    assert python.summary["sensitivity_steps_in_loop"] == 0
-    assert native.sensitivities.keys() == python.sensitivities.keys()
-    for key, values in python.sensitivities.items():
-        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
-    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
-    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
+    assert_same_sensitivities(native, python)
 
 
 @pytest.mark.parametrize("text, probes", [

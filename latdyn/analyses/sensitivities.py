@@ -99,6 +99,7 @@ from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, ReferenceGeomet
 from latdyn.analyses.link_sensitivities import add_link_section_forces, dependent_rates
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives
 from latdyn.analyses.probe_derivatives import refusal as probe_refusal
+from latdyn.analyses.sensitivity_rows import point_moved
 from latdyn.analyses.limit_points import bordered_solve
 from latdyn.assembly.factorization import solve_linear
 from latdyn.assembly.native_model import NO_CONTACT, joint_contact_rows
@@ -975,7 +976,7 @@ class ParameterDerivatives:
             return [float(v) for v in which[model.hinge_index(*joint)]]
         node, offset = model.point(probe.point)
         arm = state.T[node] @ offset
-        moved = dx[node] + np.cross(dpi[node], arm, axisa=0, axisc=0)    # δ(x + T r), (3, k)
+        moved = point_moved(dx[node], dpi[node], arm)    # δ(x + T r), (3, k)
         if self.geometry is not None:   # a geometry parameter moves the point's offset and its reference
             offset_moved, reference_moved = self.geometry.point_moves(probe, state)
             moved = moved + offset_moved - (reference_moved if probe.quantity == "displacement" else 0.0)

@@ -4,8 +4,8 @@ operations instead of :meth:`latdyn.analyses.transient_sensitivities.TransientSe
 (docs/performance.md, "Sensitivity rows in the loop and the adjoint without SciPy's sparse package (issue 34)").
 
 The probes taken here are those whose derivative is a fixed gather of δq and the row's state: a point's position or
-displacement component in the global frame, δ(x + T r) = δx + δπ × T r (:meth:`ParameterDerivatives._probe_derivatives`:
-``np.cross`` along the rows' axis: the same products, differences and sum), and a hinge's or guide's angle or
+displacement component in the global frame, δ(x + T r) = δx + δπ × T r (:func:`point_moved`, which
+:meth:`ParameterDerivatives._probe_derivatives` takes for one row: the same products, differences and sum), and a hinge's or guide's angle or
 position, δθ plus the δθ of the joints friction holds. Any other probe (norms, rates and velocities, joint forces,
 section forces, cables, a body's frame), guides' dependent nodes, geometry parameters and a row whose time moves with
 p beside a prescribed motion: None, and the rows are recorded one by one as from Python. The rows are the row-by-row
@@ -17,7 +17,14 @@ import numpy as np
 
 from latdyn.model.model import PRESCRIBED
 
-__all__ = ["block_rows"]
+__all__ = ["block_rows", "point_moved"]
+
+
+def point_moved(dx: np.ndarray, dpi: np.ndarray, arm: np.ndarray) -> np.ndarray:
+    """δ(x + T r) = δx + δπ × T r: how a point at ``arm`` T r from its node moves along the node's δx and δπ (…, 3, k),
+    by every parameter; one row's (:meth:`ParameterDerivatives._probe_derivatives`: ``arm`` (3,)) or a block of rows'
+    (:func:`block_rows`: ``arm`` (r, 1, 3), a leading axis of rows, broadcast along the k parameters)."""
+    return dx + np.cross(dpi, arm, axisa=-2, axisc=-2)
 
 
 def _in_block(probe) -> bool:
@@ -60,6 +67,6 @@ def block_rows(owner, carried: dict, times: np.ndarray, turns: np.ndarray, dq: n
             dx, dpi = full[:, model.node_dofs[node, 0:3]], full[:, model.node_dofs[node, 3:6]]   # (r, 3, k)
         else:
             dx = dpi = np.zeros((rows, 3, k))
-        moved = dx + np.cross(dpi, arm[:, :, None], axisa=1, axisb=1, axisc=1)   # δ(x + T r), (r, 3, k)
+        moved = point_moved(dx, dpi, arm[:, None, :])                            # δ(x + T r), (r, 3, k)
         out[:, columns] = moved[:, "xyz".index(probe.component)]
     return out.tolist()

@@ -824,6 +824,16 @@ _YAML = "tag:yaml.org,2002:"
 #: The tags of :func:`_plain_document`'s nodes: a scalar's (str, int, float, bool, null), a mapping's, a sequence's.
 _PLAIN_SCALAR_TAGS = frozenset(_YAML + name for name in ("str", "int", "float", "bool", "null"))
 _MAP_TAG, _SEQ_TAG = _YAML + "map", _YAML + "seq"
+#: The deepest nesting :func:`_plain_document` walks (its recursion: one frame a level); a scene nests a few
+#: levels, and a deeper document is left to the duplicate-key walk and the constructor (and their depth error).
+_PLAIN_DEPTH = 200
+#: What the scalar constructors of :data:`_PLAIN_SCALAR_TAGS` raise for a text their tag cannot read: ValueError
+#: (``!!int abc``, ``0b_``, an integer of more than 4 300 digits, ``!!float x``), KeyError (``!!bool maybe``).
+_UNREADABLE_SCALAR = (ValueError, KeyError)
+
+
+class _NotPlain(Exception):
+    """A node outside :func:`_plain_document`'s subset (raised and caught there only)."""
 
 
 def _plain_document(loader, node) -> Any:
@@ -833,7 +843,9 @@ def _plain_document(loader, node) -> Any:
     ``_MISSING`` for anything else, which those two then read as before, with their errors: a tag but str, int,
     float, bool, null, map and seq (``!!set``, ``!!binary``, a timestamp, a merge key ``<<`` …), a mapping or
     sequence met twice (an alias; a scalar's alias is the same text, read to the same value), a mapping's key
-    that is not a scalar or is given twice, a scalar its constructor cannot read, nesting too deep for the walk."""
+    that is not a scalar or is given twice, a scalar its constructor cannot read (:data:`_UNREADABLE_SCALAR`,
+    from that call alone), nesting deeper than :data:`_PLAIN_DEPTH`. Each is decided where it is met; any other
+    exception is a fault of the walk and propagates."""
     import yaml
 
     scalar_node, mapping_node, sequence_node = yaml.ScalarNode, yaml.MappingNode, yaml.SequenceNode
@@ -841,25 +853,28 @@ def _plain_document(loader, node) -> Any:
     read: dict = {}  # (tag, text) -> the value its constructor made (str, int, float, bool or None)
     seen: set = set()
 
-    class _NotPlain(Exception):
-        pass
-
     def scalar(node):
         tag = node.tag
         if tag not in _PLAIN_SCALAR_TAGS:
             raise _NotPlain
         found = read.get((tag, node.value), read)
         if found is read:
-            found = read[tag, node.value] = constructors[tag](loader, node)
+            construct = constructors[tag]
+            try:
+                found = construct(loader, node)
+            except _UNREADABLE_SCALAR:
+                raise _NotPlain from None
+            read[tag, node.value] = found
         return found
 
-    def value(node):
+    def value(node, depth):
         kind = type(node)
         if kind is scalar_node:
             return scalar(node)
-        if id(node) in seen:
+        if id(node) in seen or depth == _PLAIN_DEPTH:
             raise _NotPlain
         seen.add(id(node))
+        depth += 1
         if kind is mapping_node and node.tag == _MAP_TAG:
             mapping, names = {}, set()
             for key_node, value_node in node.value:
@@ -867,16 +882,15 @@ def _plain_document(loader, node) -> Any:
                     raise _NotPlain
                 names.add(key_node.value)
                 key = scalar(key_node)
-                mapping[key] = value(value_node)
+                mapping[key] = value(value_node, depth)
             return mapping
         if kind is sequence_node and node.tag == _SEQ_TAG:
-            return [value(item) for item in node.value]
+            return [value(item, depth) for item in node.value]
         raise _NotPlain
 
     try:
-        return value(node)
-    except (_NotPlain, RecursionError, ValueError, TypeError, KeyError, AttributeError, OverflowError,
-            yaml.YAMLError):
+        return value(node, 0)
+    except _NotPlain:
         return _MISSING
 
 

@@ -114,18 +114,16 @@ def impulse_response(model, ev, N: np.ndarray, step: float) -> np.ndarray:
         if m > 0.0 and k > 0.0:
             s = RIGID * m / (step * step * k)
             if isinstance(K, CSR):  # K + f s K_massless on the assembler's pattern (SciPy drops its zeros)
-                stiff, stiffer = (_response_csr(split, M, _same_pattern(K, K.data + f * s * Kml.data), N, step)
+                stiff, stiffer = (_response(split, M, _same_pattern(K, K.data + f * s * Kml.data), N, step)
                                   for f in (1.0, 2.0))
             else:
                 stiff, stiffer = (_response(split, M, (K + f * s * Kml).tocsr(), N, step) for f in (1.0, 2.0))
             return 2.0 * stiffer - stiff
-    if isinstance(K, CSR):
-        return _response_csr(split, M, K, N, step)
     return _response(split, M, K, N, step)
 
 
 def without_scipy(model) -> bool:
-    """Whether an impulse is solved on latdyn's own CSR (:func:`_response_csr`) rather than SciPy's matrices: a
+    """Whether an impulse is solved on latdyn's own CSR (:class:`_OwnMatrices`) rather than SciPy's matrices: a
     model without rigid links whose LU (dense, or band ordered in Python up to
     :data:`latdyn.numerics.linalg.RCM_IN_PYTHON` coordinates) needs no SciPy sparse matrix (the assembler's CSR),
     or one with rigid links or guides small enough for their dense reduction (latdyn.assembly.linked). Importing
@@ -152,57 +150,98 @@ def _response(split, M, K, N: np.ndarray, step: float) -> np.ndarray:
     matrix. Without directions without inertia X = (M + h²K)⁻¹ N. Where a hinge's rate moves no
     direction with inertia (NᵀX singular: massless parts on both sides of it), nothing takes an
     impulse and its stop acts as a static constraint: X = (M + h²K)⁻¹ N, whose K-weighted
-    projection keeps the massless parts in their statics against the stop."""
-    quasi_static = (M + (step * step) * K).tocsr()
+    projection keeps the massless parts in their statics against the stop.
+
+    On SciPy's sparse matrices (:class:`_SciPyMatrices`) or on :class:`latdyn.numerics.csr.CSR` matrices of the
+    assembler's pattern without SciPy (:class:`_OwnMatrices`: the same sums in the same order, and the same zeros
+    dropped, as SciPy's products and sums, so X is the same to the bit)."""
+    ops = _OwnMatrices if isinstance(K, CSR) else _SciPyMatrices
+    h2 = step * step
+    quasi_static = ops.quasi_static(M, K, h2)
     if split.n_massless == 0 or split.n_massive == 0:
-        return solve_linear(quasi_static, N).reshape(N.shape)
-    Qm, Qc = split.massive, split.massless
-    Kcc = (Qc.T @ K @ Qc).tocsr()
-    Kcm = (Qc.T @ K @ Qm).tocsr()
-    # Ñ = Q_mᵀN − K_cmᵀ K_cc⁻ᵀ Q_cᵀN: the impulse on the massless directions, passed on statically
-    passed = solve_held(Kcc.T.tocsr(), np.asarray(Qc.T @ N))
-    condensed = (np.asarray(Qm.T @ N).reshape(split.n_massive, -1)
-                 - np.asarray(Kcm.T @ passed).reshape(split.n_massive, -1))
-    import scipy.sparse as sps  # on use (an impact next to directions without inertia)
-
-    B = sps.bmat([[Qm.T @ quasi_static @ Qm, (step * step) * (Qm.T @ K @ Qc)], [Kcm, Kcc]], format="csr")
-    rhs = np.vstack([condensed, np.zeros((split.n_massless, condensed.shape[1]))])
-    X = np.asarray(split.basis @ solve_linear(B, rhs)).reshape(N.shape)
-    NtX = N.T @ X
-    scale = max(float(np.max(np.abs(np.diag(NtX)), initial=0.0)), 1e-300)
-    if not np.all(np.isfinite(NtX)) or np.linalg.matrix_rank(NtX, tol=1e-10 * scale) < N.shape[1]:
-        return solve_linear(quasi_static, N).reshape(N.shape)
-    return X
-
-
-def _response_csr(split, M: CSR, K: CSR, N: np.ndarray, step: float) -> np.ndarray:
-    """:func:`_response` on :class:`latdyn.numerics.csr.CSR` matrices of the assembler's pattern, without
-    SciPy: the same sums in the same order, and the same zeros dropped, as SciPy's products and sums
-    (latdyn.numerics.csr), so X is the same to the bit; solved by
-    :func:`latdyn.assembly.factorization.solve_linear_csr` (the same storage, order and factors)."""
-    quasi_static = csr.nonzero(_same_pattern(M, M.data + (step * step) * K.data))
-    if split.n_massless == 0 or split.n_massive == 0:
-        return solve_linear_csr(quasi_static, N).reshape(N.shape)
+        return ops.solve(quasi_static, N).reshape(N.shape)
     n_massive = split.n_massive
-    Qm = csr.columns(split.basis, 0, n_massive)
-    Qc = csr.columns(split.basis, n_massive, split.basis.shape[1])
-    Kc = csr.transposed_product(Qc, K)  # Q_cᵀ K
-    Kcc = csr.product(Kc, Qc)
-    Kcm = csr.product(Kc, Qm)
+    Qm, Qc = ops.bases(split)
+    Kcc, Kcm = ops.statics(K, Qc, Qm)  # Q_cᵀK Q_c, Q_cᵀK Q_m
     # Ñ = Q_mᵀN − K_cmᵀ K_cc⁻ᵀ Q_cᵀN: the impulse on the massless directions, passed on statically
-    passed = solve_held(csr.transposed(Kcc), csr.transposed_times(Qc, N))
-    condensed = (csr.transposed_times(Qm, N).reshape(n_massive, -1)
-                 - csr.transposed_times(Kcm, passed).reshape(n_massive, -1))
-    coupling = csr.product(csr.transposed_product(Qm, K), Qc)
-    B = csr.blocks(csr.product(csr.transposed_product(Qm, quasi_static), Qm),
-                   _same_pattern(coupling, coupling.data * (step * step)), Kcm, Kcc)
+    passed = solve_held(ops.transposed(Kcc), ops.transposed_times(Qc, N))
+    condensed = (ops.transposed_times(Qm, N).reshape(n_massive, -1)
+                 - ops.transposed_times(Kcm, passed).reshape(n_massive, -1))
+    B = ops.blocks(quasi_static, K, Qm, Qc, Kcm, Kcc, h2)
     rhs = np.vstack([condensed, np.zeros((split.n_massless, condensed.shape[1]))])
-    X = csr.times(split.basis, solve_linear_csr(B, rhs)).reshape(N.shape)
+    X = ops.times(split.basis, ops.solve(B, rhs)).reshape(N.shape)
     NtX = N.T @ X
     scale = max(float(np.max(np.abs(np.diag(NtX)), initial=0.0)), 1e-300)
     if not np.all(np.isfinite(NtX)) or np.linalg.matrix_rank(NtX, tol=1e-10 * scale) < N.shape[1]:
-        return solve_linear_csr(quasi_static, N).reshape(N.shape)
+        return ops.solve(quasi_static, N).reshape(N.shape)
     return X
+
+
+class _SciPyMatrices:
+    """:func:`_response`'s operations on SciPy's sparse matrices (M, K and the split's bases)."""
+
+    solve = staticmethod(solve_linear)
+
+    @staticmethod
+    def quasi_static(M, K, h2):
+        return (M + h2 * K).tocsr()
+
+    @staticmethod
+    def bases(split):
+        return split.massive, split.massless
+
+    @staticmethod
+    def statics(K, Qc, Qm):
+        return (Qc.T @ K @ Qc).tocsr(), (Qc.T @ K @ Qm).tocsr()
+
+    @staticmethod
+    def transposed(A):
+        return A.T.tocsr()
+
+    @staticmethod
+    def transposed_times(A, x):
+        return np.asarray(A.T @ x)
+
+    @staticmethod
+    def blocks(quasi_static, K, Qm, Qc, Kcm, Kcc, h2):
+        import scipy.sparse as sps  # on use (an impact next to directions without inertia)
+
+        return sps.bmat([[Qm.T @ quasi_static @ Qm, h2 * (Qm.T @ K @ Qc)], [Kcm, Kcc]], format="csr")
+
+    @staticmethod
+    def times(A, x):
+        return np.asarray(A @ x)
+
+
+class _OwnMatrices:
+    """:func:`_response`'s operations on :class:`latdyn.numerics.csr.CSR` matrices, without SciPy (the split's basis
+    a CSR too); solved by :func:`latdyn.assembly.factorization.solve_linear_csr` (the same storage, order and
+    factors as :func:`~latdyn.assembly.factorization.solve_linear`)."""
+
+    solve = staticmethod(solve_linear_csr)
+    transposed = staticmethod(csr.transposed)
+    transposed_times = staticmethod(csr.transposed_times)
+    times = staticmethod(csr.times)
+
+    @staticmethod
+    def quasi_static(M, K, h2):
+        return csr.nonzero(_same_pattern(M, M.data + h2 * K.data))
+
+    @staticmethod
+    def bases(split):
+        n_massive = split.n_massive
+        return csr.columns(split.basis, 0, n_massive), csr.columns(split.basis, n_massive, split.basis.shape[1])
+
+    @staticmethod
+    def statics(K, Qc, Qm):
+        Kc = csr.transposed_product(Qc, K)  # Q_cᵀ K
+        return csr.product(Kc, Qc), csr.product(Kc, Qm)
+
+    @staticmethod
+    def blocks(quasi_static, K, Qm, Qc, Kcm, Kcc, h2):
+        coupling = csr.product(csr.transposed_product(Qm, K), Qc)
+        return csr.blocks(csr.product(csr.transposed_product(Qm, quasi_static), Qm),
+                          _same_pattern(coupling, coupling.data * h2), Kcm, Kcc)
 
 
 def jump(X: np.ndarray, N: np.ndarray, v: np.ndarray, target: np.ndarray) -> np.ndarray:
