@@ -172,7 +172,9 @@ class ControllerPartials:
 
         owner = terms.owner
         rate_expressions = rate_expressions or {}
-        if getattr(owner.kernels, "backend", None) != "c" or not (terms.partials or rate_expressions):
+        #: controllers with states and limits: their outputs compiled, which decide the clip on both paths
+        stated = [c.name for c in terms.continuous if c.states and c.limits is not None]
+        if getattr(owner.kernels, "backend", None) != "c" or not (terms.partials or rate_expressions or stated):
             return None
         by_name = {c.name: c for c in terms.continuous}
         uses, laws = [], []
@@ -187,6 +189,7 @@ class ControllerPartials:
                 laws.append((law, tuple(c.reads)))
         outputs = {}
         limited = [name for name in dict.fromkeys(name for name, _, _ in uses) if by_name[name].limits is not None]
+        limited += [name for name in stated if name not in limited]
         for name in limited + [name for name in chained_outputs(terms) if name not in limited]:
             c = by_name[name]   # the outputs of those with limits, then of the chains' (after the partials)
             outputs[name] = len(laws)

@@ -1461,8 +1461,12 @@ class ControllerTerms:
                                 self.compiled.gradient(c, arguments))
                     for read, i in self.chained[c.name].items():
                         slope += gradient[i] * slopes[read]
-                    if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held)
-                        slope += gradient[len(c.reads):] @ self.held[c.name]
+                    if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held), in the states' order
+                        by_states = self.states.output_by_states(c, arguments)   # the step's compiled law's
+                        if by_states is None:
+                            by_states = gradient[len(c.reads):]
+                        for l, row in enumerate(self.held[c.name]):
+                            slope += by_states[l] * row
             slopes[c.name] = slope
         loads: dict[int, np.ndarray] = {}   # load -> its six values' derivatives (6, k)
         for kind, index, component, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_component,
@@ -1549,14 +1553,30 @@ class ControllerStates:
         the states): the step's own compiled controller law (codegen/laws.py ``latdyn_controller_laws``: for state
         j at ``(1 + j)(1 + m + p)`` its rate and ∂f_j/∂(sensors, states); csrc/evaluate.c
         ``latdyn_controller_states_accept`` reads the same), the one C function for the step and its derivative."""
-        import ctypes
-
-        from latdyn.analyses.derivative_laws import _CONTROLLER_LAW
-
         p = len(c.states)
         if c.name not in self.place:
             f_s, f_S = self.gradients[c.name](*arguments)
             return (np.array(f_s, float).reshape(p, len(self.sensors[c.name])), np.array(f_S, float).reshape(p, p))
+        out, m = self._law_at(c, arguments)
+        width = 1 + m + p
+        rows = np.array([[out[width * (1 + j) + 1 + i] for i in range(m + p)] for j in range(p)], float).reshape(p, m + p)
+        return rows[:, self._sensed_slots[c.name]], rows[:, m:]
+
+    def output_by_states(self, c, arguments: list) -> np.ndarray | None:
+        """∂y/∂S (p,) of ``c``'s output before its limits at ``arguments`` (t, the reads, the states): the step's
+        compiled controller law's ``out[1 + m + l]`` (:meth:`_rates_gradients`); None where ``c`` keeps SymPy's."""
+        if c.name not in self.place:
+            return None
+        out, m = self._law_at(c, arguments)
+        return np.array([out[1 + m + l] for l in range(len(c.states))], float)
+
+    def _law_at(self, c, arguments: list):
+        """The step's compiled controller law of ``c`` called at ``arguments`` (t, the reads, the states): (its
+        ``out`` array, m its sensors)."""
+        import ctypes
+
+        from latdyn.analyses.derivative_laws import _CONTROLLER_LAW
+
         native = self.terms.assembler.native(inertia_tangent=True)
         if self._law is None or self._law[0] is not native:
             width = max(1 + len(d.reads) + len(d.states) for d in self.controllers)
@@ -1574,9 +1594,7 @@ class ControllerStates:
             args[m + j] = float(value)
         native.laws.bind_inputs()
         law(k, float(arguments[0]), args, out)
-        width = 1 + m + p
-        rows = np.array([[out[width * (1 + j) + 1 + i] for i in range(m + p)] for j in range(p)], float).reshape(p, m + p)
-        return rows[:, self._sensed_slots[c.name]], rows[:, m:]
+        return out, m
 
     def _at(self, c, state, values=None):
         """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state``, its accepted S: the
@@ -1629,14 +1647,24 @@ class ControllerStates:
         the accepted f_{n+1}: the integrator accepted the step before it is differentiated)."""
         hh = 0.5 * h
         self._step = {}
+        library, k = _native_library(), self.terms.k
         for c in self.controllers:
             rows = slice(self.first[c.name], self.first[c.name] + len(c.states))
             _, f_s, f_S, f_p = self._at(c, state)
-            A = np.eye(len(c.states)) - hh * f_S
-            held = np.linalg.solve(A, carried["controller_dS"][rows] + hh * (carried["controller_df"][rows] + f_p))
-            by_h = np.linalg.solve(A, 0.5 * (carried["controller_f"][rows] + self.rates[self.rate_index][rows]))
+            p = len(c.states)
+            arrays = [np.ascontiguousarray(a, float) for a in (
+                f_S, f_p, carried["controller_dS"][rows], carried["controller_df"][rows], carried["controller_f"][rows],
+                self.rates[self.rate_index][rows])]
+            factor, pivots = np.zeros((p, p)), np.zeros(p, np.int64)
+            held, by_h = np.zeros((p, k)), np.zeros(p)
+            info = library.latdyn_controller_states_begin(p, k, hh, *(a.ctypes.data for a in arrays), factor.ctypes.data,
+                                                          pivots.ctypes.data, held.ctypes.data, by_h.ctypes.data)
+            if info:
+                raise SolverError(f"the sensitivities at t = {float(state.t):.6g} need controller {c.name}'s states' "
+                                  "step matrix I − h/2 ∂f/∂S, which is singular there")
             self.terms.held[c.name] = held
-            self._step[c.name] = (rows, A, f_s, f_S, f_p, hh, by_h)
+            self._step[c.name] = (rows, (factor, pivots), np.ascontiguousarray(f_s, float), arrays[0], arrays[1], hh,
+                                  by_h)
 
     def by_step_size(self, state) -> np.ndarray:
         """∂r/∂h (n_total + 1,) at the step's end ``state`` through the states' derivative by the step size at a
@@ -1675,15 +1703,28 @@ class ControllerStates:
         configuration's derivative, ``dh`` its size's (class docstring; None: 0)."""
         k = self.terms.k
         dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
-        for c in self.controllers:
-            rows, A, f_s, f_S, f_p, hh, by_h = self._step[c.name]
-            ds = self._sensed(c, state, dq)
-            dS[rows] = self.terms.held[c.name] + np.linalg.solve(A, hh * (f_s @ ds))
-            if dh is not None:
-                dS[rows] += np.outer(by_h, dh)
-            df[rows] = f_s @ ds + f_S @ dS[rows] + f_p
+        library = _native_library()
+        dh = None if dh is None else np.ascontiguousarray(dh, float)
+        for c in self.controllers:   # csrc/controller_states.c latdyn_controller_states_after
+            rows, (factor, pivots), f_s, f_S, f_p, hh, by_h = self._step[c.name]
+            p, m = len(c.states), len(self.sensors[c.name])
+            ds = np.ascontiguousarray(self._sensed(c, state, dq), float).reshape(m, k)
+            held = np.ascontiguousarray(self.terms.held[c.name], float)
+            out_S, out_f, scratch = np.zeros((p, k)), np.zeros((p, k)), np.zeros((p, k))
+            library.latdyn_controller_states_after(p, m, k, hh, factor.ctypes.data, pivots.ctypes.data, f_s.ctypes.data,
+                                                   f_S.ctypes.data, f_p.ctypes.data, held.ctypes.data, by_h.ctypes.data,
+                                                   ds.ctypes.data, None if dh is None else dh.ctypes.data,
+                                                   scratch.ctypes.data, out_S.ctypes.data, out_f.ctypes.data)
+            dS[rows], df[rows] = out_S, out_f
         self.terms.held = {}
         return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
+
+
+def _native_library():
+    """The runtime's C library (csrc/controller_states.c among its units)."""
+    from latdyn.assembly.library import native_library
+
+    return native_library()
 
 
 def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray) -> np.ndarray:

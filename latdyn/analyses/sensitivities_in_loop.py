@@ -392,7 +392,9 @@ def _controller_refusal(owner) -> str | None:
     terms = owner.controllers
     linked = owner.model.links is not None
     if terms.states is not None:
-        return "controllers with states"
+        why = _states_refusal(owner)
+        if why is not None:
+            return why
     if terms.sampled is not None and linked:
         return "sampled controllers on a model with rigid links or guides"
     continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
@@ -418,6 +420,44 @@ def _controller_refusal(owner) -> str | None:
         if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
                           if int(of) == k):
             return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
+    return None
+
+
+def _states_refusal(owner) -> str | None:
+    """Why the continuous controllers with states of ``owner`` keep the run on the Python path, or None: the loop
+    carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step, after_step)
+    where each reads hinge or guide angles alone (δs the angles' rows of δq) through its step law (ControllerStates
+    ``place``), drives hinge torques or guide forces alone, is read by no other controller, is recorded by no probe
+    (a row's controller probe needs δS there), its states' rates' partials and (with limits) its output compiled
+    (derivative_laws.ControllerPartials), on a model without rigid links or guides, beside no sampled controller."""
+    from latdyn.assembly.control import ANGLE
+
+    terms, states = owner.controllers, owner.controllers.states
+    if owner.model.links is not None:
+        return "controllers with states on a model with rigid links or guides"
+    if terms.sampled is not None:
+        return "controllers with states beside sampled controllers"
+    wiring = owner.assembler.control
+    stated = {c.name for c in states.controllers}
+    for probe in owner.scene.output.probes:
+        if probe.kind == "controller" and probe.controller in stated:
+            return f"controllers with states recorded by a probe ({probe.name}: its rows need δS there)"
+    for c in terms.continuous:
+        if stated & set(c.reads):
+            return f"controller {c.name} reads a controller with states"
+    compiled = terms.compiled
+    for c in states.controllers:
+        k = next(k for k, d in enumerate(wiring.controllers) if d.name == c.name)
+        sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
+        if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k)
+                or any(int(wiring.sensor_kind[i]) != ANGLE for i in sensors)):
+            return f"controller {c.name}: states, and it reads other than hinge and guide angles"
+        if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
+            return f"controller {c.name}: states, and it drives a load"
+        if c.name in terms.rate_partials and compiled is None:
+            return f"controller {c.name}: its states' rates' parameters' derivatives did not compile"
+        if c.limits is not None and (compiled is None or c.name not in compiled.outputs):
+            return f"controller {c.name}: states and limits, its output's law did not compile"
     return None
 
 
@@ -769,14 +809,16 @@ class SensitivityLoop:
         loads = self._actuated_loads(terms)
         if terms is not None and terms.sampled is not None:
             self._sampled(terms.sampled, loads)
-        if terms is None or terms.compiled is None:
+        d.states = None
+        states = terms.states if terms is not None else None
+        if terms is None or (terms.compiled is None and states is None):
             return
         wiring = owner.assembler.control
         place = {c.name: k for k, c in enumerate(wiring.controllers)}
-        uses = terms.compiled.uses
+        uses = terms.compiled.uses if terms.compiled is not None else []
         ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
         d.n_partials = len(uses)
-        d.controller_partials = terms.compiled.address
+        d.controller_partials = terms.compiled.address if terms.compiled is not None else None
         d.partial_controller = ints([place[name] for name, _, _ in uses])
         d.partial_column = ints([column for _, column, _ in uses])
         d.n_partial_controllers = wiring.n
@@ -790,9 +832,11 @@ class SensitivityLoop:
         d.actuator_hinge, d.actuator_of = ints([h for h, _, _ in hinges]), ints([of for _, of, _ in hinges])
         d.actuator_factor = self._pointer(np.array([factor for _, _, factor in hinges], float))
         d.controller_slopes = self._pointer(np.zeros(wiring.n * len(owner.names)))
-        width = max([1] + [int(wiring.sensor_start[k + 1] - wiring.sensor_start[k]) for k in range(wiring.n)])
+        width = max([1] + [int(wiring.sensor_start[k + 1] - wiring.sensor_start[k]) + len(c.states)
+                           for k, c in enumerate(wiring.controllers)])   # the sensors, then the states
         d.controller_scratch = self._pointer(np.zeros(2 * width + 1))
-        d.output_law = ints([terms.compiled.outputs.get(c.name, -1) for c in wiring.controllers])
+        outputs = terms.compiled.outputs if terms.compiled is not None else {}
+        d.output_law = ints([outputs.get(c.name, -1) for c in wiring.controllers])
         d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)
                                                   for c in wiring.controllers], float).reshape(-1))
         # chains and load actuators (ControllerTerms.add's outputs, the chain rule and its loads' point_load calls)
@@ -806,6 +850,54 @@ class SensitivityLoop:
             d.load_actuator_component = ints([a[1] for a in actuators])
             d.load_actuator_of = ints([a[2] for a in actuators])
             d.load_actuator_factor = self._pointer(np.array([a[3] for a in actuators], float))
+        if states is not None:
+            self._controller_states(states, place)
+
+    def _controller_states(self, states, place: dict) -> None:
+        """The controllers with states' part (csrc/controller_states.c ControllerStatesLoop): each one's place in the
+        wiring and its states' rows (ControllerStates.first), each sensor's hinge coordinate in δq (the free hinges'
+        within the free coordinates, −1: δθ = 0, as ParameterDerivatives._on_free_nodes_and_hinges), the states' rates'
+        compiled partials (ControllerPartials.rate_uses: controller, state, column, law number), the carried δS, δf,
+        (S, f) filled before each call (:meth:`prepared`) and read back after it (:meth:`carried_after`), scratch."""
+        from latdyn.assembly.library import ControllerStatesLoopData
+
+        owner, d = self.owner, self.data
+        model, wiring, k = owner.model, owner.assembler.control, len(owner.names)
+        t = self._states_data = ControllerStatesLoopData()
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        controllers = states.controllers
+        order = {c.name: i for i, c in enumerate(controllers)}
+        t.n = len(controllers)
+        t.place = ints([place[c.name] for c in controllers])
+        t.first = ints([states.first[c.name] for c in controllers] + [len(states.slots)])
+        free = set(int(j) for j in model.free_hinges)
+        dofs = [int(model.hinge_dofs[int(index)]) if int(index) in free and int(model.hinge_dofs[int(index)]) < model.n_dofs
+                else -1 for index in wiring.sensor_index[:wiring.n_sensors]]
+        t.sensor_dof = ints(dofs)
+        rate_uses = (owner.controllers.compiled.rate_uses if owner.controllers.compiled is not None else [])
+        first_law = (len(owner.controllers.compiled.uses) + len(owner.controllers.compiled.outputs)
+                     if owner.controllers.compiled is not None else 0)
+        t.n_rate_uses = len(rate_uses)
+        t.rate_use = ints([[order[name], controllers[order[name]].states.index(state), column, first_law + u]
+                           for u, (name, column, state, _) in enumerate(rate_uses)] or [0])
+        P = len(states.slots)
+        width_s = max([1] + [len(states.sensors[c.name]) for c in controllers])
+        width_S = max(len(c.states) for c in controllers)
+        t.width_s, t.width_S = width_s, width_S
+        self._states_carried = {name: np.zeros((P, k)) for name in ("controller_dS", "controller_df")}
+        self._states_carried.update({name: np.zeros(P) for name in ("controller_S", "controller_f")})
+        t.dS, t.df = (self._pointer(self._states_carried[name]) for name in ("controller_dS", "controller_df"))
+        t.S_n, t.f_n = (self._pointer(self._states_carried[name]) for name in ("controller_S", "controller_f"))
+        t.S_next, t.f_next, t.by_h = (self._pointer(np.zeros(P)) for _ in range(3))
+        t.f_s, t.f_S = self._pointer(np.zeros(P * width_s)), self._pointer(np.zeros(P * width_S))
+        t.factor = self._pointer(np.zeros(P * width_S))
+        t.f_p, t.held, t.scratch = (self._pointer(np.zeros(P * k)) for _ in range(3))
+        t.pivots = ints(np.zeros(P, np.int64))
+        t.ds = self._pointer(np.zeros(width_s * k))
+        width = width_s + width_S
+        t.law_args, t.law_out = self._pointer(np.zeros(width)), self._pointer(np.zeros((1 + width_S) * (1 + width)))
+        t.by_step = self._pointer(np.zeros(model.n_total + 1))
+        d.states = ctypes.addressof(t)
 
     def _actuated_loads(self, terms) -> tuple:
         """The load actuators of the continuous controllers (load, component, controller's place in the wiring,
@@ -960,10 +1052,14 @@ class SensitivityLoop:
         np.copyto(self._dt, carried["dt"])
         d.steps, d.info = 0, 0
         self._tabulate(grid_index, stop_index, control)
-        if d.n_partials:   # the inputs and controllers' outputs the controllers' partials read, bound for this call
+        if d.n_partials or (d.states and owner.controllers.compiled is not None):   # the inputs and controllers'
+            # outputs the controllers' partials read, bound for this call
             owner.controllers.compiled.bind()
         if d.sampled_held:   # the held δy of the last sample (as the Python step reads it: a resumed run's from the
             np.copyto(self._sampled_held, carried["sampled_dy"])   # checkpoint), constant up to the next sample
+        if d.states:   # the controllers' states' carried δS, δf and (S, f) at the loop's start (ControllerStates)
+            for name, array in self._states_carried.items():
+                np.copyto(array, carried[name])
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
             if self._rates.data.n_partials:   # the controllers' outputs' rates in t: their signals bound alike
@@ -1154,6 +1250,8 @@ class SensitivityLoop:
                     float(account["power"][0]), account["power"][1:].copy(), account["work_torque"].copy(),
                     account["work_dtorque"].reshape(hinges, k).copy(), account["work_dtheta"].reshape(hinges, k).copy()),
                     "external_work_drive": _drive_reactions(self.owner, None, carried)})   # none: _account_refusal
+        if d.states:   # the controllers' states' carried δS, δf and (S, f) at the last step's end
+            accounts.update({name: array.copy() for name, array in self._states_carried.items()})
         return {**carried, **{name: array.copy() for name, array in self._carried.items()}, "dt": self._dt.copy(),
                 "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh)), **accounts}
 
