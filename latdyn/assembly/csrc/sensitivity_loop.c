@@ -569,7 +569,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
-    if (s->n_partials || s->sampled_held != NULL) controller_parameter_forces(m, w, c, s, t);
+    if (s->n_partials || s->sampled_held != NULL || s->states != NULL) controller_parameter_forces(m, w, c, s, t);
     load_parameter_forces(m, c, s, grid);
     if (s->cables != NULL) cable_parameter_forces(m, w, c, s->cables, k, grid, s->total);
     if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
