@@ -73,7 +73,14 @@ and sampled controllers between their samples on a model without rigid links or 
 instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
 differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
-``sampled_parameter_forces``)
+``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) on a model without
+rigid links or guides that read hinge and guide angles alone and drive hinge torques and guide forces alone, read by
+no other controller, recorded by no probe, beside no sampled controller (``_states_refusal``): the loop carries δS, δf
+and the accepted (S, f) at each step's start (handed to and from the carried sensitivities around each call, so in the
+checkpoint), takes the states' rates' ∂f/∂s, ∂f/∂S and the output's ∂y/∂S from the step's own compiled controller law
+and the rates' ∂f/∂p from the compiled partials (ControllerPartials.rate_uses), evaluates M, C and the exact K with the
+states condensed from (S_n, f_n) and h/2 as the step does, and does the p × p algebra (held δS, the step size's part,
+δS_{n+1}, δf_{n+1}) in csrc/controller_states.c, the C the per-step path's ControllerStates calls too
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
 links and guides too (with the controllers and the explicit time dependence above): M, C and the exact K on the
 minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
@@ -95,7 +102,9 @@ the accounts and their terms handed back at the loop's end, an event's account a
 energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
-values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
+values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
+that ``_states_refusal`` names (sensors other than joint angles — a point's position —, load actuators, chains, a
+probe of the controller, rigid links or guides, beside sampled ones, or whose laws did not compile),
 sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a
 parameter reads and that reads one), chains, sensors other than hinge and guide angles and rates and load actuators
 on a model with rigid links or guides, controllers reading cables', elements' or joints' forces, explicit time
@@ -376,7 +385,7 @@ def _account_refusal(owner, quantity: str) -> str | None:
 
 def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
-    without states (sampled ones, states: the Python path) whose parameters' partials compiled
+    (with states where :func:`_states_refusal` takes them; sampled ones beside) whose parameters' partials compiled
     (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
     controller reads (derivative_laws.chained_outputs) reads only probes and earlier continuous controllers (no input:
     its reads are its wiring's sensors) — hinge and guide angles and rates, and on a model without rigid links or guides

@@ -10,7 +10,9 @@
  * (latdyn_geometry_parameter_forces), the joint bodies (the generated
  * joint_body, joint_body_D_com), the compliant stops and friction (the generated contact_force_D_law,
  * friction_force_D_law), the load components (the generated point_load) and the cables' parameters
- * (cable_forces.c: the generated cable_force, cable_force_D_rest_length, joint_body), with the derivative laws'
+ * (cable_forces.c: the generated cable_force, cable_force_D_rest_length, joint_body), the continuous controllers with
+ * states (controller_states.c: their held δS through ∂y/∂S, the matrices with the states condensed from the step's
+ * start, δS and δf carried), with the derivative laws'
  * values the caller tabulated per grid point, S's factorization and the k + 1 solves
  * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update); with rigid links or guides M, C and the exact
  * K on the minimum coordinates and ∂r/∂p reduced by Pᵀ (linked_matrices.c, the forward step's reduction).
