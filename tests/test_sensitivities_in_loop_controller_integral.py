@@ -1,8 +1,9 @@
 """Continuous controllers with states (a PI's integral, a filter) in the sensitivities' loop of steps (issue 34 item 2;
 csrc/controller_states.c, latdyn/analyses/sensitivities_in_loop.py ``_states_refusal``): the loop carries δS, δf and
-the accepted (S, f) at each step's start, evaluates the step's matrices with the states condensed from (S_n, f_n) as the
-step does, and takes the states' rates' ∂f/∂s, ∂f/∂S from the step's own compiled controller law and their ∂f/∂p from
-the compiled partials — the same C the per-step Python path (ControllerStates) calls. The results are the Python path's
+the accepted (S, f) at each step's start (states reading hinge and guide angles and nodes' positions), evaluates the
+step's matrices with the states condensed from (S_n, f_n) as the step does, and takes the states' rates' ∂f/∂s, ∂f/∂S
+from the step's own compiled controller law and their ∂f/∂p from the compiled partials — the same C the per-step
+Python path (ControllerStates) calls. The results are the Python path's
 (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the API and the CLI, after a resume too, and
 Richardson central differences of whole runs'."""
 from __future__ import annotations
@@ -53,6 +54,11 @@ WHEEL_STOP = (STOP_3D.replace("t_end: 1.07", "t_end: 1.0").replace("restitution:
               .replace("solve: {", 'controllers:\n  ctl: {output: "Kp*(0.6 - F) + Ki*E", '
                        'states: {E: "0.3 - angle", F: "w*(angle - F)"}}\nsolve: {')
               .replace("sensitivities: [k, c, J, m, EI, rho]", "sensitivities: [Kp, Ki, w, k, EI]"))
+#: the boom's PI less a filtered tip height H (a state reading a point's position), dH/dt = 20 (z_tip − 0.4 − H)
+BOOM_FILTER = BOOM.replace('"Kp*(0.6 - elbow) + Ki*E", states: {E: "a*(0.6 - elbow)"}}',
+                           '"Kp*(0.6 - elbow) + Ki*E - 2*H", '
+                           'states: {E: "a*(0.6 - elbow)", H: "20*(tip_z - 0.4 - H)"}}')
+assert "H: " in BOOM_FILTER
 #: the boom differentiated by the parameter inside the state's rate alone (no parameter in a controller's output)
 BOOM_RATE = BOOM.replace("sensitivities: [Kp, Ki, a, k, EI]", "sensitivities: [a, k]")
 assert "[a, k]" in BOOM_RATE
@@ -61,14 +67,15 @@ assert 'torque: "ctl", limits' in WHEEL_STOP and "[Kp, Ki, w, k, EI]" in WHEEL_S
 
 
 @pytest.mark.parametrize("text, events", [(BOOM, ["latch"]), (BOOM_RATE, ["latch"]), (BOOM_CLIPPED, ["latch"]),
-                                          (WHEEL_STOP, ["stop", "stop"])],
+                                          (BOOM_FILTER, ["latch"]), (WHEEL_STOP, ["stop", "stop"])],
                          ids=["PI beside a latch", "by the state's rate alone", "clipped PI, HHT-alpha",
-                              "PI on a filter beside a stop"])
+                              "a filter on the tip's height", "PI on a filter beside a stop"])
 def test_controllers_with_states_take_the_loop(text, events, monkeypatch):
     """Every smooth step in the loop of steps (all but the events' and the landings after them), the Python path's
     sensitivities and event time derivatives to the bit: the 3D boom's PI beside its latch (by its gains, the parameter
     inside its state's rate, a spring and a section value; and by the rate's parameter alone), the same PI clipped (part
-    of the run) under HHT-α, and the 3D wheel's PI on a filtered angle (two states) beside its stop, hit twice."""
+    of the run) under HHT-α, the PI less a filtered tip height (a state reading a point's position), and the 3D wheel's
+    PI on a filtered angle (two states) beside its stop, hit twice."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     steps = native.summary["steps"]
     assert native.summary["time_loop"] == "compiled"
@@ -119,12 +126,14 @@ def test_the_boom_agrees_with_richardson_differences(name, monkeypatch):
     assert _agree(result, BOOM, name, tolerance=1e-6) <= 1e-6
 
 
-@pytest.mark.parametrize("change", ["probe", "point"], ids=["a probe of the state", "a point's sensor"])
+@pytest.mark.parametrize("change", ["probe", "frame"], ids=["a probe of the state", "a point in a body's axes"])
 def test_what_the_loop_does_not_take_keeps_the_python_path(change, monkeypatch):
     """A probe recording the controller's state (a row's controller probe needs δS there) and a state reading a point's
-    position (its δs is not a row of δq) keep every step on the Python path."""
-    text = (BOOM.replace("  probes:\n", "  probes:\n    integral: {controller: ctl, state: E}\n") if change == "probe" else
-            BOOM.replace('E: "a*(0.6 - elbow)"', 'E: "a*(0.6 - elbow) + 0.1*(tip_z - 0.4)"'))
+    position in a body's axes (its δs is not a row of δq) keep every step on the Python path."""
+    probe = "  probes:\n    integral: {controller: ctl, state: E}\n"
+    text = (BOOM.replace("  probes:\n", probe) if change == "probe" else
+            BOOM.replace('E: "a*(0.6 - elbow)"', 'E: "a*(0.6 - elbow) + 0.1*(tip_e - 0.4)"').replace(
+                "  probes:\n", "  probes:\n    tip_e: {point: tip, quantity: position, frame: elbow, component: z}\n"))
     assert text != BOOM
     result = _run(text, monkeypatch, True)
     assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"

@@ -1502,8 +1502,9 @@ class ControllerStates:
     the sensors' derivative along δq (probes: hinge angles, point positions and displacements),
     ∂y/∂S, ∂f/∂s, ∂f/∂S and ∂f/∂p the symbolic derivatives of the controller's expressions, those the
     code generator prints for Newton (codegen/laws.py): ∂f/∂s and ∂f/∂S the step's compiled controller law's own
-    (:meth:`_rates_gradients`), ∂f/∂p compiled beside the outputs' partials (derivative_laws.ControllerPartials). At the start (and a restart) the states are
-    held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0). A step whose size moves with p (an
+    (:meth:`_rates_gradients`), ∂f/∂p compiled beside the outputs' partials (derivative_laws.ControllerPartials); the
+    p × p algebra csrc/controller_states.c's, which the loop of steps calls too. At the start (and a restart) the
+    states are held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0). A step whose size moves with p (an
     event's, the steps after it) adds A⁻¹ ½ (f_n + f_{n+1}) δh to δS_{n+1} (:meth:`by_step_size`: its ∂r/∂h in
     the step size's column), and through an event's jump and restart δS is held (:meth:`hold`)."""
 
@@ -1559,7 +1560,8 @@ class ControllerStates:
             return (np.array(f_s, float).reshape(p, len(self.sensors[c.name])), np.array(f_S, float).reshape(p, p))
         out, m = self._law_at(c, arguments)
         width = 1 + m + p
-        rows = np.array([[out[width * (1 + j) + 1 + i] for i in range(m + p)] for j in range(p)], float).reshape(p, m + p)
+        rows = np.array([[out[width * (1 + j) + 1 + i] for i in range(m + p)] for j in range(p)], float)
+        rows = rows.reshape(p, m + p)
         return rows[:, self._sensed_slots[c.name]], rows[:, m:]
 
     def output_by_states(self, c, arguments: list) -> np.ndarray | None:
@@ -1657,8 +1659,9 @@ class ControllerStates:
                 self.rates[self.rate_index][rows])]
             factor, pivots = np.zeros((p, p)), np.zeros(p, np.int64)
             held, by_h = np.zeros((p, k)), np.zeros(p)
-            info = library.latdyn_controller_states_begin(p, k, hh, *(a.ctypes.data for a in arrays), factor.ctypes.data,
-                                                          pivots.ctypes.data, held.ctypes.data, by_h.ctypes.data)
+            info = library.latdyn_controller_states_begin(p, k, hh, *(a.ctypes.data for a in arrays),
+                                                          factor.ctypes.data, pivots.ctypes.data, held.ctypes.data,
+                                                          by_h.ctypes.data)
             if info:
                 raise SolverError(f"the sensitivities at t = {float(state.t):.6g} need controller {c.name}'s states' "
                                   "step matrix I − h/2 ∂f/∂S, which is singular there")

@@ -74,7 +74,8 @@ instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where t
 differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
 ``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) on a model without
-rigid links or guides that read hinge and guide angles alone and drive hinge torques and guide forces alone, read by
+rigid links or guides that read hinge and guide angles and nodes' positions and displacements in global axes (not
+beside geometry parameters) and drive hinge torques and guide forces alone, read by
 no other controller, recorded by no probe, beside no sampled controller (``_states_refusal``): the loop carries δS, δf
 and the accepted (S, f) at each step's start (handed to and from the carried sensitivities around each call, so in the
 checkpoint), takes the states' rates' ∂f/∂s, ∂f/∂S and the output's ∂y/∂S from the step's own compiled controller law
@@ -103,7 +104,8 @@ energy_sensitivities.external_work_after_event). Not native (the Python path): h
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
-that ``_states_refusal`` names (sensors other than joint angles — a point's position —, load actuators, chains, a
+that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
+its node, in a body's axes, a rate —, load actuators, chains, a
 probe of the controller, rigid links or guides, beside sampled ones, or whose laws did not compile),
 sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a
 parameter reads and that reads one), chains, sensors other than hinge and guide angles and rates and load actuators
@@ -434,12 +436,14 @@ def _controller_refusal(owner) -> str | None:
 
 def _states_refusal(owner) -> str | None:
     """Why the continuous controllers with states of ``owner`` keep the run on the Python path, or None: the loop
-    carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step, after_step)
-    where each reads hinge or guide angles alone (δs the angles' rows of δq) through its step law (ControllerStates
+    carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step and
+    after_step)
+    where each reads hinge or guide angles and the global components of nodes' positions and displacements alone (δs
+    their rows of δq; not beside geometry parameters, which move a point) through its step law (ControllerStates
     ``place``), drives hinge torques or guide forces alone, is read by no other controller, is recorded by no probe
     (a row's controller probe needs δS there), its states' rates' partials and (with limits) its output compiled
     (derivative_laws.ControllerPartials), on a model without rigid links or guides, beside no sampled controller."""
-    from latdyn.assembly.control import ANGLE
+    from latdyn.assembly.control import ANGLE, POSITION
 
     terms, states = owner.controllers, owner.controllers.states
     if owner.model.links is not None:
@@ -458,9 +462,11 @@ def _states_refusal(owner) -> str | None:
     for c in states.controllers:
         k = next(k for k, d in enumerate(wiring.controllers) if d.name == c.name)
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
-        if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k)
-                or any(int(wiring.sensor_kind[i]) != ANGLE for i in sensors)):
-            return f"controller {c.name}: states, and it reads other than hinge and guide angles"
+        kinds = {int(wiring.sensor_kind[i]) for i in sensors}
+        if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k) or not kinds <= {ANGLE, POSITION}
+                or (POSITION in kinds and owner.geometry is not None)):
+            return (f"controller {c.name}: states, and it reads other than hinge and guide angles and nodes' positions "
+                    "and displacements in global axes (or those beside geometry parameters)")
         if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
             return f"controller {c.name}: states, and it drives a load"
         if c.name in terms.rate_partials and compiled is None:
@@ -879,10 +885,17 @@ class SensitivityLoop:
         t.n = len(controllers)
         t.place = ints([place[c.name] for c in controllers])
         t.first = ints([states.first[c.name] for c in controllers] + [len(states.slots)])
-        free = set(int(j) for j in model.free_hinges)
-        dofs = [int(model.hinge_dofs[int(index)]) if int(index) in free and int(model.hinge_dofs[int(index)]) < model.n_dofs
-                else -1 for index in wiring.sensor_index[:wiring.n_sensors]]
-        t.sensor_dof = ints(dofs)
+        from latdyn.assembly.control import ANGLE
+
+        hinges, nodes = set(int(j) for j in model.free_hinges), set(int(i) for i in model.free_nodes)
+
+        def row(kind: int, index: int) -> int:   # a joint's angle, or a node's coordinate 3 node + component
+            dof, free = ((int(model.hinge_dofs[index]), index in hinges) if kind == ANGLE else
+                         (int(model.node_dofs[index // 3, index % 3]), index // 3 in nodes))
+            return dof if free and dof < model.n_dofs else -1
+
+        t.sensor_dof = ints([row(int(kind), int(index)) for kind, index in
+                             zip(wiring.sensor_kind[:wiring.n_sensors], wiring.sensor_index[:wiring.n_sensors])])
         rate_uses = (owner.controllers.compiled.rate_uses if owner.controllers.compiled is not None else [])
         first_law = (len(owner.controllers.compiled.uses) + len(owner.controllers.compiled.outputs)
                      if owner.controllers.compiled is not None else 0)

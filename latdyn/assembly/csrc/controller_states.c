@@ -110,14 +110,15 @@ void latdyn_controller_states_after(int64_t p, int64_t m, int64_t k, double hh, 
 /* ------------------------------------------------------------------ in the loop of steps (sensitivity_loop.c) */
 
 /* The controllers with states in the loop of steps (latdyn/analyses/sensitivities_in_loop.py
- * SensitivityLoop._controller_states): those whose sensors are hinge angles and whose actuators hinge torques, their
+ * SensitivityLoop._controller_states): those whose sensors are hinge and guide angles and nodes' positions and
+ * displacements and whose actuators hinge torques and guide forces, their
  * carried δS, δf and accepted (S, f) at the step's start, handed to and from the carried sensitivities around each call
  * (ControllerStates's controller_dS, controller_df, controller_S, controller_f). */
 typedef struct ControllerStatesLoopTag {
     int64_t n;                          /* controllers with states, in the wiring's order */
     const int64_t *place;               /* n: each one's place in the wiring (its step law's and read_start's index) */
     const int64_t *first;               /* n + 1: its states' rows among the P carried */
-    const int64_t *sensor_dof;          /* the wiring's sensors: the angle's coordinate in δq, −1 where δθ is 0 */
+    const int64_t *sensor_dof;          /* the wiring's sensors: the angle's or node coordinate's row in δq, −1: 0 */
     int64_t n_rate_uses;                /* the states' rates' ∂f/∂p (ControllerPartials.rate_uses) */
     const int64_t *rate_use;            /* n_rate_uses × 4: controller (here), state, column, the law's number */
     double *dS, *df;                    /* in/out: P × k */
@@ -132,6 +133,14 @@ typedef struct ControllerStatesLoopTag {
     int64_t width_s, width_S;           /* the widest sensors' and states' counts (the rows' strides) */
     double half_kept;                   /* the half step the evaluation held before the condensed one */
 } ControllerStatesLoop;
+
+/* Sensor i of the wiring at c, as the evaluation reads it (evaluate.c sensor_value): a joint's angle or a node's
+ * coordinate (kinds 0 and 2, the only ones _states_refusal lets a controller with states read), less its origin. */
+static double controller_state_sensor(const Model *m, const Configuration *c, int64_t i)
+{
+    const int64_t index = m->sensor_index[i];
+    return (m->sensor_kind[i] == 0 ? c->theta[index] : c->x[index]) - m->sensor_origin[i];
+}
 
 /* The index of the wiring's controller `ctl` among the controllers with states, −1 for one without. */
 static int64_t controller_with_states(const ControllerStatesLoop *st, int64_t ctl)
@@ -184,7 +193,7 @@ static int64_t controller_states_begin_loop(const Model *m, const Configuration 
         const int64_t ctl = st->place[i], first = st->first[i], p = st->first[i + 1] - first;
         const int64_t sensors = read_start[ctl + 1] - read_start[ctl];
         double *args = st->law_args;
-        for (int64_t r = 0; r < sensors; ++r) args[r] = c->theta[read_index[read_start[ctl] + r]];
+        for (int64_t r = 0; r < sensors; ++r) args[r] = controller_state_sensor(m, c, read_start[ctl] + r);
         controller_state_arguments(m, ctl, args, sensors);
         const double *out = controller_step_law(m, st, ctl, t, args);
         const int64_t width = 1 + sensors + p;
@@ -229,9 +238,10 @@ static void controller_states_condensed(const Model *m, Work *w, ControllerState
     w->controller_half_step[0] = on ? 0.5 * h : st->half_kept;
 }
 
-/* ∂r/∂h through the states into the step size's column of explicit_ (n × cols, column k): ControllerStates.by_step_size,
- * ControllerTerms.add with the held δS its by_h: each controller's slope ∂y/∂S by_h (0 while its output, by its
- * compiled output law, is clipped), each hinge actuator's row less its factor times it, on the free coordinates. */
+/* ∂r/∂h through the states into the step size's column of explicit_ (n × cols, column k):
+ * ControllerStates.by_step_size, ControllerTerms.add with the held δS its by_h: each controller's slope ∂y/∂S by_h
+ * (0 while its output, by its compiled output law, is clipped), each hinge actuator's row less its factor times it, on
+ * the free coordinates. */
 static void controller_states_step_size_column(const Model *m, const Configuration *c, ControllerStatesLoop *st,
                                                void (*partials)(int64_t, double, const double *, double *),
                                                const int64_t *read_start, const int64_t *read_index,
@@ -248,7 +258,7 @@ static void controller_states_step_size_column(const Model *m, const Configurati
         if (i < 0) continue;   /* a controller without states: slope 0 */
         const int64_t sensors = read_start[ctl + 1] - read_start[ctl];
         double *args = st->law_args;
-        for (int64_t r = 0; r < sensors; ++r) args[r] = c->theta[read_index[read_start[ctl] + r]];
+        for (int64_t r = 0; r < sensors; ++r) args[r] = controller_state_sensor(m, c, read_start[ctl] + r);
         const int64_t count = controller_state_arguments(m, ctl, args, sensors);
         if (output_law[ctl] >= 0 && output_limited[ctl]) {
             double *out = st->law_out;
@@ -262,7 +272,8 @@ static void controller_states_step_size_column(const Model *m, const Configurati
     for (int64_t i = 0; i < n; ++i) explicit_[i * cols + k] += st->by_step[i];
 }
 
-/* ControllerStates.after_step in the loop: δs the hinge angles' rows of δq (0 for a joint not free), δS_{n+1}, δf_{n+1}
+/* ControllerStates.after_step in the loop: δs the hinge angles' and the nodes' coordinates' rows of δq (0 for a joint
+ * or node not free), δS_{n+1}, δf_{n+1}
  * (latdyn_controller_states_after) with the step size's δh, and (S_n, f_n) ← (S_{n+1}, f_{n+1}) for the next step. */
 static void controller_states_after_loop(const Model *m, ControllerStatesLoop *st, const int64_t *read_start,
                                          int64_t k, double h, const double *dq, const double *dh)

@@ -582,7 +582,8 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->states != NULL)   /* the states' derivative by the step size (ControllerStates.by_step_size) */
         controller_states_step_size_column(m, c, s->states, s->controller_partials, s->read_start, s->read_index,
                                            s->output_law, s->output_limited, s->output_limits, s->n_hinge_actuators,
-                                           s->actuator_hinge, s->actuator_of, s->actuator_factor, t, cols, s->explicit_);
+                                           s->actuator_hinge, s->actuator_of, s->actuator_factor, t, cols,
+                                           s->explicit_);
     if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t);
     const int64_t size = n * cols;
     const double *da0 = s->predicted, *dq0 = s->predicted + size, *dv0 = s->predicted + 2 * size;
