@@ -185,7 +185,7 @@ static void controller_states_held_slope(const Model *m, const ControllerStatesL
  * and by_h (latdyn_controller_states_begin). Returns 0, or 1 + the column of a zero pivot. */
 static int64_t controller_states_begin_loop(const Model *m, const Configuration *c, ControllerStatesLoop *st,
                                             void (*partials)(int64_t, double, const double *, double *),
-                                            const int64_t *read_start, const int64_t *read_index, int64_t k,
+                                            const int64_t *read_start, int64_t k,
                                             double t, double h)
 {
     const double hh = 0.5 * h;
@@ -244,9 +244,9 @@ static void controller_states_condensed(const Model *m, Work *w, ControllerState
  * the free coordinates. */
 static void controller_states_step_size_column(const Model *m, const Configuration *c, ControllerStatesLoop *st,
                                                void (*partials)(int64_t, double, const double *, double *),
-                                               const int64_t *read_start, const int64_t *read_index,
-                                               const int64_t *output_law, const int64_t *output_limited,
-                                               const double *output_limits, int64_t n_actuators,
+                                               const int64_t *read_start, const int64_t *output_law,
+                                               const int64_t *output_limited, const double *output_limits,
+                                               int64_t n_actuators,
                                                const int64_t *actuator_hinge, const int64_t *actuator_of,
                                                const double *actuator_factor, double t, int64_t cols,
                                                double *explicit_)

@@ -549,8 +549,8 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
     if (s->states != NULL) {   /* ControllerStates.begin_step; the matrices with the states condensed from (S_n, f_n) */
-        const int64_t info = controller_states_begin_loop(m, c, s->states, s->controller_partials, s->read_start,
-                                                          s->read_index, k, t, h);
+        const int64_t info = controller_states_begin_loop(m, c, s->states, s->controller_partials, s->read_start, k,
+                                                          t, h);
         if (info) return s->info = info;
         controller_states_condensed(m, w, s->states, h, 1);
     }
@@ -580,8 +580,8 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         s->explicit_[i * cols + k] = 0.0;
     }
     if (s->states != NULL)   /* the states' derivative by the step size (ControllerStates.by_step_size) */
-        controller_states_step_size_column(m, c, s->states, s->controller_partials, s->read_start, s->read_index,
-                                           s->output_law, s->output_limited, s->output_limits, s->n_hinge_actuators,
+        controller_states_step_size_column(m, c, s->states, s->controller_partials, s->read_start, s->output_law,
+                                           s->output_limited, s->output_limits, s->n_hinge_actuators,
                                            s->actuator_hinge, s->actuator_of, s->actuator_factor, t, cols,
                                            s->explicit_);
     if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t);
