@@ -141,13 +141,18 @@ class ControllerPartials:
     its output f itself (:attr:`outputs`), whose value decides whether it is clipped (ControllerTerms.add) on both
     paths, then of each controller of a chain (:func:`chained_outputs`) the output f, whose value a later controller
     reads and whose derivatives by what it reads (the law's ``out[1:]``: :meth:`gradient`) carry the earlier
-    controllers' slopes."""
+    controllers' slopes; last, the states' rates' partials ∂(dS/dt)/∂p (``ControllerTerms.rate_partials``, which
+    ControllerStates reads through :meth:`value`)."""
 
-    def __init__(self, uses: list, compiled, width: int, scene, outputs: dict):
+    def __init__(self, uses: list, compiled, width: int, scene, outputs: dict, rate_uses: list = ()):
         self.uses = uses   # (controller name, column, the partial's lambda) in their law's order
         #: controller name -> the number of its output's law (controllers with limits and partials)
         self.outputs = outputs
-        self._index = {id(partial): i for i, (_, _, partial) in enumerate(uses)}
+        #: the states' rates' partials: (controller name, column, state, the partial's lambda), numbered after the rest
+        self.rate_uses = list(rate_uses)
+        first = len(uses) + len(outputs)
+        self._index = {**{id(partial): i for i, (_, _, partial) in enumerate(uses)},
+                       **{id(partial): first + i for i, (_, _, _, partial) in enumerate(self.rate_uses)}}
         self.address = compiled.controller_laws
         self.compiled = compiled
         self._function = _CONTROLLER_LAW(self.address)
@@ -156,15 +161,20 @@ class ControllerPartials:
         self._signals = _Signals(scene)
 
     @classmethod
-    def of(cls, terms, expressions: dict) -> "ControllerPartials | None":
+    def of(cls, terms, expressions: dict, rate_expressions: dict | None = None) -> "ControllerPartials | None":
         """The compiled partials of ``terms`` (a ControllerTerms; ``expressions``: controller name -> {column: the
-        partial's SymPy expression}); None without C kernels, without partials, or where they do not compile."""
+        partial's SymPy expression}; ``rate_expressions``: controller name -> {column: {state: its rate's partial}},
+        of ``terms.rate_partials``, None: none); None without C kernels, without partials, or where they do not
+        compile."""
         from types import SimpleNamespace
 
         from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws
 
         owner = terms.owner
-        if getattr(owner.kernels, "backend", None) != "c" or not terms.partials:
+        rate_expressions = rate_expressions or {}
+        #: controllers with states and limits: their outputs compiled, which decide the clip on both paths
+        stated = [c.name for c in terms.continuous if c.states and c.limits is not None]
+        if getattr(owner.kernels, "backend", None) != "c" or not (terms.partials or rate_expressions or stated):
             return None
         by_name = {c.name: c for c in terms.continuous}
         uses, laws = [], []
@@ -177,16 +187,28 @@ class ControllerPartials:
                 law = SimpleNamespace(name=f"{name}.d{column}", symbols=c.symbols, output_expr=expressions[name][column],
                                       states=tuple(c.states), state_exprs=(), output_text=f"d/dp[{column}]")
                 laws.append((law, tuple(c.reads)))
-        if not uses:
-            return None
         outputs = {}
         limited = [name for name in dict.fromkeys(name for name, _, _ in uses) if by_name[name].limits is not None]
+        limited += [name for name in stated if name not in limited]
         for name in limited + [name for name in chained_outputs(terms) if name not in limited]:
             c = by_name[name]   # the outputs of those with limits, then of the chains' (after the partials)
             outputs[name] = len(laws)
             laws.append((SimpleNamespace(name=f"{name}.y", symbols=c.symbols, output_expr=c.output_expr,
                                          states=tuple(c.states), state_exprs=(), output_text=c.output_text),
                          tuple(c.reads)))
+        rate_uses = []
+        for name, by_column in rate_expressions.items():   # the states' rates' ∂f/∂p, each a law of (t, reads, states)
+            c = by_name.get(name)
+            if c is None:   # a sampled controller's (SampledTerms): its lambdas
+                continue
+            for column, by_state in by_column.items():
+                for state, expr in by_state.items():
+                    rate_uses.append((name, column, state, terms.rate_partials[name][column][state]))
+                    laws.append((SimpleNamespace(name=f"{name}.{state}.d{column}", symbols=c.symbols, output_expr=expr,
+                                                 states=tuple(c.states), state_exprs=(),
+                                                 output_text=f"d(d{state}/dt)/dp[{column}]"), tuple(c.reads)))
+        if not laws:
+            return None
         scene = owner.scene
         held = getattr(scene, "controller_outputs", None)
         signals = (tuple(scene.inputs.names) if scene.inputs is not None else (),
@@ -196,7 +218,7 @@ class ControllerPartials:
         except LawsUnavailable:
             return None
         width = max([1] + [len(c.reads) + len(c.states) for c in terms.continuous])
-        return cls(uses, compiled, width, scene, outputs)
+        return cls(uses, compiled, width, scene, outputs, rate_uses)
 
     def bind(self) -> None:
         """Point the library at the scene's inputs and controllers' outputs (module docstring)."""

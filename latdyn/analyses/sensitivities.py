@@ -1358,6 +1358,9 @@ class ControllerTerms:
         #: both paths of a transient run call (latdyn/analyses/derivative_laws.py ControllerPartials; set by
         #: TransientSensitivities), None: their lambdas
         self.partial_expressions: dict[str, dict[int, object]] = {}
+        #: the states' rates' partials' SymPy expressions (controller name -> {column: {state: ∂(dS/dt)/∂p}}),
+        #: compiled beside the outputs' (ControllerPartials.of)
+        self.rate_expressions: dict[str, dict[int, dict[str, object]]] = {}
         self.compiled = None
         for column, name in enumerate(owner.names):
             for key in scene.parameters.depending_on(name):
@@ -1374,6 +1377,7 @@ class ControllerTerms:
                     self.partial_expressions.setdefault(c.name, {})[column] = expr
                 else:              # ∂(dS/dt)/∂p of one state
                     self.rate_partials.setdefault(c.name, {}).setdefault(column, {})[match["state"]] = law
+                    self.rate_expressions.setdefault(c.name, {}).setdefault(column, {})[match["state"]] = expr
         #: controller name -> {an earlier controller it reads: the index of ∂f/∂y_j in its
         #: ``Controller.output_gradient``}
         self.chained = {c.name: {r: i for i, r in enumerate(c.reads) if r in names} for c in self.continuous}
@@ -1544,8 +1548,12 @@ class ControllerTerms:
                                 self.compiled.gradient(c, arguments))
                     for read, i in self.chained[c.name].items():
                         slope += gradient[i] * slopes[read]
-                    if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held)
-                        slope += gradient[len(c.reads):] @ self.held[c.name]
+                    if c.name in self.held:   # ∂y/∂S dS/dp (the states at the configuration held), in the states' order
+                        by_states = self.states.output_by_states(c, arguments)   # the step's compiled law's
+                        if by_states is None:
+                            by_states = gradient[len(c.reads):]
+                        for l, row in enumerate(self.held[c.name]):
+                            slope += by_states[l] * row
             slopes[c.name] = slope
         loads: dict[int, np.ndarray] = {}   # load -> its six values' derivatives (6, k)
         for kind, index, component, controller, gain in zip(w.actuator_kind, w.actuator_index, w.actuator_component,
@@ -1580,8 +1588,10 @@ class ControllerStates:
     matrix holds when the evaluation condenses the states from (S_n, f_n) (:meth:`condensed`). δs is
     the sensors' derivative along δq (probes: hinge angles, point positions and displacements),
     ∂y/∂S, ∂f/∂s, ∂f/∂S and ∂f/∂p the symbolic derivatives of the controller's expressions, those the
-    code generator prints for Newton (codegen/laws.py). At the start (and a restart) the states are
-    held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0). A step whose size moves with p (an
+    code generator prints for Newton (codegen/laws.py): ∂f/∂s and ∂f/∂S the step's compiled controller law's own
+    (:meth:`_rates_gradients`), ∂f/∂p compiled beside the outputs' partials (derivative_laws.ControllerPartials); the
+    p × p algebra csrc/controller_states.c's, which the loop of steps calls too. At the start (and a restart) the
+    states are held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0). A step whose size moves with p (an
     event's, the steps after it) adds A⁻¹ ½ (f_n + f_{n+1}) δh to δS_{n+1} (:meth:`by_step_size`: its ∂r/∂h in
     the step size's column), and through an event's jump and restart δS is held (:meth:`hold`)."""
 
@@ -1605,29 +1615,93 @@ class ControllerStates:
         self.first = dict(zip((c.name for c in self.controllers),
                               np.cumsum([0] + [len(c.states) for c in self.controllers]).tolist()))
         probes = {p.name: p for p in scene.output.probes}
-        self.sensors, self.gradients = {}, {}
+        wiring = terms.assembler.control
+        self.sensors, self.gradients, self._sensed_slots = {}, {}, {}
+        #: controller name -> its place k in the wiring, whose compiled law ``controller_laws(k, t, s, out)`` the
+        #: step calls (:meth:`_rates_gradients`); controllers that read what the law's arguments do not carry keep
+        #: SymPy's lambdified gradients
+        self.place = {}
         for c in self.controllers:
             reads, S = c.symbols[1:1 + len(c.reads)], c.symbols[1 + len(c.reads):]
             sensed = [i for i, r in enumerate(c.reads) if r in probes]
             self.sensors[c.name] = [probes[c.reads[i]] for i in sensed]
-            self.gradients[c.name] = sp.lambdify(c.symbols, [
-                [[sp.diff(f, reads[i]) for i in sensed] for f in c.state_exprs],
-                [[sp.diff(f, x) for x in S] for f in c.state_exprs]], modules=["math", "numpy"])
+            k = next(k for k, d in enumerate(wiring.controllers) if d.name == c.name)
+            wired = wiring.sensor_names(k)
+            if all(n in probes for n in wired):   # the law's arguments: the probes it reads, then its states
+                self.place[c.name] = k
+                self._sensed_slots[c.name] = [wired.index(c.reads[i]) for i in sensed]
+            else:
+                self.gradients[c.name] = sp.lambdify(c.symbols, [
+                    [[sp.diff(f, reads[i]) for i in sensed] for f in c.state_exprs],
+                    [[sp.diff(f, x) for x in S] for f in c.state_exprs]], modules=["math", "numpy"])
+        self._law = None
+
+    def _rates_gradients(self, c, arguments: list) -> tuple[np.ndarray, np.ndarray]:
+        """∂f/∂s (p, m) over ``c``'s sensors and ∂f/∂S (p, p) of its states' rates at ``arguments`` (t, the reads,
+        the states): the step's own compiled controller law (codegen/laws.py ``latdyn_controller_laws``: for state
+        j at ``(1 + j)(1 + m + p)`` its rate and ∂f_j/∂(sensors, states); csrc/evaluate.c
+        ``latdyn_controller_states_accept`` reads the same), the one C function for the step and its derivative."""
+        p = len(c.states)
+        if c.name not in self.place:
+            f_s, f_S = self.gradients[c.name](*arguments)
+            return (np.array(f_s, float).reshape(p, len(self.sensors[c.name])), np.array(f_S, float).reshape(p, p))
+        out, m = self._law_at(c, arguments)
+        width = 1 + m + p
+        rows = np.array([[out[width * (1 + j) + 1 + i] for i in range(m + p)] for j in range(p)], float)
+        rows = rows.reshape(p, m + p)
+        return rows[:, self._sensed_slots[c.name]], rows[:, m:]
+
+    def output_by_states(self, c, arguments: list) -> np.ndarray | None:
+        """∂y/∂S (p,) of ``c``'s output before its limits at ``arguments`` (t, the reads, the states): the step's
+        compiled controller law's ``out[1 + m + l]`` (:meth:`_rates_gradients`); None where ``c`` keeps SymPy's."""
+        if c.name not in self.place:
+            return None
+        out, m = self._law_at(c, arguments)
+        return np.array([out[1 + m + l] for l in range(len(c.states))], float)
+
+    def _law_at(self, c, arguments: list):
+        """The step's compiled controller law of ``c`` called at ``arguments`` (t, the reads, the states): (its
+        ``out`` array, m its sensors)."""
+        import ctypes
+
+        from latdyn.analyses.derivative_laws import _CONTROLLER_LAW
+
+        native = self.terms.assembler.native(inertia_tangent=True)
+        if self._law is None or self._law[0] is not native:
+            width = max(1 + len(d.reads) + len(d.states) for d in self.controllers)
+            self._law = (native, _CONTROLLER_LAW(native.model.controller_laws), (ctypes.c_double * width)(),
+                         (ctypes.c_double * ((1 + width) * width))())
+        _, law, args, out = self._law
+        k = self.place[c.name]
+        wiring = self.terms.assembler.control
+        wired = wiring.sensor_names(k)
+        m = len(wired)
+        by_name = dict(zip(c.reads, arguments[1:1 + len(c.reads)]))
+        for i, name in enumerate(wired):
+            args[i] = float(by_name[name])
+        for j, value in enumerate(arguments[1 + len(c.reads):]):
+            args[m + j] = float(value)
+        native.laws.bind_inputs()
+        law(k, float(arguments[0]), args, out)
+        return out, m
 
     def _at(self, c, state, values=None):
-        """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state``, its accepted S."""
+        """(arguments, ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k)) of ``c`` at ``state``, its accepted S: the
+        rates' gradients from the step's compiled law (:meth:`_rates_gradients`), their partials by the
+        parameters from the compiled partials (derivative_laws.ControllerPartials) where they compiled."""
         if values is None:
             values = self.terms.signal_values(state)
         arguments = [state.t, *[values[r] for r in c.reads], *self.terms.state_values(c)]
-        f_s, f_S = self.gradients[c.name](*arguments)
+        f_s, f_S = self._rates_gradients(c, arguments)
         p = len(c.states)
         f_p = np.zeros((p, self.terms.k))
+        compiled = self.terms.compiled
         for column, laws in self.terms.rate_partials.get(c.name, {}).items():
             for j, s in enumerate(c.states):
                 if s in laws:
-                    f_p[j, column] = float(laws[s](*arguments))
-        return (arguments, np.array(f_s, float).reshape(p, len(self.sensors[c.name])),
-                np.array(f_S, float).reshape(p, p), f_p)
+                    f_p[j, column] = (float(laws[s](*arguments)) if compiled is None else
+                                      compiled.value(laws[s], arguments))
+        return arguments, f_s, f_S, f_p
 
     def _sensed(self, c, state, dq: np.ndarray) -> np.ndarray:
         """δs (m, k): the derivatives of ``c``'s sensors along δq (probe derivatives)."""
@@ -1662,14 +1736,25 @@ class ControllerStates:
         the accepted f_{n+1}: the integrator accepted the step before it is differentiated)."""
         hh = 0.5 * h
         self._step = {}
+        library, k = _native_library(), self.terms.k
         for c in self.controllers:
             rows = slice(self.first[c.name], self.first[c.name] + len(c.states))
             _, f_s, f_S, f_p = self._at(c, state)
-            A = np.eye(len(c.states)) - hh * f_S
-            held = np.linalg.solve(A, carried["controller_dS"][rows] + hh * (carried["controller_df"][rows] + f_p))
-            by_h = np.linalg.solve(A, 0.5 * (carried["controller_f"][rows] + self.rates[self.rate_index][rows]))
+            p = len(c.states)
+            arrays = [np.ascontiguousarray(a, float) for a in (
+                f_S, f_p, carried["controller_dS"][rows], carried["controller_df"][rows], carried["controller_f"][rows],
+                self.rates[self.rate_index][rows])]
+            factor, pivots = np.zeros((p, p)), np.zeros(p, np.int64)
+            held, by_h = np.zeros((p, k)), np.zeros(p)
+            info = library.latdyn_controller_states_begin(p, k, hh, *(a.ctypes.data for a in arrays),
+                                                          factor.ctypes.data, pivots.ctypes.data, held.ctypes.data,
+                                                          by_h.ctypes.data)
+            if info:
+                raise SolverError(f"the sensitivities at t = {float(state.t):.6g} need controller {c.name}'s states' "
+                                  "step matrix I − h/2 ∂f/∂S, which is singular there")
             self.terms.held[c.name] = held
-            self._step[c.name] = (rows, A, f_s, f_S, f_p, hh, by_h)
+            self._step[c.name] = (rows, (factor, pivots), np.ascontiguousarray(f_s, float), arrays[0], arrays[1], hh,
+                                  by_h)
 
     def by_step_size(self, state) -> np.ndarray:
         """∂r/∂h (n_total + 1,) at the step's end ``state`` through the states' derivative by the step size at a
@@ -1708,15 +1793,28 @@ class ControllerStates:
         configuration's derivative, ``dh`` its size's (class docstring; None: 0)."""
         k = self.terms.k
         dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
-        for c in self.controllers:
-            rows, A, f_s, f_S, f_p, hh, by_h = self._step[c.name]
-            ds = self._sensed(c, state, dq)
-            dS[rows] = self.terms.held[c.name] + np.linalg.solve(A, hh * (f_s @ ds))
-            if dh is not None:
-                dS[rows] += np.outer(by_h, dh)
-            df[rows] = f_s @ ds + f_S @ dS[rows] + f_p
+        library = _native_library()
+        dh = None if dh is None else np.ascontiguousarray(dh, float)
+        for c in self.controllers:   # csrc/controller_states.c latdyn_controller_states_after
+            rows, (factor, pivots), f_s, f_S, f_p, hh, by_h = self._step[c.name]
+            p, m = len(c.states), len(self.sensors[c.name])
+            ds = np.ascontiguousarray(self._sensed(c, state, dq), float).reshape(m, k)
+            held = np.ascontiguousarray(self.terms.held[c.name], float)
+            out_S, out_f, scratch = np.zeros((p, k)), np.zeros((p, k)), np.zeros((p, k))
+            library.latdyn_controller_states_after(p, m, k, hh, factor.ctypes.data, pivots.ctypes.data, f_s.ctypes.data,
+                                                   f_S.ctypes.data, f_p.ctypes.data, held.ctypes.data, by_h.ctypes.data,
+                                                   ds.ctypes.data, None if dh is None else dh.ctypes.data,
+                                                   scratch.ctypes.data, out_S.ctypes.data, out_f.ctypes.data)
+            dS[rows], df[rows] = out_S, out_f
         self.terms.held = {}
         return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
+
+
+def _native_library():
+    """The runtime's C library (csrc/controller_states.c among its units)."""
+    from latdyn.assembly.library import native_library
+
+    return native_library()
 
 
 def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray) -> np.ndarray:

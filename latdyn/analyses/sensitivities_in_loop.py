@@ -78,7 +78,15 @@ and sampled controllers between their samples on a model without rigid links or 
 instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
 differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
-``sampled_parameter_forces``)
+``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) on a model without
+rigid links or guides that read hinge and guide angles and nodes' positions and displacements in global axes (not
+beside geometry parameters) and drive hinge torques and guide forces alone, read by
+no other controller, recorded by no probe, beside no sampled controller (``_states_refusal``): the loop carries δS, δf
+and the accepted (S, f) at each step's start (handed to and from the carried sensitivities around each call, so in the
+checkpoint), takes the states' rates' ∂f/∂s, ∂f/∂S and the output's ∂y/∂S from the step's own compiled controller law
+and the rates' ∂f/∂p from the compiled partials (ControllerPartials.rate_uses), evaluates M, C and the exact K with the
+states condensed from (S_n, f_n) and h/2 as the step does, and does the p × p algebra (held δS, the step size's part,
+δS_{n+1}, δf_{n+1}) in csrc/controller_states.c, the C the per-step path's ControllerStates calls too
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
 links and guides too (with the controllers and the explicit time dependence above): M, C and the exact K on the
 minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
@@ -100,7 +108,10 @@ the accounts and their terms handed back at the loop's end, an event's account a
 energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
-values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
+values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
+that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
+its node, in a body's axes, a rate —, load actuators, chains, a
+probe of the controller, rigid links or guides, beside sampled ones, or whose laws did not compile),
 sampled ones on a model with rigid links or guides, chains, sensors other than hinge and guide angles and rates and
 inputs, and load actuators, on a model with rigid links or guides, controllers reading a force
 whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C), explicit time
@@ -381,7 +392,7 @@ def _account_refusal(owner, quantity: str) -> str | None:
 
 def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
-    without states (sampled ones, states: the Python path) whose parameters' partials compiled
+    (with states where :func:`_states_refusal` takes them; sampled ones beside) whose parameters' partials compiled
     (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
     controller reads (derivative_laws.chained_outputs) reads only inputs (:func:`_reads`), probes and earlier continuous
     controllers — hinge and guide angles and rates, and on a model without rigid links or guides
@@ -398,7 +409,9 @@ def _controller_refusal(owner) -> str | None:
     terms = owner.controllers
     linked = owner.model.links is not None
     if terms.states is not None:
-        return "controllers with states"
+        why = _states_refusal(owner)
+        if why is not None:
+            return why
     moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads)
     if moved:   # ∂f/∂s ∂F/∂p (ControllerTerms.sensed_force_slopes): NumPy and the probes' kernels, not in C yet
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
@@ -430,6 +443,48 @@ def _controller_refusal(owner) -> str | None:
         if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
                           if int(of) == k):
             return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
+    return None
+
+
+def _states_refusal(owner) -> str | None:
+    """Why the continuous controllers with states of ``owner`` keep the run on the Python path, or None: the loop
+    carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step and
+    after_step)
+    where each reads hinge or guide angles and the global components of nodes' positions and displacements alone (δs
+    their rows of δq; not beside geometry parameters, which move a point) through its step law (ControllerStates
+    ``place``), drives hinge torques or guide forces alone, is read by no other controller, is recorded by no probe
+    (a row's controller probe needs δS there), its states' rates' partials and (with limits) its output compiled
+    (derivative_laws.ControllerPartials), on a model without rigid links or guides, beside no sampled controller."""
+    from latdyn.assembly.control import ANGLE, POSITION
+
+    terms, states = owner.controllers, owner.controllers.states
+    if owner.model.links is not None:
+        return "controllers with states on a model with rigid links or guides"
+    if terms.sampled is not None:
+        return "controllers with states beside sampled controllers"
+    wiring = owner.assembler.control
+    stated = {c.name for c in states.controllers}
+    for probe in owner.scene.output.probes:
+        if probe.kind == "controller" and probe.controller in stated:
+            return f"controllers with states recorded by a probe ({probe.name}: its rows need δS there)"
+    for c in terms.continuous:
+        if stated & set(c.reads):
+            return f"controller {c.name} reads a controller with states"
+    compiled = terms.compiled
+    for c in states.controllers:
+        k = next(k for k, d in enumerate(wiring.controllers) if d.name == c.name)
+        sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
+        kinds = {int(wiring.sensor_kind[i]) for i in sensors}
+        if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k) or not kinds <= {ANGLE, POSITION}
+                or (POSITION in kinds and owner.geometry is not None)):
+            return (f"controller {c.name}: states, and it reads other than hinge and guide angles and nodes' positions "
+                    "and displacements in global axes (or those beside geometry parameters)")
+        if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
+            return f"controller {c.name}: states, and it drives a load"
+        if c.name in terms.rate_partials and compiled is None:
+            return f"controller {c.name}: its states' rates' parameters' derivatives did not compile"
+        if c.limits is not None and (compiled is None or c.name not in compiled.outputs):
+            return f"controller {c.name}: states and limits, its output's law did not compile"
     return None
 
 
@@ -803,14 +858,16 @@ class SensitivityLoop:
         loads = self._actuated_loads(terms)
         if terms is not None and terms.sampled is not None:
             self._sampled(terms.sampled, loads)
-        if terms is None or terms.compiled is None:
+        d.states = None
+        states = terms.states if terms is not None else None
+        if terms is None or (terms.compiled is None and states is None):
             return
         wiring = owner.assembler.control
         place = {c.name: k for k, c in enumerate(wiring.controllers)}
-        uses = terms.compiled.uses
+        uses = terms.compiled.uses if terms.compiled is not None else []
         ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
         d.n_partials = len(uses)
-        d.controller_partials = terms.compiled.address
+        d.controller_partials = terms.compiled.address if terms.compiled is not None else None
         d.partial_controller = ints([place[name] for name, _, _ in uses])
         d.partial_column = ints([column for _, column, _ in uses])
         d.n_partial_controllers = wiring.n
@@ -824,9 +881,11 @@ class SensitivityLoop:
         d.actuator_hinge, d.actuator_of = ints([h for h, _, _ in hinges]), ints([of for _, of, _ in hinges])
         d.actuator_factor = self._pointer(np.array([factor for _, _, factor in hinges], float))
         d.controller_slopes = self._pointer(np.zeros(wiring.n * len(owner.names)))
-        width = max([1] + [int(start[k + 1] - start[k]) for k in range(wiring.n)])
+        width = max([1] + [int(start[k + 1] - start[k]) + len(c.states)
+                           for k, c in enumerate(wiring.controllers)])   # the reads, then the states
         d.controller_scratch = self._pointer(np.zeros(2 * width + 1))
-        d.output_law = ints([terms.compiled.outputs.get(c.name, -1) for c in wiring.controllers])
+        outputs = terms.compiled.outputs if terms.compiled is not None else {}
+        d.output_law = ints([outputs.get(c.name, -1) for c in wiring.controllers])
         d.output_limits = self._pointer(np.array([c.limits if c.limits is not None else (0.0, 0.0)
                                                   for c in wiring.controllers], float).reshape(-1))
         # chains and load actuators (ControllerTerms.add's outputs, the chain rule and its loads' point_load calls)
@@ -840,6 +899,61 @@ class SensitivityLoop:
             d.load_actuator_component = ints([a[1] for a in actuators])
             d.load_actuator_of = ints([a[2] for a in actuators])
             d.load_actuator_factor = self._pointer(np.array([a[3] for a in actuators], float))
+        if states is not None:
+            self._controller_states(states, place)
+
+    def _controller_states(self, states, place: dict) -> None:
+        """The controllers with states' part (csrc/controller_states.c ControllerStatesLoop): each one's place in the
+        wiring and its states' rows (ControllerStates.first), each sensor's hinge coordinate in δq (the free hinges'
+        within the free coordinates, −1: δθ = 0, as ParameterDerivatives._on_free_nodes_and_hinges), the states' rates'
+        compiled partials (ControllerPartials.rate_uses: controller, state, column, law number), the carried δS, δf,
+        (S, f) filled before each call (:meth:`prepared`) and read back after it (:meth:`carried_after`), scratch."""
+        from latdyn.assembly.library import ControllerStatesLoopData
+
+        owner, d = self.owner, self.data
+        model, wiring, k = owner.model, owner.assembler.control, len(owner.names)
+        t = self._states_data = ControllerStatesLoopData()
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        controllers = states.controllers
+        order = {c.name: i for i, c in enumerate(controllers)}
+        t.n = len(controllers)
+        t.place = ints([place[c.name] for c in controllers])
+        t.first = ints([states.first[c.name] for c in controllers] + [len(states.slots)])
+        from latdyn.assembly.control import ANGLE
+
+        hinges, nodes = set(int(j) for j in model.free_hinges), set(int(i) for i in model.free_nodes)
+
+        def row(kind: int, index: int) -> int:   # a joint's angle, or a node's coordinate 3 node + component
+            dof, free = ((int(model.hinge_dofs[index]), index in hinges) if kind == ANGLE else
+                         (int(model.node_dofs[index // 3, index % 3]), index // 3 in nodes))
+            return dof if free and dof < model.n_dofs else -1
+
+        t.sensor_dof = ints([row(int(kind), int(index)) for kind, index in
+                             zip(wiring.sensor_kind[:wiring.n_sensors], wiring.sensor_index[:wiring.n_sensors])])
+        rate_uses = (owner.controllers.compiled.rate_uses if owner.controllers.compiled is not None else [])
+        first_law = (len(owner.controllers.compiled.uses) + len(owner.controllers.compiled.outputs)
+                     if owner.controllers.compiled is not None else 0)
+        t.n_rate_uses = len(rate_uses)
+        t.rate_use = ints([[order[name], controllers[order[name]].states.index(state), column, first_law + u]
+                           for u, (name, column, state, _) in enumerate(rate_uses)] or [0])
+        P = len(states.slots)
+        width_s = max([1] + [len(states.sensors[c.name]) for c in controllers])
+        width_S = max(len(c.states) for c in controllers)
+        t.width_s, t.width_S = width_s, width_S
+        self._states_carried = {name: np.zeros((P, k)) for name in ("controller_dS", "controller_df")}
+        self._states_carried.update({name: np.zeros(P) for name in ("controller_S", "controller_f")})
+        t.dS, t.df = (self._pointer(self._states_carried[name]) for name in ("controller_dS", "controller_df"))
+        t.S_n, t.f_n = (self._pointer(self._states_carried[name]) for name in ("controller_S", "controller_f"))
+        t.S_next, t.f_next, t.by_h = (self._pointer(np.zeros(P)) for _ in range(3))
+        t.f_s, t.f_S = self._pointer(np.zeros(P * width_s)), self._pointer(np.zeros(P * width_S))
+        t.factor = self._pointer(np.zeros(P * width_S))
+        t.f_p, t.held, t.scratch = (self._pointer(np.zeros(P * k)) for _ in range(3))
+        t.pivots = ints(np.zeros(P, np.int64))
+        t.ds = self._pointer(np.zeros(width_s * k))
+        width = width_s + width_S
+        t.law_args, t.law_out = self._pointer(np.zeros(width)), self._pointer(np.zeros((1 + width_S) * (1 + width)))
+        t.by_step = self._pointer(np.zeros(model.n_total + 1))
+        d.states = ctypes.addressof(t)
 
     def _actuated_loads(self, terms) -> tuple:
         """The load actuators of the continuous controllers (load, component, controller's place in the wiring,
@@ -994,10 +1108,14 @@ class SensitivityLoop:
         np.copyto(self._dt, carried["dt"])
         d.steps, d.info = 0, 0
         self._tabulate(grid_index, stop_index, control)
-        if d.n_partials:   # the inputs and controllers' outputs the controllers' partials read, bound for this call
+        if d.n_partials or (d.states and owner.controllers.compiled is not None):   # the inputs and controllers'
+            # outputs the controllers' partials read, bound for this call
             owner.controllers.compiled.bind()
         if d.sampled_held:   # the held δy of the last sample (as the Python step reads it: a resumed run's from the
             np.copyto(self._sampled_held, carried["sampled_dy"])   # checkpoint), constant up to the next sample
+        if d.states:   # the controllers' states' carried δS, δf and (S, f) at the loop's start (ControllerStates)
+            for name, array in self._states_carried.items():
+                np.copyto(array, carried[name])
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
             if self._rates.data.n_partials:   # the controllers' outputs' rates in t: their signals bound alike
@@ -1188,6 +1306,8 @@ class SensitivityLoop:
                     float(account["power"][0]), account["power"][1:].copy(), account["work_torque"].copy(),
                     account["work_dtorque"].reshape(hinges, k).copy(), account["work_dtheta"].reshape(hinges, k).copy()),
                     "external_work_drive": _drive_reactions(self.owner, None, carried)})   # none: _account_refusal
+        if d.states:   # the controllers' states' carried δS, δf and (S, f) at the last step's end
+            accounts.update({name: array.copy() for name, array in self._states_carried.items()})
         return {**carried, **{name: array.copy() for name, array in self._carried.items()}, "dt": self._dt.copy(),
                 "dh": dh, "dh_step": dh, "h": d.h, "pending": None, "dh_next": np.zeros(len(dh)), **accounts}
 

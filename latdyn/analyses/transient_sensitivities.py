@@ -181,7 +181,8 @@ class TransientSensitivities(ParameterDerivatives):
         super().__init__(prepared)
         self.derivative_laws = DerivativeLaws.of(self)
         if self.controllers is not None:   # the controllers' ∂f/∂p compiled alike
-            self.controllers.compiled = ControllerPartials.of(self.controllers, self.controllers.partial_expressions)
+            self.controllers.compiled = ControllerPartials.of(self.controllers, self.controllers.partial_expressions,
+                                                              self.controllers.rate_expressions)
         self.params = self.length = None
         #: the cables' parameters and events (:class:`CableSensitivities`), None without cables
         self.cables = CableSensitivities(self) if self.model.cables is not None else None

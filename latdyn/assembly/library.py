@@ -257,7 +257,21 @@ class SensitivityLoopData(ctypes.Structure):
                 # a coordinate the prescribed motions move (csrc/prescribed_rates.c)
                 ("motion_couplings", P),
                 # controllers that read inputs: the scene's inputs' values (read_kind 4)
-                ("input_values", P)]
+                ("input_values", P),
+                # continuous controllers with states (ControllerStates; csrc/controller_states.c
+                # ControllerStatesLoop, ControllerStatesLoopData); NULL: none
+                ("states", P)]
+
+
+class ControllerStatesLoopData(ctypes.Structure):
+    """``ControllerStatesLoop`` of csrc/controller_states.c: the continuous controllers' states carried through the loop
+    of steps (latdyn.analyses.sensitivities_in_loop SensitivityLoop._controller_states lays it out)."""
+
+    _fields_ = [("n", I64), ("place", P), ("first", P), ("sensor_dof", P), ("n_rate_uses", I64), ("rate_use", P),
+                ("dS", P), ("df", P), ("S_n", P), ("f_n", P), ("S_next", P), ("f_next", P), ("f_s", P), ("f_S", P),
+                ("f_p", P), ("factor", P), ("by_h", P), ("held", P), ("pivots", P), ("ds", P), ("scratch", P),
+                ("law_args", P), ("law_out", P), ("by_step", P), ("width_s", I64), ("width_S", I64),
+                ("half_kept", ctypes.c_double)]
 
 
 class WorkAccountsData(ctypes.Structure):
@@ -474,6 +488,12 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_hinge_work.argtypes = [I64, P, P, P, P, P, P, P, P]
         # the dissipated energy's sensitivity over a step accepted from Python, the loop of steps' own
         # (csrc/work_accounts.c)
+        # the continuous controllers' states through the sensitivities' step (csrc/controller_states.c)
+        library.latdyn_controller_states_begin.restype = I64
+        library.latdyn_controller_states_begin.argtypes = [I64, I64, ctypes.c_double, P, P, P, P, P, P, P, P, P, P]
+        library.latdyn_controller_states_after.restype = None
+        library.latdyn_controller_states_after.argtypes = [I64, I64, I64, ctypes.c_double, P, P, P, P, P, P, P, P, P,
+                                                           P, P, P]
         library.latdyn_damper_torques.restype = None
         library.latdyn_damper_torques.argtypes = [I64, I64, P, P, P, P, I64, P, P, P, P, P]
         library.latdyn_dissipated_step.restype = None

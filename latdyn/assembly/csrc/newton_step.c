@@ -28,6 +28,7 @@
 #include "linked_matrices.c" /* rigid links: M, C, K and ∂r/∂p on the minimum coordinates for the sensitivities */
 #include "cable_forces.c" /* ∂r/∂p of the cables' parameters for the sensitivities */
 #include "work_accounts.c" /* the work accounts' sensitivities carried through the steps */
+#include "controller_states.c" /* the controllers' states through the sensitivities' step: the p × p algebra */
 
 #include "prescribed_rates.c" /* ∂r/∂t through the prescribed motions, exactly, for the sensitivities */
 #include "linked_prescribed_rates.c" /* the same with rigid links or guides: the dependent nodes moved too */

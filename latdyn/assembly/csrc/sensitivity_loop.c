@@ -10,7 +10,9 @@
  * (latdyn_geometry_parameter_forces), the joint bodies (the generated
  * joint_body, joint_body_D_com), the compliant stops and friction (the generated contact_force_D_law,
  * friction_force_D_law), the load components (the generated point_load) and the cables' parameters
- * (cable_forces.c: the generated cable_force, cable_force_D_rest_length, joint_body), with the derivative laws'
+ * (cable_forces.c: the generated cable_force, cable_force_D_rest_length, joint_body), the continuous controllers with
+ * states (controller_states.c: their held δS through ∂y/∂S, the matrices with the states condensed from the step's
+ * start, δS and δf carried), with the derivative laws'
  * values the caller tabulated per grid point, S's factorization and the k + 1 solves
  * (latdyn_sensitivity_step), the update (latdyn_sensitivity_update); with rigid links or guides M, C and the exact
  * K on the minimum coordinates and ∂r/∂p reduced by Pᵀ (linked_matrices.c, the forward step's reduction).
@@ -214,6 +216,9 @@ typedef struct SensitivityLoopTag {
      * its value in the law's argument as the Python step passes it (the compiled laws read the bound array itself);
      * with it read_kind 2's read_index is the sensor's place in Work's sensor_values */
     const double *input_values;
+    /* continuous controllers with states (ControllerStates; controller_states.c): their carried δS, δf and (S, f) at
+     * the step's start, in/out around each call; NULL: none (or the Python path) */
+    ControllerStatesLoop *states;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -409,13 +414,14 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
     const int64_t k = s->k;
     double *slopes = s->controller_slopes, *args = s->controller_scratch, *gradient = s->output_gradient;
     if (s->sampled_held != NULL) sampled_parameter_forces(m, c, s);
-    if (!s->n_partials) return;
+    if (!s->n_partials && s->states == NULL) return;
     memset(slopes, 0, sizeof(double) * (size_t)(s->n_partial_controllers * k));
     for (int64_t ctl = 0; ctl < s->n_partial_controllers; ++ctl) {
         const int64_t output = s->output_law[ctl], first = s->read_start[ctl];
         int64_t uses = 0, count = 0, chained = 0;
         for (int64_t u = 0; u < s->n_partials; ++u) uses += s->partial_controller[u] == ctl;
-        if (!uses && output < 0) continue;
+        const int64_t stated = s->states != NULL ? controller_with_states(s->states, ctl) : -1;
+        if (!uses && output < 0 && stated < 0) continue;
         for (int64_t i = first; i < s->read_start[ctl + 1]; ++i) {
             const int64_t kind = s->read_kind[i], index = s->read_index[i];
             args[count++] = kind == 0 ? c->theta[index] : kind == 1 ? c->theta_dot[index] :
@@ -423,6 +429,7 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
                             s->held_outputs[index];
             chained += kind == 3;
         }
+        if (stated >= 0) count = controller_state_arguments(m, ctl, args, count);   /* then its states S_{n+1} */
         double *out = args + count;
         if (output >= 0) {   /* f by its compiled law: its limits, the output a later controller reads, ∂f/∂s */
             s->controller_partials(output, t, args, out);
@@ -442,6 +449,9 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
             const double g = gradient[i - first], *earlier = slopes + s->read_index[i] * k;
             for (int64_t col = 0; col < k; ++col) slope[col] += g * earlier[col];
         }
+        if (stated >= 0)   /* ∂y/∂S times the held δS_{n+1} (ControllerTerms.add) */
+            controller_states_held_slope(m, s->states, ctl, t, args, count,
+                                         s->states->held + s->states->first[stated] * k, k, slope);
     }
     for (int64_t a = 0; a < s->n_hinge_actuators; ++a) {
         const double *slope = slopes + s->actuator_of[a] * k, factor = s->actuator_factor[a];
@@ -544,11 +554,18 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     }
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
+    if (s->states != NULL) {   /* ControllerStates.begin_step; the matrices with the states condensed from (S_n, f_n) */
+        const int64_t info = controller_states_begin_loop(m, c, s->states, s->controller_partials, s->read_start, k,
+                                                          t, h);
+        if (info) return s->info = info;
+        controller_states_condensed(m, w, s->states, h, 1);
+    }
     if (s->linked)
         latdyn_linked_exact_values(m, w, c, t, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
                                    s->linked_body_D, s->linked_gather, s->linked_count, s->linked_storage, s->mck);
     else
         exact_matrices(m, w, s, c, t);
+    if (s->states != NULL) controller_states_condensed(m, w, s->states, h, 0);
     /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
      * geometry parameters', the joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
@@ -560,7 +577,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
-    if (s->n_partials || s->sampled_held != NULL) controller_parameter_forces(m, w, c, s, t);
+    if (s->n_partials || s->sampled_held != NULL || s->states != NULL) controller_parameter_forces(m, w, c, s, t);
     load_parameter_forces(m, c, s, grid);
     if (s->cables != NULL) cable_parameter_forces(m, w, c, s->cables, k, grid, s->total);
     if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
@@ -568,6 +585,11 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
         s->explicit_[i * cols + k] = 0.0;
     }
+    if (s->states != NULL)   /* the states' derivative by the step size (ControllerStates.by_step_size) */
+        controller_states_step_size_column(m, c, s->states, s->controller_partials, s->read_start, s->output_law,
+                                           s->output_limited, s->output_limits, s->n_hinge_actuators,
+                                           s->actuator_hinge, s->actuator_of, s->actuator_factor, t, cols,
+                                           s->explicit_);
     if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t);
     const int64_t size = n * cols;
     const double *da0 = s->predicted, *dq0 = s->predicted + size, *dv0 = s->predicted + 2 * size;
@@ -593,6 +615,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
             for (int64_t col = 0; col < k; ++col) to[i * k + col] = x[i * cols + col] + x[i * cols + k] * s->dh[col];
     }
     for (int64_t col = 0; col < k; ++col) s->dt[col] = s->dt[col] + s->dh[col];
+    if (s->states != NULL) controller_states_after_loop(m, s->states, s->read_start, k, h, s->dq, s->dh);
     if (s->accounts != NULL) work_accounts_step(m, c, s->accounts, k, s->dq, s->dv, s->dh, h, grid);
     s->steps += 1;
     s->h = h;

@@ -1,0 +1,30 @@
+"""Controllers with states (a PI's integral, a filter) in the sensitivities' loop of steps: what a gradient run costs,
+and its equality (benchmarks/hinge_sensitivities_loop.py's three modes on these scenes).
+
+    python benchmarks/controller_states_sensitivities_loop.py [--scene boom|clipped|filter|stop] [--repeats 5]
+    python benchmarks/controller_states_sensitivities_loop.py --scene boom --check DIR
+    python benchmarks/controller_states_sensitivities_loop.py --scene boom --user 5 [--trees ROOT_A,ROOT_B]
+
+``--scene boom``: tests/test_sensitivities_in_loop_controller_integral.py's BOOM, a two-link 3D boom whose elbow (a
+skew hinge) a PI loop on its angle drives, latching at 0.4 rad (1.0 s, dt = 0.01), ``[Kp, Ki, a, k, EI]``.
+``--scene clipped``: its BOOM_CLIPPED, the PI clipped at [−0.5, 1.5], HHT-α. ``--scene filter``: its BOOM_FILTER, the
+PI less a filtered tip height (a state reading a point's position). ``--scene stop``: its WHEEL_STOP, the 3D
+wheel on a skew hinge driven by a PI on a filtered angle (two states) beside its stop (two hits, 1.0 s),
+``[Kp, Ki, w, k, EI]``. The modes, the times and the ratios printed: benchmarks/hinge_sensitivities_loop.py's docstring
+(the same functions).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+if __name__ == "__main__":
+    sys.path.append(str(ROOT))   # after PYTHONPATH: the build compared is the one it names
+    from benchmarks.hinge_sensitivities_loop import _from_tests, main
+
+    tests = "test_sensitivities_in_loop_controller_integral"
+    scenes = {"boom": "BOOM", "clipped": "BOOM_CLIPPED", "filter": "BOOM_FILTER", "stop": "WHEEL_STOP"}
+    main({name: _from_tests(tests, constant) for name, constant in scenes.items()}, "boom", __doc__)
