@@ -1,7 +1,7 @@
 """The work accounts and reels everywhere in the sensitivities' loop of steps: what a gradient run costs, and its
 equality (benchmarks/hinge_sensitivities_loop.py's three modes on these scenes).
 
-    python benchmarks/accounts_sensitivities_loop.py [--scene reel|laws|slewing|gimbal|guide] [--repeats 5]
+    python benchmarks/accounts_sensitivities_loop.py [--scene reel|laws|slewing|gimbal|guide|ring] [--repeats 5]
     python benchmarks/accounts_sensitivities_loop.py --scene slewing --check DIR
     python benchmarks/accounts_sensitivities_loop.py --scene slewing --user 5 [--trees ROOT_A,ROOT_B]
 
@@ -12,7 +12,8 @@ torque of θ and t, a spring of θ and t; both accounts; dt = 0.005, ``[EI, rho,
 BOOM_SLEWING over 1 s (the boom's base slewing about a skew axis and translating; the external work with the drive's;
 ``tol: 1.0e-11``); ``gimbal`` its GIMBAL_WORK as it is (the 3D gimbal of rigid links, two loads, both accounts; 0.3 s,
 dt = 0.01, ``[k1, k2, c2, m, P, EI]``); ``guide`` its GUIDED_LOST as it is (the guided mass on its damped skew guide,
-the dissipated energy; 0.4 s, dt = 0.005, ``[k, c, m, EI]``, ``tol: 1.0e-11``). The scenes are read from this
+the dissipated energy; 0.4 s, dt = 0.005, ``[k, c, m, EI]``, ``tol: 1.0e-11``); ``ring`` its GIMBAL_LOAD_ON_A_LINK
+(the gimbal with its second load on the outer ring, a node the links carry; ``tol: 1.0e-11``). The scenes are read from this
 checkout's test file whatever tree PYTHONPATH names (an older tree has no such file). The modes, the times and the
 ratios printed: benchmarks/hinge_sensitivities_loop.py's docstring (the same functions).
 """
@@ -44,7 +45,7 @@ def _scene(name: str, end: str = "", longer: str = ""):
 
 SCENES = {"reel": _scene("REEL_PD_LATCH"), "laws": _scene("BOOM_LAWS", "t_end: 0.1,", "t_end: 1.0,"),
           "slewing": _scene("BOOM_SLEWING", "t_end: 0.1,", "t_end: 1.0,"), "gimbal": _scene("GIMBAL_WORK"),
-          "guide": _scene("GUIDED_LOST")}
+          "guide": _scene("GUIDED_LOST"), "ring": _scene("GIMBAL_LOAD_ON_A_LINK")}
 
 if __name__ == "__main__":
     hinge_sensitivities_loop.main(SCENES, "slewing", __doc__)

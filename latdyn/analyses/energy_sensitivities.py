@@ -58,6 +58,8 @@ controllers; both sums over the steps under the discrete adjoint.
 """
 from __future__ import annotations
 
+import ctypes
+
 import re
 
 import numpy as np
@@ -710,6 +712,8 @@ def _power(owner, state, carried: dict):
             np.ascontiguousarray(frames.reshape(L, 9)), u))
         du = rows(np.concatenate([dv[node], dw[node]], axis=1))                             # (L, 6, k)
         dpi_node, dpi_frame = rows(dpi[node]), rows(np.where(follower[:, None, None], dpi[np.maximum(frame, 0)], 0.0))
+        if model.links is not None:   # a node or frame that follows the links: the C the loop of steps calls
+            _dependent_loads(owner, state, carried, node, frame, du, dpi_node, dpi_frame)
         pairs, columns, place, laws = owner._load_layout()
         pair_force = np.zeros((1, 6))
         if len(pairs):   # ∂Q/∂p: the kernel with the values' derivatives (linear in them)
@@ -737,6 +741,29 @@ def _power(owner, state, carried: dict):
                                   use_column.ctypes.data, use_kind.ctypes.data, use_value.ctypes.data,
                                   torque.ctypes.data, dtorque.ctypes.data)
     return power, dpower, torque, dtorque, dtheta
+
+
+def _dependent_loads(owner, state, carried: dict, node, frame, du, dpi_node, dpi_frame) -> None:
+    """δu and δπ (in ``du``, ``dpi_node``, ``dpi_frame``) of the loads whose node, or whose follower frame's node,
+    follows rigid links or guides: δq_dep = J δq, δv_dep = J δv + ∂(J v)/∂q δq from the links' buffers at ``state``
+    (csrc/work_accounts.c ``latdyn_dependent_node_motion``, the function the loop of steps calls in
+    ``loads_power_at``)."""
+    model, native = owner.model, owner.assembler.native(True)
+    free, k = set(model.free_nodes.tolist()), du.shape[2]
+    slots = native.links.slot_of_node
+    dq, dv = (np.ascontiguousarray(carried[name], np.float64) for name in ("dq", "dv"))
+    mq, mv = np.zeros((6, k)), np.zeros((6, k))
+    configuration = native.configuration(state)
+    for l, i in enumerate(node):
+        for at, is_frame in ((int(i), False), (int(frame[l]), True)):
+            if at < 0 or at in free:
+                continue
+            native.library.latdyn_dependent_node_motion(native.model_ref, ctypes.byref(configuration), slots[at], k,
+                                                        dq.ctypes.data, dv.ctypes.data, mq.ctypes.data, mv.ctypes.data)
+            if is_frame:
+                dpi_frame[l] = mq[3:6]
+            else:
+                du[l], dpi_node[l] = mv, mq[3:6]
 
 
 #: a parameter's use in a hinge's applied torque (csrc/work_accounts.c applied_torques): its kind's number

@@ -278,7 +278,9 @@ class WorkAccountsData(ctypes.Structure):
                 # the prescribed motions' drive in the external work (csrc/drive_sensitivities.c); drive_rows 0: none
                 ("drive_rows", I64), ("drive_coordinates", P), ("drive_where", P), ("drive_slot", P), ("drive_dr", P),
                 ("drive_x", P), ("drive_T", P), ("drive_total", P), ("drive_body_stiffness", P),
-                ("drive_load_columns", P), ("drive_couplings", P), ("drive_scratch", P)]
+                ("drive_load_columns", P), ("drive_couplings", P), ("drive_scratch", P),
+                # loads on nodes that follow rigid links (csrc/work_accounts.c dependent_node_motion); 0: none
+                ("linked_loads", I64), ("load_slot", P), ("frame_slot", P), ("linked_scratch", P)]
 
 
 class GeometryForcesData(ctypes.Structure):
@@ -492,6 +494,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_drive_reaction_rates.argtypes = [model, work, P, I64, P, P, P, P, P, P, P]
         library.latdyn_drive_work_sensitivity.restype = None
         library.latdyn_drive_work_sensitivity.argtypes = [I64, I64, P, P, P, P]
+        library.latdyn_dependent_node_motion.restype = None   # csrc/work_accounts.c
+        library.latdyn_dependent_node_motion.argtypes = [model, configuration, I64, I64, P, P, P, P]
         library.latdyn_cable_work.restype = None
         library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
         library.latdyn_cable_crossed.restype = I64

@@ -244,7 +244,45 @@ typedef struct WorkAccounts {
     const int64_t *drive_load_columns;  /* n_loads × 6: each load block's columns */
     const int64_t *drive_couplings;     /* 2 n_couplings: the controllers' coupling rows, then columns; NULL: none */
     double *drive_scratch;              /* d k + 6 P + H + d */
+    /* loads on nodes that follow rigid links (dependent_node_motion); linked_loads 0: none */
+    int64_t linked_loads;
+    const int64_t *load_slot, *frame_slot; /* L each: the links' slot of its node, of its frame's node; −1: free, none */
+    double *linked_scratch;             /* 12 k */
 } WorkAccounts;
+
+/* δq (δx, δπ) and δv (δv, δω) (6 × k each) of the node of the links' slot s from the carried free δq, δv (n × k): its
+ * J and ∂(J v)/∂q at fixed free rates (the links' buffers at the state: complete_links, dependent_rates_tangent),
+ * δq_dep = J δq, δv_dep = J δv + ∂(J v)/∂q δq over the slot's columns that are free (energy_sensitivities._power
+ * calls it too, through latdyn_dependent_node_motion). */
+static void dependent_node_motion(const Model *m, int64_t s, int64_t k, const double *dq, const double *dv, double *mq,
+                                  double *mv)
+{
+    const Links *L = m->links;
+    const int64_t W = L->width, n = m->n_dofs, *columns = L->slot_columns + W * s;
+    const double *J = L->jacobian + 6 * W * s, *R = L->rates_tangent + 12 * W * s;
+    for (int i = 0; i < 6; ++i)
+        for (int64_t col = 0; col < k; ++col) {
+            double q = 0.0, v = 0.0;
+            for (int64_t j = 0; j < L->slot_count[s]; ++j) {
+                const int64_t p = columns[j];
+                if (p >= n) continue;
+                q += J[W * i + j] * dq[p * k + col];
+                v += J[W * i + j] * dv[p * k + col] + R[W * i + j] * dq[p * k + col];
+            }
+            mq[i * k + col] = q;
+            mv[i * k + col] = v;
+        }
+}
+
+/* dependent_node_motion for the per-step Python path, at c (its links completed and their rates' tangent taken
+ * here). */
+void latdyn_dependent_node_motion(const Model *m, Configuration *c, int64_t s, int64_t k, const double *dq,
+                                  const double *dv, double *mq, double *mv)
+{
+    complete_links(m, c);
+    dependent_rates_tangent(m, c);
+    dependent_node_motion(m, s, k, dq, dv, mq, mv);
+}
 
 /* Into `into` (a table's row copied there: `count` laws, each `width` wide): each law whose number law[i * stride] is
  * not −1 evaluated by the compiled laws at its hinge's (θ, θ̇, t) (hinge_of[i]; NULL: hinge i), its f (width 1) or its
@@ -291,6 +329,18 @@ static void loads_power_at(const Model *m, const Configuration *c, const WorkAcc
             const int64_t row = a->frame_rows[3 * l + j];
             for (int64_t col = 0; col < k; ++col)
                 dpi_frame[(3 * l + j) * k + col] = frame >= 0 && row >= 0 && row < n ? dq[row * k + col] : 0.0;
+        }
+    }
+    for (int64_t l = 0; a->linked_loads && l < L; ++l) {   /* a node or frame that follows rigid links */
+        double *mq = a->linked_scratch, *mv = mq + 6 * k;
+        if (a->load_slot[l] >= 0) {
+            dependent_node_motion(m, a->load_slot[l], k, dq, dv, mq, mv);
+            memcpy(du + 6 * l * k, mv, sizeof(double) * (size_t)(6 * k));
+            memcpy(dpi_node + 3 * l * k, mq + 3 * k, sizeof(double) * (size_t)(3 * k));
+        }
+        if (a->frame_slot[l] >= 0) {
+            dependent_node_motion(m, a->frame_slot[l], k, dq, dv, mq, mv);
+            memcpy(dpi_frame + 3 * l * k, mq + 3 * k, sizeof(double) * (size_t)(3 * k));
         }
     }
     if (L) m->point_load(L, T, a->load_offset, values, frames, u, force, load_power_, by_node, by_frame);
@@ -365,6 +415,10 @@ static void work_accounts_step(const Model *m, Work *w, const Configuration *c, 
             state_laws_into(a, c, t, a->n_torque_uses, 1, 0, a->torque_use_law, 1, a->torque_use_hinge, values);
             torque_laws = laws;
             torque_use_values = values;
+        }
+        if (a->linked_loads) {   /* the links' J and rates' tangent at c, as latdyn_dependent_node_motion takes them */
+            complete_links(m, (Configuration *)c);
+            dependent_rates_tangent(m, c);
         }
         loads_power_at(m, c, a, k, dq, dv, at, power, work_dtorque + hk);
         applied_torques(H, k, c->theta, torque_laws, dtheta, dtheta_dot, a->n_torque_uses,
