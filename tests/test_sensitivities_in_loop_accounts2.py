@@ -33,7 +33,8 @@ from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_guides import GUIDE_3D
 from tests.test_sensitivities_in_loop_cables2 import MAST_PD_PUSHED
-from tests.test_sensitivities_in_loop_work import BOOM_3D
+from tests.test_sensitivities_in_loop_work import BOOM_3D, _same
+from tests.test_sensitivities_in_loop_work import test_the_work_accounts_take_the_loop as accounts_take_the_loop
 from tests.test_sensitivities_rigid_links import GIMBAL
 
 #: the PD mast pushed by a load of t (tests/test_sensitivities_in_loop_cables2.py), cable g1 reeled in (rest length
@@ -102,16 +103,6 @@ def _run(text: str, monkeypatch, in_loop: bool, only: str | None = None, **param
         return latdyn.run(latdyn.load_scene(data))
 
 
-def _same(native, python) -> None:
-    """The two runs' sensitivities and the summary's, to the bit; the second took every step from Python."""
-    assert python.summary["sensitivity_steps_in_loop"] == 0
-    assert native.sensitivities.keys() == python.sensitivities.keys()
-    for key, values in python.sensitivities.items():
-        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
-    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
-    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
-
-
 @pytest.mark.parametrize("text", [REEL_PD_LATCH, REEL_MOVED_LATCH],
                          ids=["reel beside a PD, a load and a torque of t", "reel beside a moving base and loads of t"])
 def test_reels_beside_other_time_dependence_take_the_loop(text, monkeypatch):
@@ -132,13 +123,9 @@ def test_reels_beside_other_time_dependence_take_the_loop(text, monkeypatch):
 ], ids=["laws of the state in both accounts", "external work, base slewing", "external work, hinge angle driven",
         "both accounts, rigid links", "a load on a node the links carry", "dissipated energy, a damped guide"])
 def test_the_accounts_take_the_loop(text, probes, monkeypatch):
-    """Every step in the loop, the accounts the Python path's to the bit; their columns nonzero."""
-    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
-    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] > 0
-    _same(native, python)
-    for probe, names in probes.items():
-        for name in names:
-            assert np.abs(native.sensitivities[(probe, name)]).max() > 0.0, (probe, name)
+    """Every step in the loop, the accounts the Python path's to the bit; their columns nonzero (the check of
+    tests/test_sensitivities_in_loop_work.py)."""
+    accounts_take_the_loop(text, probes, monkeypatch)
 
 
 def test_the_cli_writes_the_python_paths_files(tmp_path):
