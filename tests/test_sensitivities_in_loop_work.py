@@ -5,9 +5,10 @@ path calls too (``latdyn_damper_torques``, ``latdyn_dissipated_step``, ``latdyn_
 ``latdyn_applied_torques``, ``latdyn_external_work_increment``), so the run takes the loop and its results are the
 Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the API and the CLI, the accounts
 handed back to Python at each loop's end, at each row recorded on the way and at the events (a latch, a stop with
-restitution: external_work_after_event, from Python). A damping law of the state, a prescribed motion and the
-discrete adjoint keep what they did. Scenes: a 3D boom (two hinges with springs and dampers, one damping a law in t,
-a tip load in t, gravity, a joint body, a spin) by its section, hinge and load parameters; a planar hinged arm by its
+restitution: external_work_after_event, from Python). The discrete adjoint keeps what it did (a damping law of the
+state and a prescribed motion take the loop too: tests/test_sensitivities_in_loop_accounts2.py). Scenes: a 3D boom
+(two hinges with springs and dampers, one damping a law in t, a tip load in t, gravity, a joint body, a spin) by its
+section, hinge and load parameters; a planar hinged arm by its
 damper and section; tests/test_sensitivities_in_loop.py's 3D arm whose spring is a law in t (not conservative: its
 work external) with a torque in t, a rest angle and a follower load, by the spring's, torque's and rest angle's
 parameters; tests/test_sensitivities_events.py's 3D wheel latching and bouncing off its stop with a load."""
@@ -162,20 +163,6 @@ def test_the_cli_writes_the_python_paths_files_for_the_3d_boom(tmp_path):
     assert summary["sensitivity_steps_in_loop"] == summary["steps"] == 20
     assert {"lost", "work"} <= set(summary["probe_sensitivities"])
     the_loop_off_writes_the_same(tmp_path, out)
-
-
-@pytest.mark.parametrize("change", [
-    lambda text: text.replace('damping: "c*(1 + 5*t)"', 'damping: "c*(1 + theta_dot**2)"'),
-    lambda text: text.replace("stiffness: 50.0, damping: 0.3}", 'angle: "0.4*sin(5*t)"}'),
-], ids=["a damping law of the state", "a prescribed motion"])
-def test_what_the_loop_does_not_carry_keeps_the_python_path(change, monkeypatch):
-    """(A guard: it passed before the change too.) A damping law of θ̇ (not tabulated) and a prescribed hinge angle
-    (its drive's reaction, Python's) keep every step on the Python path; the accounts' columns there are those of the
-    run with the switch off."""
-    text = change(BOOM_3D)
-    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
-    assert native.summary["sensitivity_steps_in_loop"] == 0
-    _same(native, python)
 
 
 def test_the_adjoint_still_refuses_the_work_accounts():

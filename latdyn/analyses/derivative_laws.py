@@ -47,8 +47,6 @@ class DerivativeLaws:
         """The compiled derivative laws of the state of ``owner`` (a ParameterDerivatives) with C kernels: its hinge
         uses' derivative laws of the state and, for a rest angle, the hinge's stiffness law of the state; None where
         there is none, no C kernels, or they do not compile (the Python path's NumPy values, module docstring)."""
-        from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws
-
         if getattr(owner.kernels, "backend", None) != "c":
             return None
         laws, seen = [], set()
@@ -66,7 +64,14 @@ class DerivativeLaws:
                 add(hinges[j].stiffness)
         if not laws:
             return None
-        scene = owner.scene
+        return cls.of_laws(owner.scene, laws)
+
+    @classmethod
+    def of_laws(cls, scene, laws: list) -> "DerivativeLaws | None":
+        """``laws`` (hinge laws of the state of ``scene``) compiled, numbered in their order; None where they do not
+        compile or there is no compiler."""
+        from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws
+
         outputs = getattr(scene, "controller_outputs", None)
         signals = (tuple(scene.inputs.names) if scene.inputs is not None else (),
                    tuple(outputs.names) if outputs is not None else ())
@@ -92,6 +97,16 @@ class DerivativeLaws:
         self.bind()
         self._function(i, float(theta), float(rate), float(t), self._out)
         return float(self._out[0])
+
+    def values(self, law, theta: float, rate: float, t: float) -> tuple:
+        """(f, ∂f/∂θ, ∂f/∂θ̇) of ``law`` at (θ, θ̇, t): the compiled law's where it is one of :attr:`laws`, else the
+        law's own (the work accounts' laws of the state: latdyn/analyses/energy_sensitivities.py ``account_laws``)."""
+        i = self._index.get(id(law), -1)
+        if i < 0:
+            return law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+        self.bind()
+        self._function(i, float(theta), float(rate), float(t), self._out)
+        return float(self._out[0]), float(self._out[1]), float(self._out[2])
 
 
 class _Signals:

@@ -58,6 +58,8 @@ controllers; both sums over the steps under the discrete adjoint.
 """
 from __future__ import annotations
 
+import ctypes
+
 import re
 
 import numpy as np
@@ -118,10 +120,10 @@ def _why_not(scene, probe) -> str | None:
     if scene.cables:
         return "energy and momentum sensitivities with cables are not computed yet"
     guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
-    if guided and not (probe.kind == "energy" and quantity in ("strain", "potential")):
+    if guided and not (probe.kind == "energy" and quantity in ("strain", "potential", "dissipated")):
         return (f"with guides (bodies.{guided[0]}.guide) the sensitivities of the strain and potential energies "
-                "are computed, not yet those of the kinetic energy, the total, the external work and the momenta "
-                "(the guided bodies' rates' derivatives)")
+                "and of the dissipated energy are computed, not yet those of the kinetic energy, the total, the "
+                "external work and the momenta (the guided bodies' rates' derivatives)")
     for name in _solve_names(scene):
         used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
         if used is not None:
@@ -154,6 +156,14 @@ def _why_not(scene, probe) -> str | None:
             if hinge.lock_at is not None or hinge.limits is not None:
                 return (f"the dissipated energy through the events of {beam}.{which} (lock_at, limits: a latch's or "
                         "an impact's loss, a compliant stop's damping) is not differentiated yet")
+        for name in guided:   # a guide's damper c(s, ṡ, t) ṡ on its slide: a hinge's on its angle (_damper_torques)
+            guide = scene.bodies[name].guide
+            if guide.friction is not None:
+                return (f"the dissipated energy of friction (bodies.{name}.guide.friction: the work of its force) is "
+                        "not differentiated yet")
+            if guide.lock_at is not None or guide.limits is not None:
+                return (f"the dissipated energy through the events of bodies.{name}.guide (lock_at, limits: a latch's "
+                        "or an impact's loss, a compliant stop's damping) is not differentiated yet")
     if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient":
         timed = _work_in_time(scene)
         if scene.solve.adaptive and timed is not None:
@@ -535,10 +545,15 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     _work_accounts().latdyn_external_work_increment(k, len(owner.model.hinges), float(h), dh, float(power_old),
                                                     dpower_old, float(power_new), dpower_new, *rest, work.ctypes.data)
     held = before.get("external_work_drive")
-    rows_old, _, dreaction_old = held if held is not None else _drive_reactions(owner, old, before)
+    rows_old, dreaction_old = held if held is not None else _drive_reactions(owner, old, before)
     drive = _drive_reactions(owner, new, after)
-    if len(drive[0]):
-        work = work + 0.5 * _drive_increments(owner.model, owner.assembler.kernels, old, new, drive[0]) @ (dreaction_old + drive[2])
+    if len(drive[0]):   # ½ Σ_d Δq_d (δr_d,n + δr_d,n+1): csrc/drive_sensitivities.c, the loop's too
+        increment, dreaction_new = (np.ascontiguousarray(a, np.float64) for a in (
+            _drive_increments(owner.model, owner.assembler.kernels, old, new, drive[0]), drive[1]))
+        dreaction_old = np.ascontiguousarray(dreaction_old, np.float64)
+        _work_accounts().latdyn_drive_work_sensitivity(len(increment), k, increment.ctypes.data,
+                                                       dreaction_old.ctypes.data, dreaction_new.ctypes.data,
+                                                       work.ctypes.data)
     return {**after, "external_work_sensitivity": work, "external_work_terms": terms, "external_work_drive": drive}
 
 
@@ -591,13 +606,13 @@ def _damper_torques(owner, state, carried: dict) -> tuple:
     _, _, dtheta_dot = owner._rates_by_parameter(carried["dv"], carried["dq"], state)
     H = len(model.hinges)
     laws = np.zeros((H, 3))
+    values = _law_values(owner)
     for j, hinge in enumerate(model.hinges):
-        theta, rate, t, law = float(state.theta[j]), float(state.theta_dot[j]), state.t, hinge.damping
-        laws[j] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+        laws[j] = values(hinge.damping, float(state.theta[j]), float(state.theta_dot[j]), state.t)
     uses = damping_uses(owner)
     hinge_of = np.array([j for j, _, _ in uses] or [0], np.int64)
     column = np.array([c for _, c, _ in uses] or [0], np.int64)
-    value = np.array([law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t) for j, _, law in uses]
+    value = np.array([values(law, float(state.theta[j]), float(state.theta_dot[j]), state.t)[0] for j, _, law in uses]
                      or [0.0], float)
     torque, dtorque = np.zeros(H), np.zeros((H, k))
     arrays = [np.ascontiguousarray(a, np.float64) for a in (state.theta_dot, laws, dtheta, dtheta_dot)]
@@ -627,23 +642,35 @@ def external_work_after_event(owner, before: dict, after: dict, new, kind: str) 
 
 
 def _drive_reactions(owner, state, carried: dict) -> tuple:
-    """(rows, r_d, δr_d (d, k)): the reactions that impose the prescribed motions on the prescribed coordinates d
-    (a prescribed body's six, a prescribed hinge's or guide's one; rows in the numbering at ``state``), and their
-    derivatives δr_d = K_d δq + C_d δv + M_d δv̇ + ∂r_d/∂p, the exact rows on d
-    (:meth:`latdyn.assembly.assembler.Assembler.exact_rows`, as the held joints' forces take them:
-    latdyn/analyses/joint_force_sensitivities.py). The drive's work over a step is ½(r_n + r_{n+1}) Δq_d
-    (latdyn/timeloop/progress.py drive_work), Δq_d the prescribed law's, no parameter's: its derivative
-    ½(δr_n + δr_{n+1}) Δq_d (:func:`external_work_step`)."""
+    """(rows, δr_d (d, k)): the derivatives of the reactions that impose the prescribed motions on the prescribed
+    coordinates d (a prescribed body's six, a prescribed hinge's or guide's one; rows in the numbering at ``state``),
+    δr_d = ∂r_d/∂p + K_d δq + C_d δv + M_d δv̇ with K, C, M the exact rows on d of one evaluation (as
+    :meth:`latdyn.assembly.assembler.Assembler.exact_rows` scatters them) and their free columns: csrc/drive_sensitivities.c
+    ``latdyn_drive_reaction_rates``, which the loop of steps calls too. The drive's work over a step is
+    ½(r_n + r_{n+1}) Δq_d (latdyn/timeloop/progress.py drive_work), Δq_d the prescribed law's, no parameter's: its
+    derivative ½(δr_n + δr_{n+1}) Δq_d (:func:`external_work_step`)."""
+    from latdyn.analyses.prescribed_rates import coupling_entries, load_block_columns
+
     model, assembler = owner.model, owner.assembler
-    n, k = model.n_dofs, len(owner.names)
+    k = len(owner.names)
     rows = model.prescribed_coordinates()
     if len(rows) == 0:
-        return rows, np.zeros(0), np.zeros((0, k))
-    M, C, K = assembler.exact_rows(state, rows)
-    explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows]
-    reaction = assembler.evaluate(state, matrices=False).reaction[rows - n]
-    moved = K[:, :n] @ carried["dq"] + C[:, :n] @ carried["dv"] + M[:, :n] @ carried["dvdot"] + explicit
-    return rows, reaction, moved
+        return rows, np.zeros((0, k))
+    moved = np.ascontiguousarray(owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows], np.float64)
+    native = assembler.native(True)
+    assembler.complete_links(state)
+    native.evaluate(state, True, 1.0, True, True)
+    where = np.full(model.n_total + 1, -1, np.int64)
+    where[rows] = np.arange(len(rows))
+    body = (np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), np.float64)
+            if len(model.body_nodes) else None)
+    columns, couplings = load_block_columns(assembler), coupling_entries(assembler)
+    rates = [np.ascontiguousarray(carried[name], np.float64) for name in ("dq", "dv", "dvdot")]
+    native.library.latdyn_drive_reaction_rates(native.model_ref, native.work_ref, where.ctypes.data, k,
+                                               None if body is None else body.ctypes.data, columns.ctypes.data,
+                                               None if couplings is None else couplings.ctypes.data,
+                                               *(a.ctypes.data for a in rates), moved.ctypes.data)
+    return rows, moved
 
 
 def _drive_increments(model, kernels, old, new, rows: np.ndarray) -> np.ndarray:
@@ -685,6 +712,8 @@ def _power(owner, state, carried: dict):
             np.ascontiguousarray(frames.reshape(L, 9)), u))
         du = rows(np.concatenate([dv[node], dw[node]], axis=1))                             # (L, 6, k)
         dpi_node, dpi_frame = rows(dpi[node]), rows(np.where(follower[:, None, None], dpi[np.maximum(frame, 0)], 0.0))
+        if model.links is not None:   # a node or frame that follows the links: the C the loop of steps calls
+            _dependent_loads(owner, state, carried, node, frame, du, dpi_node, dpi_frame)
         pairs, columns, place, laws = owner._load_layout()
         pair_force = np.zeros((1, 6))
         if len(pairs):   # ∂Q/∂p: the kernel with the values' derivatives (linear in them)
@@ -700,8 +729,9 @@ def _power(owner, state, carried: dict):
                                          dpower.ctypes.data)
     H = len(model.hinges)
     torque, dtorque = np.zeros(H), np.zeros((H, k))
-    laws = applied_torque_laws(model, state)
-    uses = [(j, column, kind, law.value(float(state.theta[j]), float(state.theta_dot[j]), state.t))
+    values = _law_values(owner)
+    laws = applied_torque_laws(model, state, values)
+    uses = [(j, column, kind, values(law, float(state.theta[j]), float(state.theta_dot[j]), state.t)[0])
             for j, column, kind, law in applied_torque_uses(owner)]
     ints = lambda values: np.array(values or [0], np.int64)   # noqa: E731
     use_hinge, use_column, use_kind = (ints([use[i] for use in uses]) for i in range(3))
@@ -713,25 +743,90 @@ def _power(owner, state, carried: dict):
     return power, dpower, torque, dtorque, dtheta
 
 
+def _dependent_loads(owner, state, carried: dict, node, frame, du, dpi_node, dpi_frame) -> None:
+    """δu and δπ (in ``du``, ``dpi_node``, ``dpi_frame``) of the loads whose node, or whose follower frame's node,
+    follows rigid links or guides: δq_dep = J δq, δv_dep = J δv + ∂(J v)/∂q δq from the links' buffers at ``state``
+    (csrc/work_accounts.c ``latdyn_dependent_node_motion``, the function the loop of steps calls in
+    ``loads_power_at``)."""
+    model, native = owner.model, owner.assembler.native(True)
+    free, k = set(model.free_nodes.tolist()), du.shape[2]
+    slots = native.links.slot_of_node
+    dq, dv = (np.ascontiguousarray(carried[name], np.float64) for name in ("dq", "dv"))
+    mq, mv = np.zeros((6, k)), np.zeros((6, k))
+    configuration = native.configuration(state)
+    for l, i in enumerate(node):
+        for at, is_frame in ((int(i), False), (int(frame[l]), True)):
+            if at < 0 or at in free:
+                continue
+            native.library.latdyn_dependent_node_motion(native.model_ref, ctypes.byref(configuration), slots[at], k,
+                                                        dq.ctypes.data, dv.ctypes.data, mq.ctypes.data, mv.ctypes.data)
+            if is_frame:
+                dpi_frame[l] = mq[3:6]
+            else:
+                du[l], dpi_node[l] = mv, mq[3:6]
+
+
 #: a parameter's use in a hinge's applied torque (csrc/work_accounts.c applied_torques): its kind's number
 _TORQUE_USE = {"torque": 0, "stiffness": 1, "rest_angle": 2}
 
 
-def applied_torque_laws(model, state) -> np.ndarray:
+def applied_torque_laws(model, state, values=None) -> np.ndarray:
     """(hinges, 8): each hinge's (τ, ∂τ/∂θ, ∂τ/∂θ̇, 1 where its spring is not conservative (its work external) else 0,
-    k, ∂k/∂θ, ∂k/∂θ̇ (0 for a conservative spring), θ_r) at ``state`` (csrc/work_accounts.c applied_torques)."""
+    k, ∂k/∂θ, ∂k/∂θ̇ (0 for a conservative spring), θ_r) at ``state`` (csrc/work_accounts.c applied_torques);
+    ``values(law, θ, θ̇, t)``: a law's (f, ∂f/∂θ, ∂f/∂θ̇) (:func:`_law_values`; None: the law's own)."""
+    values = values or _own_values
     laws = np.zeros((len(model.hinges), 8))
     for j, hinge in enumerate(model.hinges):
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), state.t
         if hinge.torque is not None:
-            law = hinge.torque
-            laws[j, 0:3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+            laws[j, 0:3] = values(hinge.torque, theta, rate, t)
         if not hinge.conservative_spring:   # (a conservative spring does no external work: its k is not read)
-            law = hinge.stiffness
             laws[j, 3] = 1.0
-            laws[j, 4:7] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+            laws[j, 4:7] = values(hinge.stiffness, theta, rate, t)
         laws[j, 7] = hinge.rest_angle
     return laws
+
+
+def _own_values(law, theta: float, rate: float, t: float) -> tuple:
+    """(f, ∂f/∂θ, ∂f/∂θ̇) of a hinge law at (θ, θ̇, t), the law object's own."""
+    return law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+
+
+def account_laws(owner):
+    """The work accounts' laws of θ, θ̇ or an input, compiled (:class:`latdyn.analyses.derivative_laws.DerivativeLaws`,
+    as the step's hinge laws and the parameters' derivative laws of the state are): the dampers' laws and the damping
+    parameters' derivative laws for the dissipated energy; the applied torques, the stiffness of a spring that is not
+    conservative and the torque's, stiffness's and rest angle's parameters' derivative laws for the external work. Their
+    (f, ∂f/∂θ, ∂f/∂θ̇) is one C function that the per-step Python path (:func:`_law_values`) and the loop of steps
+    (csrc/work_accounts.c ``work_accounts_step``, at each hinge's θ, θ̇, t) both call. None where the accounts name no
+    such law, without C kernels, or where they do not compile (the laws' own values then; the loop refuses the run:
+    latdyn/analyses/sensitivities_in_loop.py ``_account_refusal``). Once a run."""
+    held = owner.__dict__.get("_account_laws")
+    if held is not None:
+        return held[0]
+    from latdyn.analyses.derivative_laws import DerivativeLaws, of_the_state
+
+    compiled = None
+    quantities = {p.quantity for p in owner.probes if p.kind == "energy"} & {"dissipated", "external_work"}
+    laws: list = []
+    if "dissipated" in quantities:
+        laws += [hinge.damping for hinge in owner.model.hinges] + [law for *_, law in damping_uses(owner)]
+    if "external_work" in quantities:
+        laws += ([hinge.torque for hinge in owner.model.hinges if hinge.torque is not None]
+                 + [hinge.stiffness for hinge in owner.model.hinges if not hinge.conservative_spring]
+                 + [law for *_, law in applied_torque_uses(owner)])
+    laws = list({id(law): law for law in laws if of_the_state(law)}.values())
+    if laws and getattr(owner.kernels, "backend", None) == "c":
+        compiled = DerivativeLaws.of_laws(owner.scene, laws)
+    owner.__dict__["_account_laws"] = (compiled,)
+    return compiled
+
+
+def _law_values(owner):
+    """``values(law, θ, θ̇, t)``: a work account's law's (f, ∂f/∂θ, ∂f/∂θ̇), the compiled law's where it is one of
+    :func:`account_laws` (the C the loop of steps calls), else the law object's."""
+    compiled = account_laws(owner)
+    return compiled.values if compiled is not None else _own_values
 
 
 def applied_torque_uses(owner) -> list:

@@ -90,11 +90,7 @@ class PrescribedRates:
     def couplings(self) -> np.ndarray | None:
         """(2 n_couplings,) int64: the continuous controllers' coupling rows, then their columns (the numbering
         now), or None without them: csrc/prescribed_rates.c takes each entry whose column the motions move."""
-        control = self.owner.assembler.control
-        rows = np.asarray(getattr(control, "coupling_rows", np.zeros(0)), np.int64)
-        if not len(rows):
-            return None
-        return np.ascontiguousarray(np.concatenate([rows, np.asarray(control.coupling_cols, np.int64)]))
+        return coupling_entries(self.owner.assembler)
 
     def coordinates(self) -> np.ndarray:
         """Every prescribed coordinate (the numbering now), laws or none."""
@@ -141,9 +137,7 @@ class PrescribedRates:
 
     def load_columns(self) -> np.ndarray:
         """(n_loads, 6) int64: each load block's columns (Assembler._load_columns), contiguous."""
-        columns = self.owner.assembler._load_columns()   # noqa: SLF001
-        return np.ascontiguousarray(np.asarray(columns, np.int64).reshape(-1, 6) if len(columns) else
-                                    np.zeros((1, 6), np.int64))
+        return load_block_columns(self.owner.assembler)
 
     def __call__(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> np.ndarray:
         """∂r/∂t (n_total + 1,) through the prescribed motions at ``state`` (every coordinate's row; the caller
@@ -190,3 +184,21 @@ class PrescribedRates:
             int(bool(inertia)), *pointers[2:], scratch_mask.ctypes.data, moved.ctypes.data, total.ctypes.data,
             out.ctypes.data)
         return total, out[:model.n_dofs].copy()
+
+
+def load_block_columns(assembler) -> np.ndarray:
+    """(n_loads, 6) int64: each load block's columns (Assembler._load_columns), contiguous, as the C that takes an
+    evaluation's blocks by row or column reads them (csrc/prescribed_rates.c, csrc/drive_sensitivities.c)."""
+    columns = assembler._load_columns()   # noqa: SLF001
+    return np.ascontiguousarray(np.asarray(columns, np.int64).reshape(-1, 6) if len(columns) else
+                                np.zeros((1, 6), np.int64))
+
+
+def coupling_entries(assembler) -> np.ndarray | None:
+    """(2 n_couplings,) int64: the continuous controllers' coupling rows, then their columns (the numbering now), or
+    None without them (csrc/prescribed_rates.c, csrc/drive_sensitivities.c)."""
+    control = assembler.control
+    rows = np.asarray(getattr(control, "coupling_rows", np.zeros(0)), np.int64)
+    if not len(rows):
+        return None
+    return np.ascontiguousarray(np.concatenate([rows, np.asarray(control.coupling_cols, np.int64)]))

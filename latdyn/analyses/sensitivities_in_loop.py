@@ -58,7 +58,9 @@ Pᵀ, with the geometric term ∂(Pᵀ)/∂q_p q̇_p · r_all, csrc/linked_presc
 ``latdyn_linked_prescribed_time_rate``, on both paths too),
 through reels (a cable's
 rest length in t: each a rest-length use of csrc/cable_forces.c with L0′(t) tabulated, ``_TimeRates._reels``; beside
-no other explicit time dependence or controller, ``_reels_alone``) and through hinge and guide laws of the state and
+the other explicit time dependence and controllers too, their columns after the hinge laws', the controllers' and the
+loads', as ExplicitTime.of_laws adds them: tests/test_sensitivities_in_loop_accounts2.py) and through hinge and guide
+laws of the state and
 t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
@@ -101,11 +103,16 @@ quadrature — the dissipated energy (the dampers' work) and the external work (
 point_load's, with ∂Q/∂p of the load parameters, and the hinges' applied torques and springs that are not
 conservative) — are carried by csrc/work_accounts.c at each step the loop accepts and at each row it records, the C
 the per-step Python path calls too (energy_sensitivities._dissipated_step, external_work_step, _power), with the
-laws' values (damping laws, load values, applied torques and springs, and their parameters' derivative laws: of t
-alone) tabulated per grid point, on models without rigid links, guides or prescribed motions (the dissipated energy
-with rigid links too: its dampers' δθ, δθ̇ are free coordinates; ``_account_refusal``;
-the accounts and their terms handed back at the loop's end, an event's account after it is the Python path's,
-energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
+laws' values (damping laws, load values, applied torques and springs, and their parameters' derivative laws) tabulated
+per grid point where they are laws of t alone, and where they name θ, θ̇ or an input compiled as the step's hinge laws
+and evaluated in C at the hinge's θ, θ̇, t (energy_sensitivities.account_laws, the same C on both paths), with a
+prescribed motion's drive (δr_d = ∂r_d/∂p + K_d δq + C_d δv + M_d δv̇ from ∂r/∂p's rows and one evaluation's blocks,
+and ½ Σ_d Δq_d (δr_d,n + δr_d,n+1): csrc/drive_sensitivities.c, which energy_sensitivities._drive_reactions and
+external_work_step call too); the dissipated energy with rigid links and guides too (its dampers' δθ, δθ̇ — a guide's
+δs, δṡ — are free coordinates), the external work with rigid links (a load's node or frame that follows the links
+moved by J δq, J δv + ∂(J v)/∂q δq from the links' buffers: csrc/work_accounts.c dependent_node_motion, which
+energy_sensitivities._power calls too) (``_account_refusal``; the accounts and their terms handed back at the loop's end, an event's account
+after it is the Python path's, energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
@@ -114,13 +121,12 @@ its node, in a body's axes, a rate —, load actuators, chains, a
 probe of the controller, rigid links or guides, beside sampled ones, or whose laws did not compile),
 sampled ones on a model with rigid links or guides, chains, sensors other than hinge and guide angles and rates and
 inputs, and load actuators, on a model with rigid links or guides, controllers reading a force
-whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C), explicit time
-dependence beside events through reels beside other explicit time dependence
-or controllers, controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
+whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C), 
+controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
-with a law of θ, θ̇ or an input in them, with guides, the external work with rigid links, or (the external work) with a prescribed motion
-(its drive's reaction), and the NumPy kernels.
+with a law of θ, θ̇ or an input in them that does not compile, the external work with guides (the package refuses
+it), and the NumPy kernels.
 
 Step matrices of every storage: where a model has S on the supernodal sparse LU (above DENSE_LIMIT coordinates, its
 bandwidth after reverse Cuthill–McKee above BAND_LIMIT: a designer's lattice, with rigid links or not), the loop
@@ -309,8 +315,6 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
         return "kernels without C libraries"
     if model.cables is not None:
         rates = owner.explicit_time
-        if differentiated and rates is not None and rates.reels and (scene.controllers or not _reels_alone(rates)):
-            return "reels beside controllers or other explicit time dependence beside events"
         why = _cable_refusal(owner)
         if why is not None:
             return why
@@ -326,13 +330,6 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     if why is not None:
         return why
     return None
-
-
-def _reels_alone(rates) -> bool:
-    """Whether ``rates`` (an ExplicitTime, or None) moves in t through reels alone (a cable's rest length in t, no
-    law, prescribed motion or controller of t): ∂r/∂t the reels' rest-length columns (_TimeRates ``_reels``)."""
-    return (rates is not None and rates.reels and not rates.prescribed and not rates.laws.derivatives
-            and rates.laws.controllers is None)
 
 
 def _energy_refusal(owner) -> str | None:
@@ -360,33 +357,36 @@ def _energy_refusal(owner) -> str | None:
 def _account_refusal(owner, quantity: str) -> str | None:
     """Why a work account's sensitivity (``quantity``: the dissipated energy or the external work, sums over the steps:
     energy_sensitivities._dissipated_step, external_work_step) keeps the run on the Python path, or None: the loop
-    carries them by csrc/work_accounts.c, the C the Python path calls, on a model without rigid links or guides (δθ, δθ̇,
-    δπ, δu the carried δq, δv at the free coordinates; the dissipated energy with rigid links too, its hinges' δθ, δθ̇
-    free coordinates: a rigid link's hinge is one) with the laws' values tabulated per grid point: for the
-    dissipated energy every hinge's damping law and the damping parameters' derivative laws, for the external work the
-    loads' values and their derivative laws, every hinge's applied torque, a spring that is not conservative, the
-    torque's, stiffness's and rest angle's parameters' derivative laws (laws of t alone, as the Python step reads them
-    at the hinge's θ, θ̇), and no prescribed motion (its drive's reaction: Python's)."""
-    from latdyn.analyses.energy_sensitivities import applied_torque_uses, damping_uses
+    carries them by csrc/work_accounts.c, the C the Python path calls (δθ, δθ̇, δπ, δu the carried δq, δv at the free
+    coordinates: the dissipated energy with rigid links and guides too, its hinges' and guides' δθ, δθ̇ free
+    coordinates; the external work with rigid links too, a load's node or frame that follows them moved through the
+    links' J and rates' tangent, csrc/work_accounts.c dependent_node_motion; not with guides, which the package
+    refuses) with the laws' values tabulated per grid point where they are laws of t alone, as the Python step reads them,
+    and compiled where they name θ, θ̇ or an input (energy_sensitivities.account_laws: the same C on both paths, at the
+    hinge's θ, θ̇, t): for the dissipated energy every hinge's damping law and the damping parameters' derivative laws,
+    for the external work the loads' values and their derivative laws, every hinge's applied torque, a spring that is
+    not conservative, the torque's, stiffness's and rest angle's parameters' derivative laws; a prescribed motion's
+    drive by csrc/drive_sensitivities.c, which the Python path calls too."""
+    from latdyn.analyses.energy_sensitivities import account_laws, applied_torque_uses, damping_uses
 
     model = owner.model
     what = "the dissipated energy" if quantity == "dissipated" else "the external work"
-    guided = any(getattr(body, "guide", None) is not None for body in owner.scene.bodies.values())
-    if model.links is not None and (quantity != "dissipated" or guided):   # the dampers' δθ, δθ̇: free coordinates
-        return f"{what} with rigid links or guides (a work account carried per step in Python)"
+    if model.links is not None and quantity != "dissipated":   # the dampers' δθ, δθ̇: free coordinates
+        if any(getattr(body, "guide", None) is not None for body in owner.scene.bodies.values()):
+            return f"{what} with guides (the package refuses it)"
     if quantity == "dissipated":
         laws = [hinge.damping for hinge in model.hinges] + [law for _, _, law in damping_uses(owner)]
     else:
-        if len(model.prescribed_coordinates()):
-            return f"{what} with a prescribed motion (its drive's reaction, carried per step in Python)"
         laws = ([hinge.torque for hinge in model.hinges if hinge.torque is not None]
                 + [hinge.stiffness for hinge in model.hinges if not hinge.conservative_spring]
                 + [law for *_, law in applied_torque_uses(owner)])
         if any(not hasattr(c, "value") and not isinstance(c, (int, float))
                for load in owner.scene.loads for c in (load.force or []) + (load.moment or [])):
             return f"{what} with a load value that is not a law of t (carried per step in Python)"
-    if not all(map(_in_time_alone, laws)):
-        return f"{what} with a law in theta, theta_dot or an input (a work account carried per step in Python)"
+    compiled = account_laws(owner)   # the laws of the state, compiled: the C both paths call
+    if not all(_in_time_alone(law) or (compiled is not None and compiled.index(law) >= 0) for law in laws):
+        return (f"{what} with a law in theta, theta_dot or an input that did not compile (a work account carried per "
+                "step in Python)")
     return None
 
 
@@ -715,10 +715,73 @@ class SensitivityLoop:
                                                                           for i in range(3))
             L, P = len(node), len(pairs)
             a.work_scratch = self._pointer(np.zeros(1 + k + H + H * k + L * (73 + 12 * k) + 76 * P))
+            self._drive(a, k)
+            a.linked_loads = 0
+            if model.links is not None:   # loads on nodes that follow the links (dependent_node_motion)
+                slots = owner.assembler.native(True).links.slot_of_node
+                slot = lambda i: slots[int(i)] if int(i) >= 0 and int(i) not in free_nodes else -1   # noqa: E731
+                a.load_slot, a.frame_slot = ints([slot(i) for i in node]), ints([slot(i) for i in frame])
+                a.linked_loads = int(any(slot(i) >= 0 for i in list(node) + list(frame)))
+                a.linked_scratch = self._pointer(np.zeros(12 * k))
         for name, array in self._account.items():
             setattr(a, name, self._pointer(array))
         a.scratch = self._pointer(np.zeros(H + 3 * H * k))
+        self._account_state_laws(a, quantities)
         d.accounts = ctypes.addressof(a)
+
+    def _drive(self, a, k: int) -> None:
+        """The prescribed motions' drive in the external work (energy_sensitivities._drive_reactions,
+        csrc/drive_sensitivities.c): the prescribed coordinates, each one's place among them and among drive_work's
+        increments (6 per prescribed node, then one per hinge), the loop's ∂r/∂p on every coordinate and joint bodies'
+        inertia stiffness at the step's end, the loads' block columns and the couplings, the held δr_d and the prescribed
+        nodes' x and T (_carry_accounts)."""
+        from latdyn.analyses.prescribed_rates import coupling_entries, load_block_columns
+
+        owner, d = self.owner, self.data
+        model = owner.model
+        rows = model.prescribed_coordinates()
+        a.drive_rows = len(rows)
+        if not len(rows):
+            return
+        nodes = model.prescribed_nodes()
+        hinges = [j for j, hinge in enumerate(model.hinges) if hinge.angle is not None]
+        every = np.concatenate([model.node_dofs[nodes].ravel(), model.hinge_dofs[hinges]]).astype(np.int64)
+        slots = np.concatenate([np.arange(6 * len(nodes)), 6 * len(nodes) + np.asarray(hinges, np.int64)]).astype(np.int64)
+        where = np.full(model.n_total + 1, -1, np.int64)
+        where[rows] = np.arange(len(rows))
+        ints = lambda values: self._pointer(np.ascontiguousarray(values, np.int64))   # noqa: E731
+        a.drive_coordinates, a.drive_where = ints(rows), ints(where)
+        a.drive_slot = ints(slots[(every >= model.n_dofs) & (every < model.n_total)])   # prescribed_coordinates' rows
+        self._account.update({"drive_dr": np.zeros(len(rows) * k), "drive_x": np.zeros(3 * len(nodes)),
+                              "drive_T": np.zeros(9 * len(nodes))})
+        a.drive_total = d.total
+        a.drive_body_stiffness = d.body_stiffness if d.body_kernel else None
+        a.drive_load_columns = self._pointer(load_block_columns(owner.assembler))
+        couplings = coupling_entries(owner.assembler)
+        a.drive_couplings = self._pointer(couplings) if couplings is not None else None
+        a.drive_scratch = self._pointer(np.zeros(len(rows) * k + 6 * len(nodes) + len(model.hinges) + len(rows)))
+
+    def _account_state_laws(self, a, quantities: set) -> None:
+        """The accounts' laws of θ, θ̇ or an input (energy_sensitivities.account_laws): the compiled laws' address and
+        each law's number among them (−1: a law of t alone, tabulated) in the struct's order, and the scratch where the
+        loop puts their values at the hinges' θ, θ̇, t beside the tabulated ones (csrc/work_accounts.c)."""
+        from latdyn.analyses.energy_sensitivities import account_laws, applied_torque_uses, damping_uses
+
+        a.state_laws = None
+        compiled = account_laws(self.owner)
+        if compiled is None:
+            return
+        hinges = self.owner.model.hinges
+        number = lambda law: compiled.index(law) if law is not None else -1   # noqa: E731
+        ints = lambda values: self._pointer(np.array(values, np.int64))   # noqa: E731
+        uses, torque_uses = damping_uses(self.owner), applied_torque_uses(self.owner)
+        a.damping_law = ints([number(hinge.damping) for hinge in hinges] if "dissipated" in quantities else [])
+        a.use_law = ints([number(law) for *_, law in uses] if "dissipated" in quantities else [])
+        a.torque_law = ints([[number(hinge.torque), number(None if hinge.conservative_spring else hinge.stiffness)]
+                             for hinge in hinges] if "external_work" in quantities else [])
+        a.torque_use_law = ints([number(law) for *_, law in torque_uses] if "external_work" in quantities else [])
+        a.law_scratch = self._pointer(np.zeros(11 * len(hinges) + len(uses) + len(torque_uses)))
+        a.state_laws = compiled.address
 
     def _pivoted(self, step_matrix) -> None:
         """S on the sparse LU: the band LU with pivoting that stands in at a step whose sparse pivot fails, the
@@ -1143,6 +1206,15 @@ class SensitivityLoop:
             account["power"][0], account["power"][1:] = power, dpower
             for name, value in zip(("work_torque", "work_dtorque", "work_dtheta"), terms):
                 np.copyto(account[name], np.asarray(value, float).reshape(-1))
+            if "drive_dr" in account:   # the drive's δr_d and the prescribed nodes' x, T at the loop's start
+                from latdyn.analyses.energy_sensitivities import _drive_reactions
+
+                held = carried.get("external_work_drive")
+                _, dreaction = held if held is not None else _drive_reactions(self.owner, state, carried)
+                nodes = self.owner.model.prescribed_nodes()
+                np.copyto(account["drive_dr"], np.asarray(dreaction, float).reshape(-1))
+                np.copyto(account["drive_x"], np.asarray(state.x, float)[nodes].reshape(-1))
+                np.copyto(account["drive_T"], np.asarray(state.T, float)[nodes].reshape(-1))
         self._row_accounts = np.zeros((rows, 2 * k)) if rows else None
         a.row_accounts = self._row_accounts.ctypes.data if rows else None
 
@@ -1219,16 +1291,25 @@ class SensitivityLoop:
         (:func:`_account_refusal`), each read as the Python step reads it."""
         from latdyn.analyses.energy_sensitivities import applied_torque_laws, applied_torque_uses, damping_uses
 
+        from latdyn.analyses.energy_sensitivities import account_laws
+
         owner, a, account = self.owner, self._accounts_data, self._account
         hinges, count = owner.model.hinges, len(times)
         a.values_from = grid_index + 1
         at = [_AtRest(t, len(hinges)) for t in times]
+        compiled = account_laws(owner)
+        if compiled is not None:   # the inputs the laws of the state read, bound for this call
+            compiled.bind()
+
+        def values(law, theta, rate, t):   # a law of t alone's; a law of the state's: in C (zeros here)
+            return (0.0, 0.0, 0.0) if compiled is not None and compiled.index(law) >= 0 else (
+                law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t))
+
         if "dissipated" in account:
             uses = damping_uses(owner)
-            self._account_laws = np.array([[(h.damping.value(0.0, 0.0, t), h.damping.d_theta(0.0, 0.0, t),
-                                             h.damping.d_rate(0.0, 0.0, t)) for h in hinges] for t in times],
+            self._account_laws = np.array([[values(h.damping, 0.0, 0.0, t) for h in hinges] for t in times],
                                           float).reshape(count, len(hinges), 3)
-            self._account_uses = np.array([[law.value(0.0, 0.0, t) for _, _, law in uses] for t in times],
+            self._account_uses = np.array([[values(law, 0.0, 0.0, t)[0] for _, _, law in uses] for t in times],
                                           float).reshape(count, len(uses))
             a.laws, a.use_values = self._account_laws.ctypes.data, self._account_uses.ctypes.data
         if "work" in account:
@@ -1244,10 +1325,10 @@ class SensitivityLoop:
             for row, t in enumerate(times):
                 table[row][place] = np.array([owner._of_time(law, t) for law in laws])   # noqa: SLF001
             self._pair_table = table
-            self._torque_table = np.array([applied_torque_laws(owner.model, state) for state in at],
+            self._torque_table = np.array([applied_torque_laws(owner.model, state, values) for state in at],
                                           float).reshape(count, len(hinges), 8)
             uses = applied_torque_uses(owner)
-            self._torque_uses = np.array([[law.value(0.0, 0.0, t) for *_, law in uses] for t in times],
+            self._torque_uses = np.array([[values(law, 0.0, 0.0, t)[0] for *_, law in uses] for t in times],
                                          float).reshape(count, len(uses))
             a.load_values, a.pair_values = self._load_table.ctypes.data, self._pair_table.ctypes.data
             a.torque_laws, a.torque_use_values = self._torque_table.ctypes.data, self._torque_uses.ctypes.data
@@ -1294,8 +1375,6 @@ class SensitivityLoop:
         dh = self._dh.copy()
         accounts = {}
         if d.accounts:   # the work accounts and their terms at the last step's end (_dissipated_step's, external_work_step's)
-            from latdyn.analyses.energy_sensitivities import _drive_reactions
-
             account, hinges, k = self._account, len(self.owner.model.hinges), len(dh)
             if "dissipated" in account:
                 accounts = {"dissipated_sensitivity": account["dissipated"].copy(), "dissipated_terms": (
@@ -1305,7 +1384,8 @@ class SensitivityLoop:
                 accounts.update({"external_work_sensitivity": account["work"].copy(), "external_work_terms": (
                     float(account["power"][0]), account["power"][1:].copy(), account["work_torque"].copy(),
                     account["work_dtorque"].reshape(hinges, k).copy(), account["work_dtheta"].reshape(hinges, k).copy()),
-                    "external_work_drive": _drive_reactions(self.owner, None, carried)})   # none: _account_refusal
+                    "external_work_drive": (self.owner.model.prescribed_coordinates(), account["drive_dr"].reshape(
+                        -1, k).copy() if "drive_dr" in account else np.zeros((0, k)))})
         if d.states:   # the controllers' states' carried δS, δf and (S, f) at the last step's end
             accounts.update({name: array.copy() for name, array in self._states_carried.items()})
         return {**carried, **{name: array.copy() for name, array in self._carried.items()}, "dt": self._dt.copy(),

@@ -287,7 +287,16 @@ class WorkAccountsData(ctypes.Structure):
                 ("loads", I64), ("load_node", P), ("load_frame", P), ("load_offset", P), ("node_rows", P),
                 ("frame_rows", P), ("load_values", P), ("pairs", I64), ("pair_load", P), ("pair_column", P),
                 ("pair_values", P), ("torque_laws", P), ("n_torque_uses", I64), ("torque_use_hinge", P),
-                ("torque_use_column", P), ("torque_use_kind", P), ("torque_use_values", P), ("work_scratch", P)]
+                ("torque_use_column", P), ("torque_use_kind", P), ("torque_use_values", P), ("work_scratch", P),
+                # the accounts' laws of θ, θ̇ or an input, compiled (energy_sensitivities.account_laws); NULL: none
+                ("state_laws", P), ("damping_law", P), ("use_law", P), ("torque_law", P), ("torque_use_law", P),
+                ("law_scratch", P),
+                # the prescribed motions' drive in the external work (csrc/drive_sensitivities.c); drive_rows 0: none
+                ("drive_rows", I64), ("drive_coordinates", P), ("drive_where", P), ("drive_slot", P), ("drive_dr", P),
+                ("drive_x", P), ("drive_T", P), ("drive_total", P), ("drive_body_stiffness", P),
+                ("drive_load_columns", P), ("drive_couplings", P), ("drive_scratch", P),
+                # loads on nodes that follow rigid links (csrc/work_accounts.c dependent_node_motion); 0: none
+                ("linked_loads", I64), ("load_slot", P), ("frame_slot", P), ("linked_scratch", P)]
 
 
 class GeometryForcesData(ctypes.Structure):
@@ -505,6 +514,12 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_external_work_increment.restype = None
         library.latdyn_external_work_increment.argtypes = [I64, I64, ctypes.c_double, P, ctypes.c_double, P,
                                                            ctypes.c_double, P, P, P, P, P, P, P, P, P, P]
+        library.latdyn_drive_reaction_rates.restype = None   # csrc/drive_sensitivities.c
+        library.latdyn_drive_reaction_rates.argtypes = [model, work, P, I64, P, P, P, P, P, P, P]
+        library.latdyn_drive_work_sensitivity.restype = None
+        library.latdyn_drive_work_sensitivity.argtypes = [I64, I64, P, P, P, P]
+        library.latdyn_dependent_node_motion.restype = None   # csrc/work_accounts.c
+        library.latdyn_dependent_node_motion.argtypes = [model, configuration, I64, I64, P, P, P, P]
         library.latdyn_cable_work.restype = None
         library.latdyn_cable_work.argtypes = [I64, P, P, P, P]
         library.latdyn_cable_crossed.restype = I64

@@ -27,6 +27,7 @@
 #include "geometry_forces.c" /* ∂r/∂p of the geometry parameters, in one call */
 #include "linked_matrices.c" /* rigid links: M, C, K and ∂r/∂p on the minimum coordinates for the sensitivities */
 #include "cable_forces.c" /* ∂r/∂p of the cables' parameters for the sensitivities */
+#include "drive_sensitivities.c" /* the prescribed motions' drive in the external work's sensitivity */
 #include "work_accounts.c" /* the work accounts' sensitivities carried through the steps */
 #include "controller_states.c" /* the controllers' states through the sensitivities' step: the p × p algebra */
 

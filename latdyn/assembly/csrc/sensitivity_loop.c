@@ -616,7 +616,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     }
     for (int64_t col = 0; col < k; ++col) s->dt[col] = s->dt[col] + s->dh[col];
     if (s->states != NULL) controller_states_after_loop(m, s->states, s->read_start, k, h, s->dq, s->dh);
-    if (s->accounts != NULL) work_accounts_step(m, c, s->accounts, k, s->dq, s->dv, s->dh, h, grid);
+    if (s->accounts != NULL) work_accounts_step(m, w, c, s->accounts, k, s->dq, s->dv, s->dvdot, s->dh, h, grid, t);
     s->steps += 1;
     s->h = h;
     return 0;

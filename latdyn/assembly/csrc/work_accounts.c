@@ -221,7 +221,84 @@ typedef struct WorkAccounts {
     const int64_t *torque_use_hinge, *torque_use_column, *torque_use_kind;
     const double *torque_use_values;    /* (grid points) × n_torque_uses */
     double *work_scratch;               /* 1 + k + H + H k + L (73 + 12 k) + 76 pairs */
+    /* the accounts' laws of θ, θ̇ or an input (energy_sensitivities.account_laws): compiled as the step's hinge laws
+     * (latdyn_hinge_laws: f, ∂f/∂θ, ∂f/∂θ̇), the C the Python path calls too, evaluated at each hinge's (θ, θ̇, t) in
+     * place of the tabulated values (state_laws_at); state_laws NULL: every law tabulated */
+    void (*state_laws)(int64_t, double, double, double, double *);
+    const int64_t *damping_law;         /* H: each hinge's damping law's number among them, −1: tabulated */
+    const int64_t *use_law;             /* n_uses: each damping parameter's derivative law's, −1: tabulated */
+    const int64_t *torque_law;          /* H × 2: each hinge's applied torque's and stiffness's, −1: tabulated */
+    const int64_t *torque_use_law;      /* n_torque_uses: each applied torque's parameter's derivative law's */
+    double *law_scratch;                /* 3 H + n_uses + 8 H + n_torque_uses: the tables' rows with them in */
+    /* the prescribed motions' drive in the external work (drive_sensitivities.c; energy_sensitivities._drive_reactions):
+     * ½ Σ_d Δq_d (δr_d,n + δr_d,n+1) over the prescribed coordinates d; drive_rows 0: none */
+    int64_t drive_rows;                 /* d */
+    const int64_t *drive_coordinates;   /* d: the prescribed coordinates, in model.prescribed_coordinates' order */
+    const int64_t *drive_where;         /* n_total + 1: each coordinate's place among them, −1 */
+    const int64_t *drive_slot;          /* d: each one's place among the increments (drive_work's order: 6 per
+                                         * prescribed node, then one per hinge) */
+    double *drive_dr;                   /* in/out, d × k: δr_d at the last step's end */
+    double *drive_x, *drive_T;          /* in/out, P × 3, P × 9: the prescribed nodes' x and T there */
+    const double *drive_total;          /* the loop's ∂r/∂p on every coordinate at the step's end ((n_total + 1) × k) */
+    const double *drive_body_stiffness; /* the loop's joint bodies' inertia stiffness at the step's end; NULL: none */
+    const int64_t *drive_load_columns;  /* n_loads × 6: each load block's columns */
+    const int64_t *drive_couplings;     /* 2 n_couplings: the controllers' coupling rows, then columns; NULL: none */
+    double *drive_scratch;              /* d k + 6 P + H + d */
+    /* loads on nodes that follow rigid links (dependent_node_motion); linked_loads 0: none */
+    int64_t linked_loads;
+    const int64_t *load_slot, *frame_slot; /* L each: the links' slot of its node, of its frame's node; −1: free, none */
+    double *linked_scratch;             /* 12 k */
 } WorkAccounts;
+
+/* δq (δx, δπ) and δv (δv, δω) (6 × k each) of the node of the links' slot s from the carried free δq, δv (n × k): its
+ * J and ∂(J v)/∂q at fixed free rates (the links' buffers at the state: complete_links, dependent_rates_tangent),
+ * δq_dep = J δq, δv_dep = J δv + ∂(J v)/∂q δq over the slot's columns that are free (energy_sensitivities._power
+ * calls it too, through latdyn_dependent_node_motion). */
+static void dependent_node_motion(const Model *m, int64_t s, int64_t k, const double *dq, const double *dv, double *mq,
+                                  double *mv)
+{
+    const Links *L = m->links;
+    const int64_t W = L->width, n = m->n_dofs, *columns = L->slot_columns + W * s;
+    const double *J = L->jacobian + 6 * W * s, *R = L->rates_tangent + 12 * W * s;
+    for (int i = 0; i < 6; ++i)
+        for (int64_t col = 0; col < k; ++col) {
+            double q = 0.0, v = 0.0;
+            for (int64_t j = 0; j < L->slot_count[s]; ++j) {
+                const int64_t p = columns[j];
+                if (p >= n) continue;
+                q += J[W * i + j] * dq[p * k + col];
+                v += J[W * i + j] * dv[p * k + col] + R[W * i + j] * dq[p * k + col];
+            }
+            mq[i * k + col] = q;
+            mv[i * k + col] = v;
+        }
+}
+
+/* dependent_node_motion for the per-step Python path, at c (its links completed and their rates' tangent taken
+ * here). */
+void latdyn_dependent_node_motion(const Model *m, Configuration *c, int64_t s, int64_t k, const double *dq,
+                                  const double *dv, double *mq, double *mv)
+{
+    complete_links(m, c);
+    dependent_rates_tangent(m, c);
+    dependent_node_motion(m, s, k, dq, dv, mq, mv);
+}
+
+/* Into `into` (a table's row copied there: `count` laws, each `width` wide): each law whose number law[i * stride] is
+ * not −1 evaluated by the compiled laws at its hinge's (θ, θ̇, t) (hinge_of[i]; NULL: hinge i), its f (width 1) or its
+ * f, ∂f/∂θ, ∂f/∂θ̇ at `offset`, in place of the tabulated value (energy_sensitivities._law_values, the same C). */
+static void state_laws_into(const WorkAccounts *a, const Configuration *c, double t, int64_t count, int64_t width,
+                            int64_t offset, const int64_t *law, int64_t stride, const int64_t *hinge_of, double *into)
+{
+    for (int64_t i = 0; i < count; ++i) {
+        const int64_t number = law[i * stride], j = hinge_of != NULL ? hinge_of[i] : i;
+        if (number < 0) continue;
+        double out[3];
+        a->state_laws(number, c->theta[j], c->theta_dot[j], t, out);
+        if (width == 1) into[i] = out[0];
+        else for (int q = 0; q < 3; ++q) into[i * width + offset + q] = out[q];
+    }
+}
 
 /* P, δP (power: 1 + k) of the loads at c on grid point row `at` (load_power on the generated point_load's outputs). */
 static void loads_power_at(const Model *m, const Configuration *c, const WorkAccounts *a, int64_t k, const double *dq,
@@ -254,6 +331,18 @@ static void loads_power_at(const Model *m, const Configuration *c, const WorkAcc
                 dpi_frame[(3 * l + j) * k + col] = frame >= 0 && row >= 0 && row < n ? dq[row * k + col] : 0.0;
         }
     }
+    for (int64_t l = 0; a->linked_loads && l < L; ++l) {   /* a node or frame that follows rigid links */
+        double *mq = a->linked_scratch, *mv = mq + 6 * k;
+        if (a->load_slot[l] >= 0) {
+            dependent_node_motion(m, a->load_slot[l], k, dq, dv, mq, mv);
+            memcpy(du + 6 * l * k, mv, sizeof(double) * (size_t)(6 * k));
+            memcpy(dpi_node + 3 * l * k, mq + 3 * k, sizeof(double) * (size_t)(3 * k));
+        }
+        if (a->frame_slot[l] >= 0) {
+            dependent_node_motion(m, a->frame_slot[l], k, dq, dv, mq, mv);
+            memcpy(dpi_frame + 3 * l * k, mq + 3 * k, sizeof(double) * (size_t)(3 * k));
+        }
+    }
     if (L) m->point_load(L, T, a->load_offset, values, frames, u, force, load_power_, by_node, by_frame);
     for (int64_t p = 0; p < P; ++p) {   /* ∂Q/∂p: the kernel with the values' derivatives (_load_forces) */
         const int64_t l = a->pair_load[p];
@@ -268,11 +357,40 @@ static void loads_power_at(const Model *m, const Configuration *c, const WorkAcc
                           a->pair_load, a->pair_column, pforce, power + 1);
 }
 
-/* The accounts carried over the loop's accepted step of size h ending at c on grid point `grid` (dq, dv: the carried
- * δq, δv there, n × k; dh: the step size's derivative, k): the terms at c, each account's increment, the terms and θ
- * kept. */
-static void work_accounts_step(const Model *m, const Configuration *c, WorkAccounts *a, int64_t k, const double *dq,
-                               const double *dv, const double *dh, double h, int64_t grid)
+/* The drive's part of the external work's sensitivity over the loop's accepted step ending at c (time t; dq, dv, dvdot
+ * the carried δq, δv, δv̇ there): δr_d at c from ∂r/∂p's rows and one evaluation's blocks (drive_reaction_rates), the
+ * increments Δq_d of the prescribed coordinates from the held start (drive_work's: Δx, so3_log_increment, Δθ; θ at the
+ * start a->theta), their sum into the carried δW (drive_work_sensitivity), and the end held, as external_work_step. */
+static void drive_step(const Model *m, Work *w, const Configuration *c, WorkAccounts *a, int64_t k, const double *dq,
+                       const double *dv, const double *dvdot, double t)
+{
+    const int64_t d = a->drive_rows, P = m->n_prescribed, H = a->hinges;
+    double *dr = a->drive_scratch, *all = dr + d * k, *increment = all + 6 * P + H;
+    for (int64_t i = 0; i < d; ++i)
+        memcpy(dr + i * k, a->drive_total + a->drive_coordinates[i] * k, sizeof(double) * (size_t)k);
+    EvaluationControl e = {t, 1.0, 1, 1, 1, 0.0};
+    latdyn_evaluate(m, w, c, &e);
+    drive_reaction_rates(m, w, a->drive_where, k, a->drive_body_stiffness, a->drive_load_columns, a->drive_couplings,
+                         dq, dv, dvdot, dr);
+    for (int64_t p = 0; p < P; ++p) {
+        const int64_t i = m->prescribed_nodes[p];
+        for (int j = 0; j < 3; ++j) all[6 * p + j] = c->x[3 * i + j] - a->drive_x[3 * p + j];
+        m->so3_log_increment(1, a->drive_T + 9 * p, c->T + 9 * i, all + 6 * p + 3);
+        memcpy(a->drive_x + 3 * p, c->x + 3 * i, 3 * sizeof(double));
+        memcpy(a->drive_T + 9 * p, c->T + 9 * i, 9 * sizeof(double));
+    }
+    for (int64_t j = 0; j < H; ++j) all[6 * P + j] = c->theta[j] - a->theta[j];
+    for (int64_t i = 0; i < d; ++i) increment[i] = all[a->drive_slot[i]];
+    drive_work_sensitivity(d, k, increment, a->drive_dr, dr, a->work);
+    memcpy(a->drive_dr, dr, sizeof(double) * (size_t)(d * k));
+}
+
+/* The accounts carried over the loop's accepted step of size h ending at c on grid point `grid` at time t (dq, dv,
+ * dvdot: the carried δq, δv, δv̇ there, n × k; dh: the step size's derivative, k; w: the evaluation's work space, for
+ * the drive): the terms at c, each account's increment, the terms and θ kept. */
+static void work_accounts_step(const Model *m, Work *w, const Configuration *c, WorkAccounts *a, int64_t k,
+                               const double *dq, const double *dv, const double *dvdot, const double *dh, double h,
+                               int64_t grid, double t)
 {
     const int64_t H = a->hinges, hk = H * k;
     double *torque = a->scratch, *dtorque = torque + H, *dtheta = dtorque + hk, *dtheta_dot = dtheta + hk;
@@ -286,21 +404,48 @@ static void work_accounts_step(const Model *m, const Configuration *c, WorkAccou
     const int64_t at = grid - a->values_from;
     if (a->work != NULL) {
         double *power = a->work_scratch, *work_torque = power + 1 + k, *work_dtorque = work_torque + H;
+        const double *torque_laws = a->torque_laws + 8 * H * at;
+        const double *torque_use_values = a->torque_use_values + a->n_torque_uses * at;
+        if (a->state_laws != NULL) {   /* the laws of the state at the hinges' θ, θ̇, t (account_laws) */
+            double *laws = a->law_scratch + 3 * H + a->n_uses, *values = laws + 8 * H;
+            memcpy(laws, torque_laws, sizeof(double) * (size_t)(8 * H));
+            memcpy(values, torque_use_values, sizeof(double) * (size_t)a->n_torque_uses);
+            state_laws_into(a, c, t, H, 8, 0, a->torque_law, 2, NULL, laws);
+            state_laws_into(a, c, t, H, 8, 4, a->torque_law + 1, 2, NULL, laws);
+            state_laws_into(a, c, t, a->n_torque_uses, 1, 0, a->torque_use_law, 1, a->torque_use_hinge, values);
+            torque_laws = laws;
+            torque_use_values = values;
+        }
+        if (a->linked_loads) {   /* the links' J and rates' tangent at c, as latdyn_dependent_node_motion takes them */
+            complete_links(m, (Configuration *)c);
+            dependent_rates_tangent(m, c);
+        }
         loads_power_at(m, c, a, k, dq, dv, at, power, work_dtorque + hk);
-        applied_torques(H, k, c->theta, a->torque_laws + 8 * H * at, dtheta, dtheta_dot, a->n_torque_uses,
+        applied_torques(H, k, c->theta, torque_laws, dtheta, dtheta_dot, a->n_torque_uses,
                         a->torque_use_hinge, a->torque_use_column, a->torque_use_kind,
-                        a->torque_use_values + a->n_torque_uses * at, work_torque, work_dtorque);
+                        torque_use_values, work_torque, work_dtorque);
         external_work_increment(k, H, h, dh, a->power[0], a->power + 1, power[0], power + 1, a->theta, c->theta,
                                 a->work_torque, a->work_dtorque, a->work_dtheta, work_torque, work_dtorque, dtheta,
                                 a->work);
+        if (a->drive_rows) drive_step(m, w, c, a, k, dq, dv, dvdot, t);   /* the prescribed motions' drive */
         memcpy(a->power, power, sizeof(double) * (size_t)(1 + k));
         memcpy(a->work_torque, work_torque, sizeof(double) * (size_t)H);
         memcpy(a->work_dtorque, work_dtorque, sizeof(double) * (size_t)hk);
         memcpy(a->work_dtheta, dtheta, sizeof(double) * (size_t)hk);
     }
     if (a->dissipated != NULL) {
-        damper_torques(H, k, c->theta_dot, a->laws + 3 * H * at, dtheta, dtheta_dot, a->n_uses, a->use_hinge,
-                       a->use_column, a->use_values + a->n_uses * at, torque, dtorque);
+        const double *laws = a->laws + 3 * H * at, *use_values = a->use_values + a->n_uses * at;
+        if (a->state_laws != NULL) {   /* the laws of the state at the hinges' θ, θ̇, t (account_laws) */
+            double *held = a->law_scratch, *values = held + 3 * H;
+            memcpy(held, laws, sizeof(double) * (size_t)(3 * H));
+            memcpy(values, use_values, sizeof(double) * (size_t)a->n_uses);
+            state_laws_into(a, c, t, H, 3, 0, a->damping_law, 1, NULL, held);
+            state_laws_into(a, c, t, a->n_uses, 1, 0, a->use_law, 1, a->use_hinge, values);
+            laws = held;
+            use_values = values;
+        }
+        damper_torques(H, k, c->theta_dot, laws, dtheta, dtheta_dot, a->n_uses, a->use_hinge,
+                       a->use_column, use_values, torque, dtorque);
         dissipated_step(H, k, a->theta, c->theta, a->torque, a->dtorque, a->dtheta, torque, dtorque, dtheta,
                         a->dissipated);
         memcpy(a->torque, torque, sizeof(double) * (size_t)H);
