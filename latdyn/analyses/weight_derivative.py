@@ -60,8 +60,8 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["configuration_tangent_of_weight", "exact_hinges", "needs_the_kernel", "refuse_without_kernel", "rest_support",
-           "stiffness_moving_with_rates", "times", "transposed_times"]
+__all__ = ["configuration_tangent_of_weight", "exact_hinges", "exact_loads", "needs_the_kernel", "refuse_without_kernel",
+           "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
 #: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
 STIFFNESS_BLOCKS = ("elements", "joint bodies", "joints", "loads and cables", "controllers' couplings")
@@ -175,18 +175,114 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
 
 def rest_support(assembler) -> np.ndarray:
     """The free coordinates the blocks of H_rest are on (module docstring), sorted: the angles of the free hinges
-    whose part is not generated (:func:`exact_hinges`), the point loads' nodes and frame bodies, the cable elements' nodes, and the continuous controllers' couplings' rows
-    and columns. Empty where the model has none of them."""
+    whose part is not generated (:func:`exact_hinges`), the nodes and frame bodies of the point loads a continuous
+    controller drives (:func:`exact_loads`), and the continuous controllers' couplings' rows and columns. Empty where
+    the model has none of them."""
     model = assembler.model
     n = model.n_dofs
     found = [model.hinge_dofs[model.free_hinges][~exact_hinges(assembler)].ravel()]
     if len(assembler.loads):
-        found += [model.node_dofs[assembler._load_nodes].ravel(), assembler._load_columns().ravel()]
-    found.append(assembler.cable_dofs().ravel())
+        driven = ~exact_loads(assembler)
+        found += [model.node_dofs[assembler._load_nodes[driven]].ravel(), assembler._load_columns()[driven].ravel()]
     control = assembler.control
     found += [np.asarray(control.coupling_rows).ravel(), np.asarray(control.coupling_cols).ravel()]
     every = np.concatenate([np.asarray(f, np.int64) for f in found] + [np.zeros(0, np.int64)])
     return np.unique(every[(every >= 0) & (every < n)])
+
+
+def exact_loads(assembler) -> np.ndarray:
+    """(loads,) bool: whether the point load's part of H is generated (:func:`_load_part`): none of its components
+    is driven by a continuous controller (alone or through a law a y + b; latdyn.assembly.control: its values then
+    move with the controller's sensors, the couplings' columns, and its block stays in :func:`rest_support`'s
+    difference)."""
+    control = assembler.control
+    out = np.ones(len(assembler.loads), bool)
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    out[np.asarray(getattr(control, "actuator_index", np.zeros(0, np.int64)))[kinds == 1]] = False
+    return out
+
+
+def _scattered(dofs: np.ndarray, n_total: int) -> np.ndarray:
+    """``dofs`` with the slots that are no coordinate (negative) on n_total, the slot :func:`_sparse` drops and a
+    direction reads 0 at."""
+    return np.where(dofs < 0, n_total, dofs)
+
+
+def _law_value(component, t: float) -> float:
+    """A load component's value at t: its law of time, or a constant."""
+    return float(component.value(t)) if hasattr(component, "value") else float(component)
+
+
+def _load_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the point loads' part of H: s ∂(K_l w_l)/∂[π_node, π_frame] for each load of
+    :func:`exact_loads` with w on its block's columns, from the generated ``point_load_stiffness_D_q``
+    (codegen/joints.py) at the load's values at the state's time (its laws of t; the evaluation's load factor 1)."""
+    model, loads = assembler.model, assembler.loads
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    follower = np.array([load.frame != "global" for load in loads], bool)
+    columns = _scattered(assembler._load_columns(), model.n_total)
+    along = full[columns]
+    along[~follower, 3:] = 0.0   # a global load has no frame: its block's frame half is zero (csrc/evaluate.c)
+    on = np.flatnonzero(exact_loads(assembler) & np.any(along != 0.0, axis=1))
+    if not len(on):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    t = float(state.t)
+    values = np.array([[_law_value(c, t) for c in (loads[l].force or [0.0] * 3)]
+                       + [_law_value(c, t) for c in (loads[l].moment or [0.0] * 3)] for l in on], float)
+    nodes, frames = assembler._load_nodes[on], assembler._load_frames[on]
+    frame_turns = np.where(follower[on][:, None, None], state.T[frames], np.eye(3))
+    rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(on), -1)), dtype=float)  # noqa: E731
+    blocks = np.asarray(assembler.kernels.point_load_stiffness_D_q(
+        rows(state.T[nodes]), rows(assembler._load_offsets[on]), rows(values), rows(frame_turns),
+        rows(along[on]))[1]).reshape(-1, 6, 6).copy()
+    blocks[~follower[on], :, 3:] = 0.0
+    blocks *= scale
+    d = _scattered(model.node_dofs[nodes], model.n_total)
+    c = columns[on]
+    return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(c[:, None, :], blocks.shape).ravel(),
+            blocks.ravel())
+
+
+def _cable_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the cable elements' part of H: s ∂(K_e w_e)/∂[d1, π1, d2, π2] for each element taut
+    at the state (csrc/evaluate.c ``cables``: held taut, or on no side a positive gap min(N_el, N); a slack one's K
+    is zero, its derivative too) with w on its coordinates, from the generated ``cable_stiffness_D_q``
+    (codegen/joints.py: the taut law, the damper's c ℓ̇ at the state's rates included)."""
+    from latdyn.analyses.cable_sensitivities import _turned
+
+    model, cables = assembler.model, assembler.model.cables
+    if cables is None or not len(cables.nodes):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    dofs = _scattered(assembler.cable_dofs(), model.n_total)
+    along = full[dofs]
+    on = np.flatnonzero(np.any(along != 0.0, axis=1))
+    if not len(on):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    t = float(state.t)
+    nodes = cables.nodes[on]
+    geometry = np.array([np.concatenate([state.x[a], state.x[b], _turned(state.T[a], cables.offsets[e, 0]),
+                                         _turned(state.T[b], cables.offsets[e, 1])])
+                         for e, (a, b) in zip(on, nodes)])
+    velocity = np.concatenate([state.v[nodes[:, 0]], state.w[nodes[:, 0]], state.v[nodes[:, 1]], state.w[nodes[:, 1]]],
+                              axis=1)
+    rest = [cables.rest_length[cables.cable[e]] for e in on]
+    section = np.column_stack([cables.share[on] * [r.value(t) for r in rest], cables.share[on] * [r.rate(t) for r in rest],
+                               cables.EA[on], cables.damping[on]])
+    rows = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    kernels = assembler.kernels
+    law = np.asarray(kernels.cable_force(rows(geometry), rows(velocity), rows(section))[3]).reshape(-1, 5)
+    sides = np.asarray(cables.sides, float)[on]
+    taut = (sides > 0) | ((sides == 0) & (np.minimum(law[:, 3], law[:, 4]) > 0.0))
+    if not np.any(taut):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    blocks = np.asarray(kernels.cable_stiffness_D_q(rows(geometry[taut]), rows(velocity[taut]), rows(section[taut]),
+                                                    rows(along[on[taut]]))[1]).reshape(-1, 12, 12) * scale
+    d = dofs[on[taut]]
+    return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(d[:, None, :], blocks.shape).ravel(),
+            blocks.ravel())
 
 
 def _angle_slope_law(law, scene, key: str):
@@ -273,13 +369,19 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float):
 
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
-    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements', the joint bodies' and the
-    generated hinges' blocks (the generated part; a hinge's diagonal, which depends on its own angle alone, is
-    :func:`_hinge_part`'s where :func:`exact_hinges`), times w."""
+    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements', the joint bodies', the
+    generated hinges', the generated loads' and the cable elements' blocks (the generated part; a hinge's diagonal,
+    which depends on its own angle alone, is :func:`_hinge_part`'s where :func:`exact_hinges`, a load's
+    :func:`_load_part`'s where :func:`exact_loads`, a cable element's :func:`_cable_part`'s), times w."""
     ev = assembler.evaluate(state, matrices=True)
     stiffness = ev.flat_blocks("stiffness")
     hinges = np.where(exact_hinges(assembler), 0.0, scale * stiffness[2])   # the generated hinges' out
-    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], hinges] + [scale * b for b in stiffness[3:]]
+    # the generated loads' and every cable element's blocks out: those of the loads a controller drives stay
+    driven = np.broadcast_to(~exact_loads(assembler)[:, None, None], (len(assembler.loads), 6, 6))
+    cable_blocks = int(np.count_nonzero(assembler._cable_mask))
+    differenced = np.concatenate([driven[assembler._load_mask], np.zeros(cable_blocks, bool)])
+    loads = np.where(differenced, scale * stiffness[3], 0.0)
+    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], hinges, loads, scale * stiffness[4]]
     if mass:
         inertia = ev.flat_blocks("mass")
         parts = parts[:2] + [p + m for p, m in zip(parts[2:], inertia[2:])]
@@ -301,8 +403,11 @@ def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: floa
     n = model.n_dofs
     rows, cols, values = _generated(assembler, state, w, scale, mass)
     hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale)
-    rows, cols, values = (np.concatenate([rows, hinge_rows]), np.concatenate([cols, hinge_rows]),
-                          np.concatenate([values, hinge_values]))
+    load_rows, load_cols, load_values = _load_part(assembler, state, w, scale)
+    cable_rows, cable_cols, cable_values = _cable_part(assembler, state, w, scale)
+    rows, cols, values = (np.concatenate([rows, hinge_rows, load_rows, cable_rows]),
+                          np.concatenate([cols, hinge_rows, load_cols, cable_cols]),
+                          np.concatenate([values, hinge_values, load_values, cable_values]))
     support = rest_support(assembler)
     if len(support):
         columns = []
