@@ -793,9 +793,10 @@ class TransientSensitivities(ParameterDerivatives):
                            mass: bool = True, rates=None) -> np.ndarray:
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
         the inertia tangent, as the impulse uses it), along each column's (δq, δp): H δq with H = ∂(W w)/∂q
-        generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements' and
-        joint bodies' parts, their weight's too, from the generated kernels, the hinges', loads', cables' and
-        couplings' blocks differenced along the coordinates they are on), ∂M/∂p w exactly (the inertia forces
+        generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements', joint
+        bodies' (their weight's too), hinges', loads' and cables' parts from the generated kernels, the continuous
+        controllers' couplings' blocks and those of the loads they drive differenced along the coordinates they are
+        on), ∂M/∂p w exactly (the inertia forces
         are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
         (:meth:`_stiffness_derivative`: the section values' part generated, the rest differenced along w).
 
@@ -837,8 +838,8 @@ class TransientSensitivities(ParameterDerivatives):
         :meth:`stiffness_moves_with_rates`: the evaluation's K depends on the free rates where a term does (a damped
         cable's geometric terms c ℓ̇, a hinge law whose ∂τ/∂θ holds θ̇, a compliant stop's damping in contact, a
         controller's couplings), and the impulse's weight M + dt² K moves with them; a central difference of K w
-        along each column's δv, as :func:`configuration_tangent_of_weight` differences the hinges' and cables' blocks
-        along q (the step relative: the rates' own size, or 1)."""
+        along each column's δv, as :func:`configuration_tangent_of_weight` differences the couplings' blocks along q
+        (the step relative: the rates' own size, or 1)."""
         model, assembler = self.model, self.assembler
         v0 = free_velocity(model, state)
         out = np.zeros_like(dv)

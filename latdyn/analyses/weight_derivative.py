@@ -9,7 +9,7 @@ sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp
 so one matrix serves both:
 
     H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
-        + Σ_j s (∂K_jj/∂θ_j) w_j e_j e_jᵀ + H_rest
+        + Σ_j s (∂K_jj/∂θ_j) w_j e_j e_jᵀ + Σ_l s A_l ∂(K_l w_l)/∂q_l A_lᵀ + Σ_c s A_c ∂(K_c w_c)/∂q_c A_cᵀ + H_rest
 
 (c_m = 1 with the mass, 0 without; w_e, w_b: w on the element's and the body's coordinates, 0 on those that are
 no free coordinate). Generated and exact:
@@ -30,14 +30,25 @@ no free coordinate). Generated and exact:
   with NumPy at the event (the events take the Python path; nothing is compiled for them: a scene without events,
   or without laws of θ, makes nothing new). A hinge that a continuous controller alone drives has no torque law
   there (csrc/evaluate.c ``hinge_forces``). A hinge with a law of θ that names an input or a controller, or whose
-  ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along its angle.
+  ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along its angle;
+* the point loads' blocks K_l (the node's rows × the turns of the node and of the body the load turns with; a
+  global load's frame half zero), along w_l on those columns: ``point_load_stiffness_D_q`` (codegen/joints.py: K_l w
+  as the derivative of the load's force along the turns τ w at τ = 0, differentiated once more by the turns the
+  node and the frame start from) at the load's values at the state's time (:func:`_load_part`). A load a
+  continuous controller drives (alone or through a law a y + b) has values that move with the controller's
+  sensors: its block keeps the difference below (:func:`exact_loads`);
+* the cable elements' blocks K_c (both end nodes' [d, π], the damper's c ℓ̇ at the state's rates included), along
+  w_c: ``cable_stiffness_D_q`` (the same construction on the taut law of ``cable_force``), for the elements taut at
+  the state as csrc/evaluate.c ``cables`` decides (held taut, or on no side a positive gap min(N_el, N)); a slack
+  element's K is the runtime's zero, its derivative too (:func:`_cable_part`).
 
-Not generated, H_rest: the point loads' and cables' stiffness blocks and the continuous controllers' couplings
-(none has a generated second derivative yet). Their product (W without the elements, the joint bodies and the
-hinges) w is differenced centrally along each coordinate those blocks are on (:func:`rest_support`: the
-loaded and cable nodes' coordinates, the couplings' rows and columns), two evaluations per
-coordinate, step :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale,
-L_min the shortest element where shorter). A model with none of them has H exact with no evaluation.
+Not generated, H_rest: the continuous controllers' couplings (K's entries −a ∂y/∂s ∂s/∂q: their derivative along
+q needs the outputs' second derivatives by the sensors and the sensors' own, not generated yet) and the blocks of
+the loads they drive. Their product (W without the generated blocks) w is differenced centrally along each
+coordinate those blocks are on (:func:`rest_support`: the couplings' rows and columns, the driven loads' nodes and
+frame bodies, a hinge not in :func:`exact_hinges`), two evaluations per coordinate, step
+:data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale, L_min the shortest
+element where shorter). A model with none of them has H exact with no evaluation.
 Rigid links and guides are not taken here: their reduction's geometric term keeps the difference of W w along
 δq (``TransientSensitivities._weight_derivative``).
 
