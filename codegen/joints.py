@@ -280,7 +280,8 @@ def _point_load_stiffness_D_q_kernel() -> KernelSpec:
     return KernelSpec(name="point_load_stiffness_D_q", doc="A point load's stiffness along a direction and its exact "
                       "derivative by the node's and the load frame's turns (an event's impulse weight with "
                       "sensitivities)", inputs=[LOAD_NODE, LOAD_OFFSET, LOAD_VALUES, LOAD_FRAME, LOAD_DIRECTION],
-                      outputs=outputs, variant="joints", equations="Eq. 2 (the point), follower loads turning with a body")
+                      outputs=outputs, variant="joints",
+                      equations="Eq. 2 (the point), follower loads turning with a body")
 
 
 LOAD_OFFSET_MOVE = Argument("offset_move", 3, "δr: a variation of the load's point from the node's reference point, in "
@@ -1164,14 +1165,14 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(), _point_load_stiffness_D_q_kernel(),
-            _hinged_end_kernel(),
+    return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(),
+            _point_load_stiffness_D_q_kernel(), _hinged_end_kernel(),
             _reference_variation_kernel(), _hinge_force_kernel(), _hinge_stiffness_by_angle_kernel(),
             _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),
-            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(), _cable_stiffness_D_q_kernel(),
-            _cable_rest_length_kernel(),
+            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
+            _cable_stiffness_D_q_kernel(), _cable_rest_length_kernel(),
             _cable_tension_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),

@@ -54,8 +54,10 @@ total derivative vanish; the jump of δv through the impulse and the restarted a
 differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivities.after_events`); the
 derivative of the impulse weight M + dt²K along δq is the matrix H = ∂(W w)/∂q, generated for the elements
 (``beam_stiffness_D_q``, ``beam_inertia_tangent``) and the joint bodies' mass and weight
-(``joint_body_inertia_stiffness``, ``joint_body_gravity_stiffness_D_q``), the hinges', loads', cables' and
-couplings' blocks differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py), and along
+(``joint_body_inertia_stiffness``, ``joint_body_gravity_stiffness_D_q``), the hinges' (``hinge_stiffness_by_angle``),
+the point loads' (``point_load_stiffness_D_q``), the cables' (``cable_stiffness_D_q``) and the couplings of
+controllers of joints' angles and rates (SymPy's second derivatives of their outputs), the other couplings' blocks
+differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py), and along
 p (∂K/∂p) w: the section values' part generated for every parameter, the rest a difference along w of the static
 ∂r/∂p without the section values' element forces and the elements' gravity load, which the evaluation's K (the
 impulse's) leaves out (:meth:`TransientSensitivities._weight_derivative`,
@@ -159,7 +161,8 @@ LANDING_PASSES = 30
 LANDING_MISSED = 1e-10
 #: the configuration step (times the length scale) of the central differences inside the impulse weight's
 #: derivative that are not generated (module docstring, "Events"; latdyn/analyses/weight_derivative.py): along the
-#: coordinates of its hinges', loads', cables' and couplings' blocks, along δq with rigid links or guides, and of
+#: coordinates of the blocks not generated (some controllers' couplings, the loads they drive, a hinge law naming an
+#: input), along δq with rigid links or guides, and of
 #: ∂r/∂p along w (without the section values' forces and the elements' gravity load) for the parameters it holds
 WEIGHT_STEP = 1e-5
 #: the caches a ParameterDerivatives makes of its :attr:`derivatives` on first use (latdyn/analyses/sensitivities.py,

@@ -9,10 +9,12 @@ sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp
 so one matrix serves both:
 
     H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
-        + Σ_j s (∂K_jj/∂θ_j) w_j e_j e_jᵀ + Σ_l s A_l ∂(K_l w_l)/∂q_l A_lᵀ + Σ_c s A_c ∂(K_c w_c)/∂q_c A_cᵀ + H_rest
+        + Σ_j s (∂K_jj/∂θ_j) w_j e_j e_jᵀ + Σ_l s A_l ∂(K_l w_l)/∂q_l A_lᵀ + Σ_c s A_c ∂(K_c w_c)/∂q_c A_cᵀ
+        + s ∂(K_y w)/∂q + H_rest
 
 (c_m = 1 with the mass, 0 without; w_e, w_b: w on the element's and the body's coordinates, 0 on those that are
-no free coordinate). Generated and exact:
+no free coordinate; l the point loads, c the cable elements, K_y the continuous controllers' couplings). Generated
+and exact:
 
 * the elements' stiffness along w, ∂(K_e v)/∂q_e at v = w_e: ``beam_stiffness_D_q`` (codegen/derivation.py:
   the forward-mode program of the lowered product (∂F_i/∂q) v, seeded with the geometry block's first
@@ -40,13 +42,19 @@ no free coordinate). Generated and exact:
 * the cable elements' blocks K_c (both end nodes' [d, π], the damper's c ℓ̇ at the state's rates included), along
   w_c: ``cable_stiffness_D_q`` (the same construction on the taut law of ``cable_force``), for the elements taut at
   the state as csrc/evaluate.c ``cables`` decides (held taut, or on no side a positive gap min(N_el, N)); a slack
-  element's K is the runtime's zero, its derivative too (:func:`_cable_part`).
+  element's K is the runtime's zero, its derivative too (:func:`_cable_part`);
+* the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
+  alone (:func:`exact_couplings`): K's entry −a ∂y/∂θ_j moves along q with −a ∂²y/∂θ_j∂θ_i (an angle sensor's own
+  second derivative is 0; the rates are held), SymPy's second derivatives of the output's expression by its angles
+  lambdified once per output in a process (:func:`_output_curvature`) and evaluated with NumPy at the event's sensor values; 0 while
+  the output is saturated (:func:`_coupling_part`).
 
-Not generated, H_rest: the continuous controllers' couplings (K's entries −a ∂y/∂s ∂s/∂q: their derivative along
-q needs the outputs' second derivatives by the sensors and the sensors' own, not generated yet) and the blocks of
-the loads they drive. Their product (W without the generated blocks) w is differenced centrally along each
-coordinate those blocks are on (:func:`rest_support`: the couplings' rows and columns, the driven loads' nodes and
-frame bodies, a hinge not in :func:`exact_hinges`), two evaluations per coordinate, step
+Not generated, H_rest: the other continuous controllers' couplings (a sensor of a point, a body, a cable, an
+element or a joint's force, whose own second derivative through the kinematics is not generated; an input, a state
+or another controller read; a load component driven) and the blocks of the loads they drive. Their product (W
+without the generated blocks) w is differenced centrally along each coordinate those blocks are on
+(:func:`rest_support`: those couplings' rows and columns, the driven loads' nodes and frame bodies, a hinge not in
+:func:`exact_hinges`), two evaluations per coordinate, step
 :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale, L_min the shortest
 element where shorter). A model with none of them has H exact with no evaluation.
 Rigid links and guides are not taken here: their reduction's geometric term keeps the difference of W w along
@@ -71,8 +79,8 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["configuration_tangent_of_weight", "exact_hinges", "exact_loads", "needs_the_kernel", "refuse_without_kernel",
-           "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
+__all__ = ["configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads", "needs_the_kernel",
+           "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
 #: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
 STIFFNESS_BLOCKS = ("elements", "joint bodies", "joints", "loads and cables", "controllers' couplings")
@@ -83,6 +91,8 @@ RATES_MOVE = 1e-3
 #: id(law) -> (the law, its :func:`_angle_slope_law`): parsed once per law in a process (the law kept, so that its id
 #: is not reused)
 _SLOPES: dict = {}
+#: (output's text, symbols, angle reads) -> its :func:`_output_curvature`, made once per process
+_CURVATURES: dict = {}
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -187,8 +197,8 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool):
 def rest_support(assembler) -> np.ndarray:
     """The free coordinates the blocks of H_rest are on (module docstring), sorted: the angles of the free hinges
     whose part is not generated (:func:`exact_hinges`), the nodes and frame bodies of the point loads a continuous
-    controller drives (:func:`exact_loads`), and the continuous controllers' couplings' rows and columns. Empty where
-    the model has none of them."""
+    controller drives (:func:`exact_loads`), and the rows and columns of the continuous controllers' couplings not
+    generated (:func:`exact_couplings`). Empty where the model has none of them."""
     model = assembler.model
     n = model.n_dofs
     found = [model.hinge_dofs[model.free_hinges][~exact_hinges(assembler)].ravel()]
@@ -196,7 +206,8 @@ def rest_support(assembler) -> np.ndarray:
         driven = ~exact_loads(assembler)
         found += [model.node_dofs[assembler._load_nodes[driven]].ravel(), assembler._load_columns()[driven].ravel()]
     control = assembler.control
-    found += [np.asarray(control.coupling_rows).ravel(), np.asarray(control.coupling_cols).ravel()]
+    differenced = ~exact_couplings(assembler)
+    found += [np.asarray(control.coupling_rows)[differenced], np.asarray(control.coupling_cols)[differenced]]
     every = np.concatenate([np.asarray(f, np.int64) for f in found] + [np.zeros(0, np.int64)])
     return np.unique(every[(every >= 0) & (every < n)])
 
@@ -280,8 +291,8 @@ def _cable_part(assembler, state, w: np.ndarray, scale: float):
     velocity = np.concatenate([state.v[nodes[:, 0]], state.w[nodes[:, 0]], state.v[nodes[:, 1]], state.w[nodes[:, 1]]],
                               axis=1)
     rest = [cables.rest_length[cables.cable[e]] for e in on]
-    section = np.column_stack([cables.share[on] * [r.value(t) for r in rest], cables.share[on] * [r.rate(t) for r in rest],
-                               cables.EA[on], cables.damping[on]])
+    section = np.column_stack([cables.share[on] * [r.value(t) for r in rest],
+                               cables.share[on] * [r.rate(t) for r in rest], cables.EA[on], cables.damping[on]])
     rows = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
     kernels = assembler.kernels
     law = np.asarray(kernels.cable_force(rows(geometry), rows(velocity), rows(section))[3]).reshape(-1, 5)
@@ -294,6 +305,96 @@ def _cable_part(assembler, state, w: np.ndarray, scale: float):
     d = dofs[on[taut]]
     return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(d[:, None, :], blocks.shape).ravel(),
             blocks.ravel())
+
+
+def _output_curvature(controller, angles: tuple):
+    """SymPy's ∂²f/∂s_i∂s_j of a continuous controller's output f before saturation by its reads at the positions
+    ``angles`` (its angle sensors; the rates' never enter W), lambdified once per output's text, reads and angles in a
+    process (:data:`_CURVATURES`: a scene loaded again reuses it), a function of ``(t, *reads values)`` giving the
+    (angles, angles) matrix; None where a second derivative is not a function (DiracDelta of a kink, an unevaluated
+    derivative)."""
+    reads = controller.symbols[1:1 + len(controller.reads)]
+    key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(angles))
+    if key not in _CURVATURES:
+        import sympy as sp
+
+        first = [sp.diff(controller.output_expr, reads[i]) for i in angles]
+        second = [[sp.diff(first[a], reads[j]) if b >= a else None for b, j in enumerate(angles)]
+                  for a in range(len(angles))]
+        second = [[second[a][b] if b >= a else second[b][a] for b in range(len(angles))] for a in range(len(angles))]
+        singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in second for e in row)
+        _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols[:1 + len(reads)], second,
+                                                             modules=["math", "numpy"])
+    return _CURVATURES[key]
+
+
+def exact_couplings(assembler) -> np.ndarray:
+    """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of H generated
+    (:func:`_coupling_part`): its actuator is a hinge's or guide's force, and its controller reads joints' angles
+    and rates alone (no input, no other controller, no state) with an output whose second derivatives by them are
+    functions (:func:`_output_curvature`). Its entry −a ∂y/∂s (sensor s an angle: the sensor's own second
+    derivative is 0) then moves along q with ∂²y/∂s² alone; the others keep the difference (:func:`rest_support`)."""
+    from latdyn.assembly.control import ANGLE, RATE
+
+    control = assembler.control
+    rows = np.asarray(control.coupling_rows)
+    out = np.zeros(len(rows), bool)
+    if not len(rows):
+        return out
+    plain = []
+    for k, controller in enumerate(control.controllers):
+        kinds = control.sensor_kind[control.sensor_start[k]:control.sensor_start[k + 1]]
+        plain.append(not controller.states and len(kinds) == len(controller.reads)
+                     and bool(np.all((kinds == ANGLE) | (kinds == RATE)))
+                     and _output_curvature(controller, tuple(np.flatnonzero(kinds == ANGLE))) is not None)
+    for e, a in enumerate(np.asarray(control.coupling_actuator)):
+        out[e] = control.actuator_kind[a] == 0 and plain[control.actuator_controller[a]]
+    return out
+
+
+def _coupling_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the couplings' part of H for the entries of :func:`exact_couplings`: K's entry
+    K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while the output
+    is saturated, csrc/evaluate.c controller_outputs) along w: s Σ_j ∂K_rj/∂θ_i w_j = −s a Σ_j ∂²f/∂θ_j∂θ_i w_j
+    in column i, for the angle sensors i, j of the actuator's controller (rates held: W has no C)."""
+    from latdyn.assembly.control import ANGLE
+
+    control, model = assembler.control, assembler.model
+    exact = exact_couplings(assembler)
+    n = model.n_dofs
+    out_rows, out_cols, out_values = [], [], []
+    done = set()
+    for e in np.flatnonzero(exact):
+        a = int(control.coupling_actuator[e])
+        if a in done:
+            continue
+        done.add(a)
+        k = int(control.actuator_controller[a])
+        controller = control.controllers[k]
+        first, last = int(control.sensor_start[k]), int(control.sensor_start[k + 1])
+        kinds, indices = control.sensor_kind[first:last], control.sensor_index[first:last]
+        values = [float(state.theta[i] if kind == ANGLE else state.theta_dot[i])
+                  - float(control.sensor_origin[first + m]) for m, (kind, i) in enumerate(zip(kinds, indices))]
+        t = float(state.t)
+        y = float(controller.functions()[0](t, *values))
+        lo, hi = control.limits[k]
+        if y < lo or y > hi:   # saturated: ∂y/∂s = 0 about the state, its derivative too
+            continue
+        angles = np.flatnonzero(kinds == ANGLE)
+        columns = np.asarray(model.hinge_dofs, np.int64)[indices[angles]]
+        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
+        if not np.any(along):
+            continue
+        second = _output_curvature(controller, tuple(angles))
+        curvature = np.asarray(second(t, *values), float).reshape(len(angles), len(angles))
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        row = int(model.hinge_dofs[control.actuator_index[a]])
+        out_rows.append(np.full(len(angles), row, np.int64))
+        out_cols.append(columns)
+        out_values.append(-scale * gain * (curvature.T @ along))
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
 
 
 def _angle_slope_law(law, scene, key: str):
@@ -383,7 +484,8 @@ def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> 
     """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements', the joint bodies', the
     generated hinges', the generated loads' and the cable elements' blocks (the generated part; a hinge's diagonal,
     which depends on its own angle alone, is :func:`_hinge_part`'s where :func:`exact_hinges`, a load's
-    :func:`_load_part`'s where :func:`exact_loads`, a cable element's :func:`_cable_part`'s), times w."""
+    :func:`_load_part`'s where :func:`exact_loads`, a cable element's :func:`_cable_part`'s, a coupling's
+    :func:`_coupling_part`'s where :func:`exact_couplings`), times w."""
     ev = assembler.evaluate(state, matrices=True)
     stiffness = ev.flat_blocks("stiffness")
     hinges = np.where(exact_hinges(assembler), 0.0, scale * stiffness[2])   # the generated hinges' out
@@ -392,7 +494,8 @@ def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> 
     cable_blocks = int(np.count_nonzero(assembler._cable_mask))
     differenced = np.concatenate([driven[assembler._load_mask], np.zeros(cable_blocks, bool)])
     loads = np.where(differenced, scale * stiffness[3], 0.0)
-    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], hinges, loads, scale * stiffness[4]]
+    couplings = np.where(exact_couplings(assembler)[assembler._coupling_mask], 0.0, scale * stiffness[4])
+    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], hinges, loads, couplings]
     if mass:
         inertia = ev.flat_blocks("mass")
         parts = parts[:2] + [p + m for p, m in zip(parts[2:], inertia[2:])]
@@ -416,9 +519,10 @@ def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: floa
     hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale)
     load_rows, load_cols, load_values = _load_part(assembler, state, w, scale)
     cable_rows, cable_cols, cable_values = _cable_part(assembler, state, w, scale)
-    rows, cols, values = (np.concatenate([rows, hinge_rows, load_rows, cable_rows]),
-                          np.concatenate([cols, hinge_rows, load_cols, cable_cols]),
-                          np.concatenate([values, hinge_values, load_values, cable_values]))
+    coupling_rows, coupling_cols, coupling_values = _coupling_part(assembler, state, w, scale)
+    rows, cols, values = (np.concatenate([rows, hinge_rows, load_rows, cable_rows, coupling_rows]),
+                          np.concatenate([cols, hinge_rows, load_cols, cable_cols, coupling_cols]),
+                          np.concatenate([values, hinge_values, load_values, cable_values, coupling_values]))
     support = rest_support(assembler)
     if len(support):
         columns = []
