@@ -250,6 +250,40 @@ def _point_load_kernel() -> KernelSpec:
                       variant="joints", equations="Eq. 2 (the point), follower loads turning with a body")
 
 
+LOAD_DIRECTION = Argument("load_direction", 6, "w[6]: a direction on the load's block columns, the node's π then the "
+                          "frame body's π (an event's impulse weight w; 0 on the frame's for a global load)")
+
+
+def _point_load_stiffness_D_q_kernel() -> KernelSpec:
+    """A point load's stiffness along a direction, K_l w = (∂f/∂π_node) w_node + (∂f/∂π_frame) w_frame (the block of
+    :func:`_point_load_kernel`), and its exact derivative by the node's and the frame body's turns at fixed w, values
+    and offset (an event's impulse weight M + dt²K along δq, latdyn/analyses/weight_derivative.py). K_l w is the
+    derivative of the force along the turns τ w at τ = 0, differentiated once more by the turns ε it starts from."""
+    T, R = _matrix(LOAD_NODE.symbols()), _matrix(LOAD_FRAME.symbols())
+    r, values = LOAD_OFFSET.symbols(), LOAD_VALUES.symbols()
+    direction = _vector(LOAD_DIRECTION.symbols())
+    tau, second = sp.Symbol("tau"), sp.Matrix(sp.symbols("epsilon_0:3"))
+    at_second = {e: 0 for e in second}
+
+    def stiffness_along(node, frame):
+        turned = point_load_terms(_turned(node, tau * direction[0:3, :]), r, values,
+                                  _turned(frame, tau * direction[3:6, :]), [0] * 6)[0]
+        return sp.diff(turned, tau).xreplace({tau: 0})
+
+    along = stiffness_along(T, R)
+    by_node = _jacobian(stiffness_along(_turned(T, second), R), second, at_second)
+    by_frame = _jacobian(stiffness_along(T, _turned(R, second)), second, at_second)
+    outputs = [Output("load_stiffness_along", (6,), _rows(along), "(∂load_force/∂π_node) w_node + "
+                      "(∂load_force/∂π_frame) w_frame"),
+               Output("load_stiffness_along_D_q", (6, 6), _rows(sp.Matrix.hstack(by_node, by_frame)),
+                      "∂(load_stiffness_along)/∂[π_node, π_frame] at fixed w: the load block's columns")]
+    return KernelSpec(name="point_load_stiffness_D_q", doc="A point load's stiffness along a direction and its exact "
+                      "derivative by the node's and the load frame's turns (an event's impulse weight with "
+                      "sensitivities)", inputs=[LOAD_NODE, LOAD_OFFSET, LOAD_VALUES, LOAD_FRAME, LOAD_DIRECTION],
+                      outputs=outputs, variant="joints",
+                      equations="Eq. 2 (the point), follower loads turning with a body")
+
+
 LOAD_OFFSET_MOVE = Argument("offset_move", 3, "δr: a variation of the load's point from the node's reference point, in "
                             "node axes (a geometry parameter moving a beam end's offset)")
 
@@ -631,12 +665,7 @@ def _cable_force_kernel() -> KernelSpec:
     # the configuration update of both ends: x_i += δd_i, o_i ← (I + skew δπ_i) o_i (spatial, to first order)
     delta = sp.Matrix(sp.symbols("delta_0:12"))
     zero = {d: 0 for d in delta}
-    moved = list(geometry)
-    for k in range(2):
-        d, pi = delta[6 * k:6 * k + 3, 0], delta[6 * k + 3:6 * k + 6, 0]
-        moved[3 * k:3 * k + 3] = list(_vector(geometry[3 * k:3 * k + 3]) + d)
-        o = _vector(geometry[6 + 3 * k:9 + 3 * k])
-        moved[6 + 3 * k:9 + 3 * k] = list(o + pi.cross(o))
+    moved = _cable_moved(geometry, delta)
     force_moved = cable_terms(moved, velocity, section)[0]
     L0, L0_dot, EA, c = section
     stretch = length - L0
@@ -663,6 +692,47 @@ def _cable_force_kernel() -> KernelSpec:
                       "force, exact derivatives by the end coordinates and rates, length, tension, strain energy, "
                       "the rest length's generalized force (a reel) and the dampers' forces", inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION],
                       outputs=outputs, variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
+
+
+CABLE_DIRECTION = Argument("cable_direction", 12, "w[12]: a direction on [d1, π1, d2, π2] (an event's impulse "
+                           "weight w)")
+
+
+def _cable_moved(geometry, delta):
+    """The cable's geometry after the configuration update of both ends by ``delta`` [d1, π1, d2, π2]: x_i += δd_i,
+    o_i ← (I + skew δπ_i) o_i (spatial, to first order: all a derivative at δ = 0 needs)."""
+    moved = list(geometry)
+    for k in range(2):
+        d, pi = delta[6 * k:6 * k + 3, 0], delta[6 * k + 3:6 * k + 6, 0]
+        moved[3 * k:3 * k + 3] = list(_vector(geometry[3 * k:3 * k + 3]) + d)
+        o = _vector(geometry[6 + 3 * k:9 + 3 * k])
+        moved[6 + 3 * k:9 + 3 * k] = list(o + pi.cross(o))
+    return moved
+
+
+def _cable_stiffness_D_q_kernel() -> KernelSpec:
+    """A taut cable element's stiffness along a direction, K w (K = ``cable_stiffness`` of :func:`_cable_force_kernel`,
+    the damper's c ℓ̇ included, at fixed rates), and its exact derivative by the end coordinates at fixed w and rates
+    (an event's impulse weight M + dt²K along δq, latdyn/analyses/weight_derivative.py). K w is the derivative of the
+    force along the configuration update τ w at τ = 0, differentiated once more by the update ε of the ends it starts
+    from. The taut law alone: a slack element's K is the runtime's zero (csrc/evaluate.c ``cables``), its derivative
+    too."""
+    geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
+    direction = _vector(CABLE_DIRECTION.symbols())
+    tau, second = sp.Symbol("tau"), sp.Matrix(sp.symbols("epsilon_0:12"))
+
+    def stiffness_along(where):
+        return sp.diff(cable_terms(_cable_moved(where, tau * direction), velocity, section)[0], tau).xreplace({tau: 0})
+
+    along = stiffness_along(list(geometry))
+    by_q = _jacobian(stiffness_along(_cable_moved(list(geometry), second)), second, {e: 0 for e in second})
+    outputs = [Output("cable_stiffness_along", (12,), _rows(along), "(∂cable_force/∂[d1, π1, d2, π2]) w"),
+               Output("cable_stiffness_along_D_q", (12, 12), _rows(by_q),
+                      "∂(cable_stiffness_along)/∂[d1, π1, d2, π2] at fixed w and rates (spatial update)")]
+    return KernelSpec(name="cable_stiffness_D_q", doc="A taut cable element's stiffness along a direction and its "
+                      "exact derivative by the end coordinates (an event's impulse weight with sensitivities)",
+                      inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION, CABLE_DIRECTION], outputs=outputs,
+                      variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
 
 
 def _cable_rest_length_kernel() -> KernelSpec:
@@ -695,12 +765,7 @@ def _cable_tension_kernel() -> KernelSpec:
     _, _, _, elastic, tension = cable_terms(geometry, velocity, section)
     delta = sp.Matrix(sp.symbols("delta_0:12"))
     zero = {d: 0 for d in delta}
-    moved = list(geometry)
-    for k in range(2):
-        d, pi = delta[6 * k:6 * k + 3, 0], delta[6 * k + 3:6 * k + 6, 0]
-        moved[3 * k:3 * k + 3] = list(_vector(geometry[3 * k:3 * k + 3]) + d)
-        o = _vector(geometry[6 + 3 * k:9 + 3 * k])
-        moved[6 + 3 * k:9 + 3 * k] = list(o + pi.cross(o))
+    moved = _cable_moved(geometry, delta)
     tension_moved = sp.Matrix([cable_terms(moved, velocity, section)[4]])
     outputs = [
         Output("cable_tension", (2,), [elastic, tension], "N_el = EA (ℓ − L0)/L0, N = N_el + c ℓ̇ (taut)"),
@@ -1100,12 +1165,14 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
 
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(), _hinged_end_kernel(),
+    return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(),
+            _point_load_stiffness_D_q_kernel(), _hinged_end_kernel(),
             _reference_variation_kernel(), _hinge_force_kernel(), _hinge_stiffness_by_angle_kernel(),
             _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),
-            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(), _cable_rest_length_kernel(),
+            _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
+            _cable_stiffness_D_q_kernel(), _cable_rest_length_kernel(),
             _cable_tension_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),

@@ -243,15 +243,16 @@ def test_auto_without_a_compiler_names_the_fix(monkeypatch, tmp_path):
 
 
 def test_each_compiled_unit_holds_its_kernel_alone():
-    """The C units compiled with a variant (latdyn.model.kernels._kernel_sources) hold one kernel each,
-    also when an ON_DEMAND kernel (compiled on first use) lies between them in the generated file."""
+    """The C units compiled with a variant (latdyn.model.kernels._kernel_sources) and with the joints unit hold one
+    kernel each, also when an ON_DEMAND kernel (compiled on first use) lies between them in the generated file."""
     from latdyn.model.kernels import ON_DEMAND, PACKAGE, _kernel_sources
 
-    for variant in ("default", "default_xy"):
-        stem = f"beam_{variant}"
+    every = set()
+    for stem in ("beam_default", "beam_default_xy", "joints"):
         names = list(importlib.import_module(f"{PACKAGE}.{stem}").KERNELS)
-        assert set(ON_DEMAND) <= set(names)
-        for asked in ([n for n in names if n not in ON_DEMAND], list(ON_DEMAND)):
+        every |= set(names)
+        for asked in ([n for n in names if n not in ON_DEMAND], [n for n in ON_DEMAND if n in names]):
             for name, unit in _kernel_sources(stem, asked).items():
                 defined = re.findall(rb"\nvoid (\w+)\(int64_t n", unit)
-                assert defined == [name.encode()], (variant, name, defined)
+                assert defined == [name.encode()], (stem, name, defined)
+    assert set(ON_DEMAND) <= every

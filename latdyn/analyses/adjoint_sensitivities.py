@@ -643,8 +643,9 @@ class AdjointSensitivities(TransientSensitivities):
         """The transpose of the forward method's :meth:`_weight_derivative` (δ(W w) = D δq + P, W = M + scale·K,
         or scale·K without ``mass``) applied to ``u_bar`` (n, m): (Dᵀū (n, m), Pᵀū (k, m)). D = ∂(W w)/∂q is the
         forward method's matrix H (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the
-        generated elements' and joint bodies' parts, their weight's too, the differences of the hinges', loads',
-        cables' and couplings' blocks only along the coordinates they are on), Dᵀū its transposed product; Pᵀū:
+        generated elements', joint bodies' (their weight's too), hinges', loads' and cables' parts, the differences
+        of the couplings' blocks and the loads they drive only along the coordinates they are on), Dᵀū its
+        transposed product; Pᵀū:
         scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: the section values'
         part generated, the rest a difference along w of ∂r/∂p without it and the elements' gravity load), and
         with ``mass`` the transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w

@@ -54,8 +54,10 @@ total derivative vanish; the jump of δv through the impulse and the restarted a
 differentiated (:meth:`TransientSensitivities._jump`, :meth:`TransientSensitivities.after_events`); the
 derivative of the impulse weight M + dt²K along δq is the matrix H = ∂(W w)/∂q, generated for the elements
 (``beam_stiffness_D_q``, ``beam_inertia_tangent``) and the joint bodies' mass and weight
-(``joint_body_inertia_stiffness``, ``joint_body_gravity_stiffness_D_q``), the hinges', loads', cables' and
-couplings' blocks differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py), and along
+(``joint_body_inertia_stiffness``, ``joint_body_gravity_stiffness_D_q``), the hinges' (``hinge_stiffness_by_angle``),
+the point loads' (``point_load_stiffness_D_q``), the cables' (``cable_stiffness_D_q``) and the couplings of
+controllers of joints' angles and rates (SymPy's second derivatives of their outputs), the other couplings' blocks
+differenced along the coordinates they are on (latdyn/analyses/weight_derivative.py), and along
 p (∂K/∂p) w: the section values' part generated for every parameter, the rest a difference along w of the static
 ∂r/∂p without the section values' element forces and the elements' gravity load, which the evaluation's K (the
 impulse's) leaves out (:meth:`TransientSensitivities._weight_derivative`,
@@ -162,7 +164,8 @@ LANDING_PASSES = 30
 LANDING_MISSED = 1e-10
 #: the configuration step (times the length scale) of the central differences inside the impulse weight's
 #: derivative that are not generated (module docstring, "Events"; latdyn/analyses/weight_derivative.py): along the
-#: coordinates of its hinges', loads', cables' and couplings' blocks, along δq with rigid links or guides, and of
+#: coordinates of the blocks not generated (some controllers' couplings, the loads they drive, a hinge law naming an
+#: input), along δq with rigid links or guides, and of
 #: ∂r/∂p along w (without the section values' forces and the elements' gravity load) for the parameters it holds
 WEIGHT_STEP = 1e-5
 #: the caches a ParameterDerivatives makes of its :attr:`derivatives` on first use (latdyn/analyses/sensitivities.py,
@@ -797,9 +800,10 @@ class TransientSensitivities(ParameterDerivatives):
                            mass: bool = True, rates=None) -> np.ndarray:
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
         the inertia tangent, as the impulse uses it), along each column's (δq, δp): H δq with H = ∂(W w)/∂q
-        generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements' and
-        joint bodies' parts, their weight's too, from the generated kernels, the hinges', loads', cables' and
-        couplings' blocks differenced along the coordinates they are on), ∂M/∂p w exactly (the inertia forces
+        generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements', joint
+        bodies' (their weight's too), hinges', loads' and cables' parts from the generated kernels, the continuous
+        controllers' couplings' blocks and those of the loads they drive differenced along the coordinates they are
+        on), ∂M/∂p w exactly (the inertia forces
         are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
         (:meth:`_stiffness_derivative`: the section values' part generated, the rest differenced along w).
 
@@ -838,8 +842,8 @@ class TransientSensitivities(ParameterDerivatives):
         :meth:`stiffness_moves_with_rates`: the evaluation's K depends on the free rates where a term does (a damped
         cable's geometric terms c ℓ̇, a hinge law whose ∂τ/∂θ holds θ̇, a compliant stop's damping in contact, a
         controller's couplings), and the impulse's weight M + dt² K moves with them; a central difference of K w
-        along each column's δv, as :func:`configuration_tangent_of_weight` differences the hinges' and cables' blocks
-        along q (the step relative: the rates' own size, or 1)."""
+        along each column's δv, as :func:`configuration_tangent_of_weight` differences the couplings' blocks along q
+        (the step relative: the rates' own size, or 1)."""
         model, assembler = self.model, self.assembler
         v0 = free_velocity(model, state)
         out = np.zeros_like(dv)

@@ -9,10 +9,12 @@ sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp
 so one matrix serves both:
 
     H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
-        + Σ_j s (∂K_jj/∂θ_j) w_j e_j e_jᵀ + H_rest
+        + Σ_j s (∂K_jj/∂θ_j) w_j e_j e_jᵀ + Σ_l s A_l ∂(K_l w_l)/∂q_l A_lᵀ + Σ_c s A_c ∂(K_c w_c)/∂q_c A_cᵀ
+        + s ∂(K_y w)/∂q + H_rest
 
 (c_m = 1 with the mass, 0 without; w_e, w_b: w on the element's and the body's coordinates, 0 on those that are
-no free coordinate). Generated and exact:
+no free coordinate; l the point loads, c the cable elements, K_y the continuous controllers' couplings). Generated
+and exact:
 
 * the elements' stiffness along w, ∂(K_e v)/∂q_e at v = w_e: ``beam_stiffness_D_q`` (codegen/derivation.py:
   the forward-mode program of the lowered product (∂F_i/∂q) v, seeded with the geometry block's first
@@ -30,14 +32,31 @@ no free coordinate). Generated and exact:
   with NumPy at the event (the events take the Python path; nothing is compiled for them: a scene without events,
   or without laws of θ, makes nothing new). A hinge that a continuous controller alone drives has no torque law
   there (csrc/evaluate.c ``hinge_forces``). A hinge with a law of θ that names an input or a controller, or whose
-  ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along its angle.
+  ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along its angle;
+* the point loads' blocks K_l (the node's rows × the turns of the node and of the body the load turns with; a
+  global load's frame half zero), along w_l on those columns: ``point_load_stiffness_D_q`` (codegen/joints.py: K_l w
+  as the derivative of the load's force along the turns τ w at τ = 0, differentiated once more by the turns the
+  node and the frame start from) at the load's values at the state's time (:func:`_load_part`). A load a
+  continuous controller drives (alone or through a law a y + b) has values that move with the controller's
+  sensors: its block keeps the difference below (:func:`exact_loads`);
+* the cable elements' blocks K_c (both end nodes' [d, π], the damper's c ℓ̇ at the state's rates included), along
+  w_c: ``cable_stiffness_D_q`` (the same construction on the taut law of ``cable_force``), for the elements taut at
+  the state as csrc/evaluate.c ``cables`` decides (held taut, or on no side a positive gap min(N_el, N)); a slack
+  element's K is the runtime's zero, its derivative too (:func:`_cable_part`);
+* the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
+  alone (:func:`exact_couplings`): K's entry −a ∂y/∂θ_j moves along q with −a ∂²y/∂θ_j∂θ_i (an angle sensor's own
+  second derivative is 0; the rates are held), SymPy's second derivatives of the output's expression by its angles
+  lambdified once per output in a process (:func:`_output_curvature`) and evaluated with NumPy at the event's sensor values; 0 while
+  the output is saturated (:func:`_coupling_part`).
 
-Not generated, H_rest: the point loads' and cables' stiffness blocks and the continuous controllers' couplings
-(none has a generated second derivative yet). Their product (W without the elements, the joint bodies and the
-hinges) w is differenced centrally along each coordinate those blocks are on (:func:`rest_support`: the
-loaded and cable nodes' coordinates, the couplings' rows and columns), two evaluations per
-coordinate, step :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale,
-L_min the shortest element where shorter). A model with none of them has H exact with no evaluation.
+Not generated, H_rest: the other continuous controllers' couplings (a sensor of a point, a body, a cable, an
+element or a joint's force, whose own second derivative through the kinematics is not generated; an input, a state
+or another controller read; a load component driven) and the blocks of the loads they drive. Their product (W
+without the generated blocks) w is differenced centrally along each coordinate those blocks are on
+(:func:`rest_support`: those couplings' rows and columns, the driven loads' nodes and frame bodies, a hinge not in
+:func:`exact_hinges`), two evaluations per coordinate, step
+:data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale, L_min the shortest
+element where shorter). A model with none of them has H exact with no evaluation.
 
 Rigid links and guides: the reduced weight is W_red = Pᵀ W_all P + s ∂(Pᵀ r_all)/∂q (latdyn/assembly/linked.py: W_all
 the blocks on the assembled coordinates, free and dependent, P = [I; J] the projection, r_all the residual before the
@@ -85,8 +104,9 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["configuration_tangent_of_weight", "exact_hinges", "geometric_product", "linked_configuration_tangent",
-           "linked_geometric_derivative", "linked_has_rest", "linked_rest_product", "needs_the_kernel",
+__all__ = ["configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads", "geometric_product",
+           "linked_configuration_tangent", "linked_geometric_derivative", "linked_has_rest", "linked_rest_product",
+           "needs_the_kernel",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
 #: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
@@ -98,6 +118,8 @@ RATES_MOVE = 1e-3
 #: id(law) -> (the law, its :func:`_angle_slope_law`): parsed once per law in a process (the law kept, so that its id
 #: is not reused)
 _SLOPES: dict = {}
+#: (output's text, symbols, angle reads) -> its :func:`_output_curvature`, made once per process
+_CURVATURES: dict = {}
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -204,18 +226,205 @@ def _generated(assembler, state, w: np.ndarray, scale: float, mass: bool, full: 
 
 def rest_support(assembler) -> np.ndarray:
     """The free coordinates the blocks of H_rest are on (module docstring), sorted: the angles of the free hinges
-    whose part is not generated (:func:`exact_hinges`), the point loads' nodes and frame bodies, the cable elements' nodes, and the continuous controllers' couplings' rows
-    and columns. Empty where the model has none of them."""
+    whose part is not generated (:func:`exact_hinges`), the nodes and frame bodies of the point loads a continuous
+    controller drives (:func:`exact_loads`), and the rows and columns of the continuous controllers' couplings not
+    generated (:func:`exact_couplings`). Empty where the model has none of them."""
     model = assembler.model
     n = model.n_dofs
     found = [model.hinge_dofs[model.free_hinges][~exact_hinges(assembler)].ravel()]
     if len(assembler.loads):
-        found += [model.node_dofs[assembler._load_nodes].ravel(), assembler._load_columns().ravel()]
-    found.append(assembler.cable_dofs().ravel())
+        driven = ~exact_loads(assembler)
+        found += [model.node_dofs[assembler._load_nodes[driven]].ravel(), assembler._load_columns()[driven].ravel()]
     control = assembler.control
-    found += [np.asarray(control.coupling_rows).ravel(), np.asarray(control.coupling_cols).ravel()]
+    differenced = ~exact_couplings(assembler)
+    found += [np.asarray(control.coupling_rows)[differenced], np.asarray(control.coupling_cols)[differenced]]
     every = np.concatenate([np.asarray(f, np.int64) for f in found] + [np.zeros(0, np.int64)])
     return np.unique(every[(every >= 0) & (every < n)])
+
+
+def exact_loads(assembler) -> np.ndarray:
+    """(loads,) bool: whether the point load's part of H is generated (:func:`_load_part`): none of its components
+    is driven by a continuous controller (alone or through a law a y + b; latdyn.assembly.control: its values then
+    move with the controller's sensors, the couplings' columns, and its block stays in :func:`rest_support`'s
+    difference)."""
+    control = assembler.control
+    out = np.ones(len(assembler.loads), bool)
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    out[np.asarray(getattr(control, "actuator_index", np.zeros(0, np.int64)))[kinds == 1]] = False
+    return out
+
+
+def _scattered(dofs: np.ndarray, n_total: int) -> np.ndarray:
+    """``dofs`` with the slots that are no coordinate (negative) on n_total, the slot :func:`_sparse` drops and a
+    direction reads 0 at."""
+    return np.where(dofs < 0, n_total, dofs)
+
+
+def _law_value(component, t: float) -> float:
+    """A load component's value at t: its law of time, or a constant."""
+    return float(component.value(t)) if hasattr(component, "value") else float(component)
+
+
+def _load_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the point loads' part of H: s ∂(K_l w_l)/∂[π_node, π_frame] for each load of
+    :func:`exact_loads` with w on its block's columns, from the generated ``point_load_stiffness_D_q``
+    (codegen/joints.py) at the load's values at the state's time (its laws of t; the evaluation's load factor 1)."""
+    model, loads = assembler.model, assembler.loads
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    follower = np.array([load.frame != "global" for load in loads], bool)
+    columns = _scattered(assembler._load_columns(), model.n_total)
+    along = full[columns]
+    along[~follower, 3:] = 0.0   # a global load has no frame: its block's frame half is zero (csrc/evaluate.c)
+    on = np.flatnonzero(exact_loads(assembler) & np.any(along != 0.0, axis=1))
+    if not len(on):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    t = float(state.t)
+    values = np.array([[_law_value(c, t) for c in (loads[l].force or [0.0] * 3)]
+                       + [_law_value(c, t) for c in (loads[l].moment or [0.0] * 3)] for l in on], float)
+    nodes, frames = assembler._load_nodes[on], assembler._load_frames[on]
+    frame_turns = np.where(follower[on][:, None, None], state.T[frames], np.eye(3))
+    rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(on), -1)), dtype=float)  # noqa: E731
+    blocks = np.asarray(assembler.kernels.point_load_stiffness_D_q(
+        rows(state.T[nodes]), rows(assembler._load_offsets[on]), rows(values), rows(frame_turns),
+        rows(along[on]))[1]).reshape(-1, 6, 6).copy()
+    blocks[~follower[on], :, 3:] = 0.0
+    blocks *= scale
+    d = _scattered(model.node_dofs[nodes], model.n_total)
+    c = columns[on]
+    return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(c[:, None, :], blocks.shape).ravel(),
+            blocks.ravel())
+
+
+def _cable_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the cable elements' part of H: s ∂(K_e w_e)/∂[d1, π1, d2, π2] for each element taut
+    at the state (csrc/evaluate.c ``cables``: held taut, or on no side a positive gap min(N_el, N); a slack one's K
+    is zero, its derivative too) with w on its coordinates, from the generated ``cable_stiffness_D_q``
+    (codegen/joints.py: the taut law, the damper's c ℓ̇ at the state's rates included)."""
+    from latdyn.analyses.cable_sensitivities import _turned
+
+    model, cables = assembler.model, assembler.model.cables
+    if cables is None or not len(cables.nodes):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    dofs = _scattered(assembler.cable_dofs(), model.n_total)
+    along = full[dofs]
+    on = np.flatnonzero(np.any(along != 0.0, axis=1))
+    if not len(on):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    t = float(state.t)
+    nodes = cables.nodes[on]
+    geometry = np.array([np.concatenate([state.x[a], state.x[b], _turned(state.T[a], cables.offsets[e, 0]),
+                                         _turned(state.T[b], cables.offsets[e, 1])])
+                         for e, (a, b) in zip(on, nodes)])
+    velocity = np.concatenate([state.v[nodes[:, 0]], state.w[nodes[:, 0]], state.v[nodes[:, 1]], state.w[nodes[:, 1]]],
+                              axis=1)
+    rest = [cables.rest_length[cables.cable[e]] for e in on]
+    section = np.column_stack([cables.share[on] * [r.value(t) for r in rest],
+                               cables.share[on] * [r.rate(t) for r in rest], cables.EA[on], cables.damping[on]])
+    rows = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
+    kernels = assembler.kernels
+    law = np.asarray(kernels.cable_force(rows(geometry), rows(velocity), rows(section))[3]).reshape(-1, 5)
+    sides = np.asarray(cables.sides, float)[on]
+    taut = (sides > 0) | ((sides == 0) & (np.minimum(law[:, 3], law[:, 4]) > 0.0))
+    if not np.any(taut):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    blocks = np.asarray(kernels.cable_stiffness_D_q(rows(geometry[taut]), rows(velocity[taut]), rows(section[taut]),
+                                                    rows(along[on[taut]]))[1]).reshape(-1, 12, 12) * scale
+    d = dofs[on[taut]]
+    return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(d[:, None, :], blocks.shape).ravel(),
+            blocks.ravel())
+
+
+def _output_curvature(controller, angles: tuple):
+    """SymPy's ∂²f/∂s_i∂s_j of a continuous controller's output f before saturation by its reads at the positions
+    ``angles`` (its angle sensors; the rates' never enter W), lambdified once per output's text, reads and angles in a
+    process (:data:`_CURVATURES`: a scene loaded again reuses it), a function of ``(t, *reads values)`` giving the
+    (angles, angles) matrix; None where a second derivative is not a function (DiracDelta of a kink, an unevaluated
+    derivative)."""
+    reads = controller.symbols[1:1 + len(controller.reads)]
+    key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(angles))
+    if key not in _CURVATURES:
+        import sympy as sp
+
+        first = [sp.diff(controller.output_expr, reads[i]) for i in angles]
+        second = [[sp.diff(first[a], reads[j]) if b >= a else None for b, j in enumerate(angles)]
+                  for a in range(len(angles))]
+        second = [[second[a][b] if b >= a else second[b][a] for b in range(len(angles))] for a in range(len(angles))]
+        singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in second for e in row)
+        _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols[:1 + len(reads)], second,
+                                                             modules=["math", "numpy"])
+    return _CURVATURES[key]
+
+
+def exact_couplings(assembler) -> np.ndarray:
+    """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of H generated
+    (:func:`_coupling_part`): its actuator is a hinge's or guide's force, and its controller reads joints' angles
+    and rates alone (no input, no other controller, no state) with an output whose second derivatives by them are
+    functions (:func:`_output_curvature`). Its entry −a ∂y/∂s (sensor s an angle: the sensor's own second
+    derivative is 0) then moves along q with ∂²y/∂s² alone; the others keep the difference (:func:`rest_support`)."""
+    from latdyn.assembly.control import ANGLE, RATE
+
+    control = assembler.control
+    rows = np.asarray(control.coupling_rows)
+    out = np.zeros(len(rows), bool)
+    if not len(rows):
+        return out
+    plain = []
+    for k, controller in enumerate(control.controllers):
+        kinds = control.sensor_kind[control.sensor_start[k]:control.sensor_start[k + 1]]
+        plain.append(not controller.states and len(kinds) == len(controller.reads)
+                     and bool(np.all((kinds == ANGLE) | (kinds == RATE)))
+                     and _output_curvature(controller, tuple(np.flatnonzero(kinds == ANGLE))) is not None)
+    for e, a in enumerate(np.asarray(control.coupling_actuator)):
+        out[e] = control.actuator_kind[a] == 0 and plain[control.actuator_controller[a]]
+    return out
+
+
+def _coupling_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the couplings' part of H for the entries of :func:`exact_couplings`: K's entry
+    K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while the output
+    is saturated, csrc/evaluate.c controller_outputs) along w: s Σ_j ∂K_rj/∂θ_i w_j = −s a Σ_j ∂²f/∂θ_j∂θ_i w_j
+    in column i, for the angle sensors i, j of the actuator's controller (rates held: W has no C)."""
+    from latdyn.assembly.control import ANGLE
+
+    control, model = assembler.control, assembler.model
+    exact = exact_couplings(assembler)
+    n = model.n_dofs
+    out_rows, out_cols, out_values = [], [], []
+    done = set()
+    for e in np.flatnonzero(exact):
+        a = int(control.coupling_actuator[e])
+        if a in done:
+            continue
+        done.add(a)
+        k = int(control.actuator_controller[a])
+        controller = control.controllers[k]
+        first, last = int(control.sensor_start[k]), int(control.sensor_start[k + 1])
+        kinds, indices = control.sensor_kind[first:last], control.sensor_index[first:last]
+        values = [float(state.theta[i] if kind == ANGLE else state.theta_dot[i])
+                  - float(control.sensor_origin[first + m]) for m, (kind, i) in enumerate(zip(kinds, indices))]
+        t = float(state.t)
+        y = float(controller.functions()[0](t, *values))
+        lo, hi = control.limits[k]
+        if y < lo or y > hi:   # saturated: ∂y/∂s = 0 about the state, its derivative too
+            continue
+        angles = np.flatnonzero(kinds == ANGLE)
+        columns = np.asarray(model.hinge_dofs, np.int64)[indices[angles]]
+        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
+        if not np.any(along):
+            continue
+        second = _output_curvature(controller, tuple(angles))
+        curvature = np.asarray(second(t, *values), float).reshape(len(angles), len(angles))
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        row = int(model.hinge_dofs[control.actuator_index[a]])
+        out_rows.append(np.full(len(angles), row, np.int64))
+        out_cols.append(columns)
+        out_values.append(-scale * gain * (curvature.T @ along))
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
 
 
 def _angle_slope_law(law, scene, key: str):
@@ -302,13 +511,21 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float):
 
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
-    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements', the joint bodies' and the
-    generated hinges' blocks (the generated part; a hinge's diagonal, which depends on its own angle alone, is
-    :func:`_hinge_part`'s where :func:`exact_hinges`), times w."""
+    """(W_rest w) at ``state``: the evaluation's W = c_m M + s K without the elements', the joint bodies', the
+    generated hinges', the generated loads' and the cable elements' blocks (the generated part; a hinge's diagonal,
+    which depends on its own angle alone, is :func:`_hinge_part`'s where :func:`exact_hinges`, a load's
+    :func:`_load_part`'s where :func:`exact_loads`, a cable element's :func:`_cable_part`'s, a coupling's
+    :func:`_coupling_part`'s where :func:`exact_couplings`), times w."""
     ev = assembler.evaluate(state, matrices=True)
     stiffness = ev.flat_blocks("stiffness")
     hinges = np.where(exact_hinges(assembler), 0.0, scale * stiffness[2])   # the generated hinges' out
-    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], hinges] + [scale * b for b in stiffness[3:]]
+    # the generated loads' and every cable element's blocks out: those of the loads a controller drives stay
+    driven = np.broadcast_to(~exact_loads(assembler)[:, None, None], (len(assembler.loads), 6, 6))
+    cable_blocks = int(np.count_nonzero(assembler._cable_mask))
+    differenced = np.concatenate([driven[assembler._load_mask], np.zeros(cable_blocks, bool)])
+    loads = np.where(differenced, scale * stiffness[3], 0.0)
+    couplings = np.where(exact_couplings(assembler)[assembler._coupling_mask], 0.0, scale * stiffness[4])
+    parts = [0.0 * stiffness[0], 0.0 * stiffness[1], hinges, loads, couplings]
     if mass:
         inertia = ev.flat_blocks("mass")
         parts = parts[:2] + [p + m for p, m in zip(parts[2:], inertia[2:])]
@@ -330,8 +547,12 @@ def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: floa
     n = model.n_dofs
     rows, cols, values = _generated(assembler, state, w, scale, mass)
     hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale)
-    rows, cols, values = (np.concatenate([rows, hinge_rows]), np.concatenate([cols, hinge_rows]),
-                          np.concatenate([values, hinge_values]))
+    load_rows, load_cols, load_values = _load_part(assembler, state, w, scale)
+    cable_rows, cable_cols, cable_values = _cable_part(assembler, state, w, scale)
+    coupling_rows, coupling_cols, coupling_values = _coupling_part(assembler, state, w, scale)
+    rows, cols, values = (np.concatenate([rows, hinge_rows, load_rows, cable_rows, coupling_rows]),
+                          np.concatenate([cols, hinge_rows, load_cols, cable_cols, coupling_cols]),
+                          np.concatenate([values, hinge_values, load_values, cable_values, coupling_values]))
     support = rest_support(assembler)
     if len(support):
         columns = []
