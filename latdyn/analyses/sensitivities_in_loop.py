@@ -62,20 +62,23 @@ no other explicit time dependence or controller, ``_reels_alone``) and through h
 t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
-clip) for controllers without states that read hinge angles and rates alone and drive hinge torques, and on a model
-without rigid links or guides also for those that read points' positions, displacements and velocities (global, or in a
+clip) for controllers without states that read hinge and guide angles and rates and drive hinge torques and guide
+forces, and for those that read points' positions, displacements and velocities (global, or in a
 body's axes: the values the evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
-and sampled controllers between their samples on a model without rigid links or guides (the loop hands each sample
+and sampled controllers between their samples (the loop hands each sample
 instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
 differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
 ``sampled_parameter_forces``)
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
-links and guides too (with the controllers and the explicit time dependence above): M, C and the exact K on the
+links and guides too (with the controllers above, every kind of them: a sensor at a point on a rigid link's body or a
+guided body reads the dependent node the step's evaluation completed, its couplings reduced with K and C, and the
+actuated loads' columns reduced by Pᵀ with the others, tests/test_sensitivities_in_loop_linked_controllers.py; and
+with the explicit time dependence above): M, C and the exact K on the
 minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
 step's own reduction (csrc/linked_matrices.c, ``latdyn_linked_exact_values`` and ``latdyn_linked_reduce_columns``
 over csrc/links.c's), which the per-step Python path calls too (``Assembler.linked_exact_matrix_values``,
@@ -96,9 +99,8 @@ energy_sensitivities.external_work_after_event). Not native (the Python path): h
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states,
-sampled ones on a model with rigid links or guides, those that read an input (or whose output a controller with a
-parameter reads and that reads one), chains, sensors other than hinge and guide angles and rates and load actuators
-on a model with rigid links or guides, controllers reading cables', elements' or joints' forces, explicit time
+those that read an input (or whose output a controller with a
+parameter reads and that reads one), controllers reading cables', elements' or joints' forces, explicit time
 dependence beside events through reels beside other explicit time dependence
 or controllers, controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
@@ -376,32 +378,33 @@ def _account_refusal(owner, quantity: str) -> str | None:
 
 def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
-    without states (sampled ones, states: the Python path) whose parameters' partials compiled
-    (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
-    controller reads (derivative_laws.chained_outputs) reads only probes and earlier continuous controllers (no input:
-    its reads are its wiring's sensors) — hinge and guide angles and rates, and on a model without rigid links or guides
-    also the global components of a point's position, displacement or velocity and their components in a body's axes
-    (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
-    controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
-    torques, guide forces or, without rigid links or guides, load components (:func:`controller_parameter_forces` of
-    csrc/sensitivity_loop.c; ControllerTerms.add)."""
+    without states whose parameters' partials compiled (derivative_laws.ControllerPartials), where every controller a
+    parameter's slope reaches or whose output such a controller reads (derivative_laws.chained_outputs) reads only
+    probes and earlier continuous controllers (no input: its reads are its wiring's sensors) — hinge and guide angles
+    and rates, the global components of a point's position, displacement or velocity and their components in a body's
+    axes (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and
+    earlier controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives
+    hinge torques, guide forces or load components (:func:`controller_parameter_forces` of csrc/sensitivity_loop.c;
+    ControllerTerms.add); and sampled controllers between their samples (``sampled_parameter_forces``: SampledTerms.add).
+    On a model with rigid links or guides too: a point on a rigid link's body or a guided body is a dependent node,
+    which the step's evaluation completes (csrc/links.c) before its sensors are read, the sensors' derivatives along
+    the free δq are in the reduced K and C (their couplings on all coordinates, reduced by the forward step's own
+    reduction), and the actuators' columns, on all coordinates, are reduced by Pᵀ with the others
+    (``latdyn_linked_reduce_columns``), the C the per-step Python path calls too (``_on_free_coordinates``,
+    sensitivities.reduced_columns): tests/test_sensitivities_in_loop_linked_controllers.py."""
     from latdyn.analyses.derivative_laws import chained_outputs
     from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CONTROLLER, OFFSET_POSITION, \
         OFFSET_VELOCITY, POSITION, RATE, VELOCITY
 
     terms = owner.controllers
-    linked = owner.model.links is not None
     if terms.states is not None:
         return "controllers with states"
-    if terms.sampled is not None and linked:
-        return "sampled controllers on a model with rigid links or guides"
     continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
     if continuous and terms.compiled is None:
         return "controllers' parameters whose derivatives did not compile"
     if not continuous:
         return None
-    kinds = (ANGLE, RATE) if linked else (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY,
-                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER)
+    kinds = (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, BODY_VELOCITY, CONTROLLER)
     chained = set(chained_outputs(terms))
     if any(name not in terms.compiled.outputs for name in chained):
         return "controllers of a chain whose outputs did not compile"
@@ -411,13 +414,8 @@ def _controller_refusal(owner) -> str | None:
             continue
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
         if tuple(c.reads) != wiring.sensor_names(k) or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
-            return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
-                    + ("other than hinge angles and rates (a model with rigid links or guides)" if linked else
-                       "an input or a probe other than joint coordinates and rates and points' positions and "
-                       "velocities"))
-        if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
-                          if int(of) == k):
-            return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
+            return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads an input or a "
+                    "probe other than joint coordinates and rates and points' positions and velocities")
     return None
 
 
