@@ -45,14 +45,17 @@ LOAD_PUSH = (_GAINS.replace("solve: {", 'controllers:\n  push: {output: "Kp*(ref
                       '  - {at: outer, force: [0, "0.2*push", 0], frame: outer}\n')
              .replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [Kp, Kd, ref, k1, m]"))
 #: a chain: an estimator on the inner angle and the outer ring's place and velocity feeding a PD clipped at ±0.3
-#: (reached from t = 0.23 on) on the inner hinge, which feeds a push on the inner ring
-CHAIN = (_GAINS.replace('damping: "c2"}}}', 'damping: "c2", torque: "pd"}}}')
-         .replace("solve: {", 'controllers:\n  est: {output: "a2 + 0.1*outer_y + 0.02*vo"}\n'
+#: (reached from t = 0.23 on) on the inner hinge, which feeds a push on the inner ring; the estimator's gain g and the
+#: push's Kp term make the parameters' partials read the points (a chained controller's law reads the earlier ones'
+#: outputs from the step's own: only a partial reads its sensors' values in the loop)
+CHAIN = (_GAINS.replace("parameters: {Kp: 0.8,", "parameters: {g: 0.1, Kp: 0.8,")
+         .replace('damping: "c2"}}}', 'damping: "c2", torque: "pd"}}}')
+         .replace("solve: {", 'controllers:\n  est: {output: "a2 + g*outer_y + 0.02*vo"}\n'
                   '  pd: {output: "Kp*(ref - est) - Kd*r2", limits: [-0.3, 0.3]}\n'
-                  '  push: {output: "0.5*pd + 0.2*iz"}\nsolve: {')
+                  '  push: {output: "0.5*pd + 0.25*Kp*iz"}\nsolve: {')
          .replace('  - {at: tip, force: [0, "P", "-0.5*P"]}\n',
                   '  - {at: tip, force: [0, "P", "-0.5*P"]}\n  - {at: inner, force: [0, 0, "push"]}\n')
-         .replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [Kp, Kd, ref, k1, m, EI]"))
+         .replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [g, Kp, Kd, ref, k1, m, EI]"))
 #: a digital controller at 50 Hz (every second step) on the inner angle and the outer ring's place, driving the inner
 #: hinge and a force on the inner ring
 SAMPLED = (_GAINS.replace('damping: "c2"}}}', 'damping: "c2", torque: "pd"}}}')
@@ -78,7 +81,7 @@ BEAD = (SLIDER_CRANK.replace("parameters: {tau: 2.0, m: 1.0, k: 30.0}",
 assert "iz: {point: inner" in _GAINS and "[Kp, Kd, ref, k1, m, EI]" in POINT_PD and 'torque: "pd"' in POINT_PD
 assert "lock_at: -0.1" in LATCHING_PD and "ref: -0.3" in LATCHING_PD and "offset: [0.05" in OFFSET_PD
 assert "Kd*ivy" in OFFSET_PD and "bvz: {point: boom.start" in OFFSET_PD and "frame: outer}" in LOAD_PUSH
-assert '"push"]' in CHAIN and "est:" in CHAIN and "rate: 50}" in SAMPLED and '"0.5*pd"]' in SAMPLED
+assert '"push"]' in CHAIN and "g*outer_y" in CHAIN and "[g, Kp," in CHAIN and "rate: 50}" in SAMPLED and '"0.5*pd"]' in SAMPLED
 assert "sin(5*t)" in POINT_PD_T and 'force: "0.5*ctl"' in BEAD and '"0.3*ctl"' in BEAD and "vs: {guide" in BEAD
 assert 'torque: "ctl"' in BEAD and "[Kp, Kd, ref, tau, m, k]" in BEAD
 
