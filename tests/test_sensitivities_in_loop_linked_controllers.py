@@ -18,7 +18,8 @@ from tests.test_sensitivities_in_loop_sparse import LONG_CHAIN
 from tests.test_sensitivities_in_loop_state_laws import _run, _same
 from tests.test_sensitivities_rigid_links import CLOSED_SLIDER_CRANK, GIMBAL, SLIDER_CRANK
 
-#: the 3D gimbal of two rigid rings with gains and a set point, and a probe of the inner ring's place in the outer's axes
+#: the 3D gimbal of two rigid rings with gains and a set point, and a probe of the inner ring's place in the outer's
+#: axes
 _GAINS = (GIMBAL.replace("parameters: {k1: 6.0,", "parameters: {Kp: 0.8, Kd: 0.05, ref: 0.3, k1: 6.0,")
           .replace("    vi: {point: gim1.end, quantity: velocity, component: z}\n",
                    "    vi: {point: gim1.end, quantity: velocity, component: z}\n"
@@ -33,13 +34,14 @@ LATCHING_PD = (POINT_PD.replace('damping: "c2", torque: "pd"}}}', 'damping: "c2"
                .replace("t_end: 0.3", "t_end: 0.4").replace("ref: 0.3,", "ref: -0.3,"))
 #: the boom hung at an offset from the inner ring, the PD reading that point's place and velocity (a point offset from a
 #: dependent node) and the inner ring's velocity in the outer's axes
-OFFSET_PD = (POINT_PD.replace("boom: {from: inner, to: tip,", "boom: {from: {body: inner, offset: [0.05, 0.0, 0.02]}, to: tip,")
+OFFSET_PD = (POINT_PD.replace("boom: {from: inner, to: tip,",
+                              "boom: {from: {body: inner, offset: [0.05, 0.0, 0.02]}, to: tip,")
              .replace('"Kp*(ref - outer_y) - Kd*vo + 0.5*Kp*iz"', '"Kp*(ref - bx) - Kd*bvz - Kd*ivy"')
              .replace("    a1: {hinge", "    bx: {point: boom.start, quantity: position, component: x}\n"
                       "    bvz: {point: boom.start, quantity: velocity, component: z}\n"
                       "    ivy: {point: inner, quantity: velocity, frame: outer, component: y}\n    a1: {hinge"))
-#: a controller on the inner hinge's angle and rate driving a force and moment on the inner ring and a force on the outer
-#: one in its own axes (loads on rigid links' bodies)
+#: a controller on the inner hinge's angle and rate driving a force and moment on the inner ring and a force on the
+#: outer one in its own axes (loads on rigid links' bodies)
 LOAD_PUSH = (_GAINS.replace("solve: {", 'controllers:\n  push: {output: "Kp*(ref - a2) - Kd*r2"}\nsolve: {')
              .replace('  - {at: tip, force: [0, "P", "-0.5*P"]}\n',
                       '  - {at: tip, force: [0, "P", "-0.5*P"]}\n'
@@ -65,14 +67,15 @@ SAMPLED = (_GAINS.replace('damping: "c2"}}}', 'damping: "c2", torque: "pd"}}}')
            .replace('  - {at: tip, force: [0, "P", "-0.5*P"]}\n',
                     '  - {at: tip, force: [0, "P", "-0.5*P"]}\n  - {at: inner, force: [0, 0, "0.5*pd"]}\n')
            .replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [Kp, ref, k1, m, EI]"))
-#: POINT_PD with a set point of t (∂r/∂t through the controller's output beside the parameters)
-POINT_PD_T = POINT_PD.replace('"Kp*(ref - outer_y)', '"Kp*(ref + 0.1*sin(5*t) - outer_y)')
+#: LATCHING_PD with a set point of t (∂r/∂t through the controller's output beside the latch)
+POINT_PD_T = LATCHING_PD.replace('"Kp*(ref - outer_y)', '"Kp*(ref + 0.1*sin(5*t) - outer_y)')
 #: the slider-crank's guided bead: a controller reading its slide and rate and the crank pin's place (a rigid link's
 #: end) drives the crank, the guide's force and a force on the bead, which bounces off both stops
 BEAD = (SLIDER_CRANK.replace("parameters: {tau: 2.0, m: 1.0, k: 30.0}",
                              "parameters: {tau: 2.0, m: 1.0, k: 30.0, Kp: 3.0, Kd: 0.2, ref: 0.02}")
         .replace('torque: "tau"}}}', 'torque: "ctl"}}}')
-        .replace('guide: {axis: [1, 0, 0], stiffness: "k",', 'guide: {axis: [1, 0, 0], stiffness: "k", force: "0.5*ctl",')
+        .replace('guide: {axis: [1, 0, 0], stiffness: "k",',
+                 'guide: {axis: [1, 0, 0], stiffness: "k", force: "0.5*ctl",')
         .replace("solve: {", 'loads:\n  - {at: slider, force: ["0.3*ctl", 0, 0]}\nsolve: {')
         .replace("solve: {", 'controllers:\n  ctl: {output: "tau + Kp*(ref - slide) - Kd*vs - 0.5*Kp*py"}\nsolve: {')
         .replace("    px: {point: pin, quantity: position, component: x}\n",
@@ -87,7 +90,8 @@ BOB_PD = (CRANK_STOP.replace("parameters: {", "parameters: {Kp: 0.05, Kd: 0.005,
           .replace('stiffness: "ks",', 'stiffness: "ks", torque: "pd",')
           .replace("solve: {", 'controllers:\n  pd: {output: "Kp*(by + 0.1) - Kd*bx"}\nsolve: {')
           .replace("    sw: {hinge: swing.start, quantity: angle}\n",
-                   "    sw: {hinge: swing.start, quantity: angle}\n    bx: {point: bob, quantity: position, component: x}\n")
+                   "    sw: {hinge: swing.start, quantity: angle}\n"
+                   "    bx: {point: bob, quantity: position, component: x}\n")
           .replace("sensitivities: [m, ks, mb]", "sensitivities: [Kp, Kd, ks, mb]"))
 #: the 3D gimbal on its slewing and translating base (a prescribed body), latching, a PD on the outer ring's place and
 #: velocity driving the inner hinge and a push on the inner ring of the tip's place
@@ -130,16 +134,18 @@ assert "motion: {" in SLEWING_PD and 'torque: "pd", lock_at' in SLEWING_PD and '
 assert "iz: {point: inner" in _GAINS and "[Kp, Kd, ref, k1, m, EI]" in POINT_PD and 'torque: "pd"' in POINT_PD
 assert "lock_at: -0.1" in LATCHING_PD and "ref: -0.3" in LATCHING_PD and "offset: [0.05" in OFFSET_PD
 assert "Kd*ivy" in OFFSET_PD and "bvz: {point: boom.start" in OFFSET_PD and "frame: outer}" in LOAD_PUSH
-assert '"push"]' in CHAIN and "g*outer_y" in CHAIN and "[g, Kp," in CHAIN and "rate: 50}" in SAMPLED and '"0.5*pd"]' in SAMPLED
+assert '"push"]' in CHAIN and "g*outer_y" in CHAIN and "[g, Kp," in CHAIN
+assert "rate: 50}" in SAMPLED and '"0.5*pd"]' in SAMPLED
 assert "sin(5*t)" in POINT_PD_T and 'force: "0.5*ctl"' in BEAD and '"0.3*ctl"' in BEAD and "vs: {guide" in BEAD
 assert 'torque: "ctl"' in BEAD and "[Kp, Kd, ref, tau, m, k]" in BEAD
 
 
 @pytest.mark.parametrize("text, events", [(LATCHING_PD, 1), (OFFSET_PD, 0), (LOAD_PUSH, 0), (CHAIN, 0), (SAMPLED, 0),
-                                          (POINT_PD_T, 0), (BEAD, 2), (BOB_PD, 2), (SLEWING_PD, 1), (CLOSED_PD, 0), (SPARSE_PD, 1)],
+                                          (POINT_PD_T, 1), (BEAD, 2), (BOB_PD, 2), (SLEWING_PD, 1), (CLOSED_PD, 0),
+                                          (SPARSE_PD, 1)],
                          ids=["3D PD on rigid rings' points, latching", "3D PD on offset points and a body's axes",
                               "3D loads on rigid rings", "3D chain, clipped, pushing a ring", "3D sampled at 50 Hz",
-                              "3D set point of t", "guided bead between stops", "bob on a prescribed crank",
+                              "3D set point of t, latching", "guided bead between stops", "bob on a prescribed crank",
                               "3D gimbal on a slewing base, latching", "closed slider-crank",
                               "3D rigid bays, sparse S, latching"])
 def test_controllers_on_linked_models_take_the_loop(text, events, monkeypatch):
@@ -177,8 +183,8 @@ def test_the_cli_writes_the_python_paths_files_for_the_guided_bead(tmp_path):
 @pytest.mark.parametrize("text", [BOB_PD, SLEWING_PD],
                          ids=["bob on a prescribed crank", "3D gimbal on a slewing base, latching"])
 def test_a_point_sensors_coupling_to_a_prescribed_motion_in_the_loop_is_exact(text, monkeypatch):
-    """The loop takes the run (all but the events' steps and the landings after them), and the ∂r/∂t it carries beside
-    the events, with the controllers' couplings of points on dependent nodes that the prescribed motion moves, is
+    """The loop takes the run (all but the events' steps and the landings after them), and the ∂r/∂t it carries
+    beside the events, with the controllers' couplings of points on dependent nodes that the prescribed motion moves, is
     exact: the per-step path's (the same C), against the five-point difference in t at every state the run asks it at
     (tests/test_sensitivities_in_loop_linked2.py's check): measured ≤ 1.9e-12 of the largest entry on the bob (84
     calls), 9.9e-12 on the slewing gimbal (48 calls)."""
