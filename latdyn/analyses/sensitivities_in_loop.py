@@ -64,11 +64,11 @@ laws of the state and
 t (their ∂f/∂t a law of the state compiled with the derivative laws, transient_sensitivities._time_rate_law), and the
 parameters inside continuous controllers' outputs (their partials ∂f/∂p compiled as the step's controller laws, the
 same C the Python step calls: derivative_laws.ControllerPartials; with limits their outputs too, which decide the
-clip) for controllers without states that read hinge angles and rates and inputs (constant in a run: the compiled laws
-read the scene's inputs' array, bound before each call of the loop; the law's argument read from that array,
-``_reads`` kind 4) and drive hinge torques, and on a model
-without rigid links or guides also for those that read points' positions, displacements and velocities (global, or in a
-body's axes), cables' lengths and tensions, elements' section forces and free joints' torques and forces (the values the
+clip) for controllers without states that read hinge and guide angles and rates and inputs (constant in a run: the
+compiled laws read the scene's inputs' array, bound before each call of the loop; the law's argument read from that
+array, ``_reads`` kind 4) and drive hinge torques and guide forces, and for those that read points' positions,
+displacements and velocities (global, or in a body's axes) and, on a model without rigid links or guides, cables'
+lengths and tensions, elements' section forces and free joints' torques and forces (the values the
 evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
 δq, δv is in the exact K and C on both paths; where a parameter moves the force's own laws, its ∂F/∂p through ∂f/∂s
@@ -76,7 +76,7 @@ is the Python path's alone: ControllerTerms.sensed_force_slopes), that read earl
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
-and sampled controllers between their samples on a model without rigid links or guides (the loop hands each sample
+and sampled controllers between their samples (the loop hands each sample
 instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
 differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
@@ -90,7 +90,10 @@ and the rates' ∂f/∂p from the compiled partials (ControllerPartials.rate_use
 states condensed from (S_n, f_n) and h/2 as the step does, and does the p × p algebra (held δS, the step size's part,
 δS_{n+1}, δf_{n+1}) in csrc/controller_states.c, the C the per-step path's ControllerStates calls too
 (``_controller_refusal``; the controllers' couplings are in the exact K and C on both paths); on models with rigid
-links and guides too (with the controllers and the explicit time dependence above): M, C and the exact K on the
+links and guides too (with the controllers above, every kind of them: a sensor at a point on a rigid link's body or a
+guided body reads the dependent node the step's evaluation completed, its couplings reduced with K and C, and the
+actuated loads' columns reduced by Pᵀ with the others, tests/test_sensitivities_in_loop_linked_controllers.py; and
+with the explicit time dependence above): M, C and the exact K on the
 minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
 step's own reduction (csrc/linked_matrices.c, ``latdyn_linked_exact_values`` and ``latdyn_linked_reduce_columns``
 over csrc/links.c's), which the per-step Python path calls too (``Assembler.linked_exact_matrix_values``,
@@ -119,9 +122,8 @@ values whose derivative is a law in t or an input (the loader refuses those anyw
 that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
 its node, in a body's axes, a rate —, load actuators, chains, a
 probe of the controller, rigid links or guides, beside sampled ones, or whose laws did not compile),
-sampled ones on a model with rigid links or guides, chains, sensors other than hinge and guide angles and rates and
-inputs, and load actuators, on a model with rigid links or guides, controllers reading a force
-whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C), 
+controllers reading cables', elements' or joints' forces on a model with rigid links or guides, controllers reading a
+force whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C),
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
@@ -392,16 +394,23 @@ def _account_refusal(owner, quantity: str) -> str | None:
 
 def _controller_refusal(owner) -> str | None:
     """Why the controllers of ``owner`` keep the run on the Python path, or None: the loop takes continuous controllers
-    (with states where :func:`_states_refusal` takes them; sampled ones beside) whose parameters' partials compiled
+    (with states where :func:`_states_refusal` takes them; sampled ones between their samples,
+    ``sampled_parameter_forces``: SampledTerms.add) whose parameters' partials compiled
     (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
     controller reads (derivative_laws.chained_outputs) reads only inputs (:func:`_reads`), probes and earlier continuous
-    controllers — hinge and guide angles and rates, and on a model without rigid links or guides
-    also the global components of a point's position, displacement or velocity and their components in a body's axes,
+    controllers — hinge and guide angles and rates, the global components of a point's position, displacement or
+    velocity and their components in a body's axes, and on a model without rigid links or guides also
     cables' lengths and tensions, elements' section forces and free joints' forces
     (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
-    torques, guide forces or, without rigid links or guides, load components (:func:`controller_parameter_forces` of
-    csrc/sensitivity_loop.c; ControllerTerms.add)."""
+    torques, guide forces or load components (:func:`controller_parameter_forces` of
+    csrc/sensitivity_loop.c; ControllerTerms.add).
+    On a model with rigid links or guides too: a point on a rigid link's body or a guided body is a dependent node,
+    which the step's evaluation completes (csrc/links.c) before its sensors are read, the sensors' derivatives along
+    the free δq are in the reduced K and C (their couplings on all coordinates, reduced by the forward step's own
+    reduction), and the actuators' columns, on all coordinates, are reduced by Pᵀ with the others
+    (``latdyn_linked_reduce_columns``), the C the per-step Python path calls too (``_on_free_coordinates``,
+    sensitivities.reduced_columns): tests/test_sensitivities_in_loop_linked_controllers.py."""
     from latdyn.analyses.derivative_laws import chained_outputs
     from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_LENGTH, CABLE_TENSION, CONTROLLER, \
         JOINT_FORCE, OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
@@ -415,16 +424,14 @@ def _controller_refusal(owner) -> str | None:
     moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads)
     if moved:   # ∂f/∂s ∂F/∂p (ControllerTerms.sensed_force_slopes): NumPy and the probes' kernels, not in C yet
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
-    if terms.sampled is not None and linked:
-        return "sampled controllers on a model with rigid links or guides"
     continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
     if continuous and terms.compiled is None:
         return "controllers' parameters whose derivatives did not compile"
     if not continuous:
         return None
-    kinds = (ANGLE, RATE) if linked else (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY,
-                                          BODY_FRAME, BODY_VELOCITY, CONTROLLER, CABLE_LENGTH, CABLE_TENSION,
-                                          SECTION_FORCE, JOINT_FORCE)
+    kinds = (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, BODY_VELOCITY, CONTROLLER)
+    if not linked:   # the forces' sensors on a model with rigid links or guides: not taken yet
+        kinds += (CABLE_LENGTH, CABLE_TENSION, SECTION_FORCE, JOINT_FORCE)
     inputs = set(owner.scene.inputs.names) if owner.scene.inputs is not None else set()
     chained = set(chained_outputs(terms))
     if any(name not in terms.compiled.outputs for name in chained):
@@ -437,12 +444,9 @@ def _controller_refusal(owner) -> str | None:
         if tuple(r for r in c.reads if r not in inputs) != wiring.sensor_names(k) \
                 or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
             return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
-                    + ("other than hinge angles and rates and inputs (a model with rigid links or guides)" if linked
+                    + ("a cable's, an element's or a joint's force (a model with rigid links or guides)" if linked
                        else "a probe other than joint coordinates and rates, points' positions and velocities, "
                        "cables' lengths and tensions, elements' section forces and joints' forces, or an input"))
-        if linked and any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller)
-                          if int(of) == k):
-            return f"controller {c.name}: a parameter's slope reaches it, and it drives a load (rigid links or guides)"
     return None
 
 
