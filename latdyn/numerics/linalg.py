@@ -393,10 +393,11 @@ def use_dense(n: int) -> bool:
     return n <= DENSE_LIMIT
 
 
-#: Patterns of at most this many coordinates are put in reverse Cuthill–McKee order by
-#: :func:`reverse_cuthill_mckee` (Python, ~2 ms at 400 coordinates), larger ones by SciPy's csgraph,
-#: whose import (with scipy.sparse.linalg and scipy.linalg, which it loads: ≈0.1 s of CPU) costs more
-#: than the whole short run of a mid-size lattice; both give the same order.
+#: Models of at most this many coordinates keep SciPy's sparse package out of the process (its import,
+#: with scipy.sparse.linalg and scipy.linalg: ≈0.1 s of CPU, more than the whole short run of a mid-size
+#: lattice): their matrices are latdyn's own CSR. Every size is put in reverse Cuthill–McKee order by
+#: :func:`reverse_cuthill_mckee` (Python: ~2 ms at 400 coordinates, ~50 ms at 5 000, ~0.2 s at 20 000
+#: under load, once a pattern), whose order does not depend on the CPU.
 RCM_IN_PYTHON = 5000
 
 
@@ -406,13 +407,17 @@ _LAST_ORDER: tuple | None = None
 
 
 def reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.ndarray:
-    """SciPy's ``csgraph.reverse_cuthill_mckee`` of the pattern (rows, cols) with
-    ``symmetric_mode=False``, the same order to the last index (tests/test_light_run.py checks it
-    against SciPy): on the pattern of A + Aᵀ, the degree of a node is its row's entries, its
-    diagonal counted twice; each connected part is searched breadth first from its first node in
-    NumPy's ``argsort`` of the degrees, the unvisited neighbours of each node (by index) appended
-    in a stable order of increasing degree; the order is reversed. The same (rows, cols, n) as the
-    last call's, entry for entry, gives a copy of its order without searching again."""
+    """Reverse Cuthill–McKee order of the pattern (rows, cols), SciPy's ``csgraph.reverse_cuthill_mckee``
+    with ``symmetric_mode=False`` but for its ties: on the pattern of A + Aᵀ, the degree of a node is its
+    row's entries, its diagonal counted twice; each connected part is searched breadth first from its
+    first node in a *stable* sort of the degrees (the lowest index among equal degrees), the unvisited
+    neighbours of each node (by index) appended in a stable order of increasing degree; the order is
+    reversed. SciPy seeds its parts by NumPy's default ``argsort``, whose ties follow the SIMD sort NumPy
+    dispatches on the CPU (AVX-512, AVX2 or neither: the 16-bay lattice's order, and so its band LU's last
+    bits, differed between AVX-512 and AVX2 machines); this order is the same on every CPU, and SciPy's
+    wherever its seeds' ties do not arise (tests/test_light_run.py checks both). Used for every size
+    (:func:`rcm_band`). The same (rows, cols, n) as the last call's, entry for entry, gives a copy of
+    its order without searching again."""
     global _LAST_ORDER
     rows, cols = np.asarray(rows, np.int64), np.asarray(cols, np.int64)
     key = (n, rows.tobytes(), cols.tobytes())
@@ -436,7 +441,7 @@ def _reverse_cuthill_mckee(rows: np.ndarray, cols: np.ndarray, n: int) -> np.nda
     degrees = degree.tolist()
     visited = [False] * n
     order: list[int] = []
-    for seed in np.argsort(degree).tolist():  # SciPy's own call: the same ties on the same NumPy
+    for seed in np.argsort(degree, kind="stable").tolist():  # equal degrees: the lowest index first, on every CPU
         if visited[seed]:
             continue
         visited[seed] = True
@@ -458,14 +463,7 @@ def rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     """Reverse Cuthill–McKee order of the pattern (rows, cols) of an n × n matrix:
     (perm, new, lower, upper) with ``perm`` the old index at each new place, ``new`` its
     inverse, and the lower and upper bandwidths in the new order."""
-    if n <= RCM_IN_PYTHON:
-        perm = reverse_cuthill_mckee(rows, cols, n)
-    else:
-        import scipy.sparse as sps  # only for large band and sparse storage (see the top of the module)
-        import scipy.sparse.csgraph as csgraph
-
-        pattern = sps.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-        perm = csgraph.reverse_cuthill_mckee(pattern, symmetric_mode=False)
+    perm = reverse_cuthill_mckee(rows, cols, n)   # every size: SciPy's ties follow the CPU (its docstring)
     new = np.empty_like(perm)
     new[perm] = np.arange(n)
     i, j = new[rows], new[cols]
@@ -476,12 +474,10 @@ def small_rcm_band(rows: np.ndarray, cols: np.ndarray, n: int):
     """:func:`rcm_band` for a pattern of at most DENSE_LIMIT coordinates, in NumPy and Python
     (SciPy's sparse package is not imported for a model the dense or band LU serves: see the top
     of the module): breadth-first from a node of least degree, neighbours by increasing degree,
-    component by component, the order reversed. Not :func:`reverse_cuthill_mckee`'s search: the
-    degrees here are sorted stably, so the order is the same on every CPU, where NumPy's default
-    ``argsort`` (SciPy's order) breaks ties by the SIMD sort NumPy dispatches — under AVX-512, AVX2
-    and neither it ordered 40 of 57 patterns of 8 shipped and benchmark scenes differently, the 16-bay
-    lattice's between AVX-512 and AVX2 (its probes then differ by ≤ 9.2e-14 relative); this order
-    differs from SciPy's on 31 of 154 small patterns of the shipped scenes (tests/test_light_run.py)."""
+    component by component, the order reversed, the degrees sorted stably (the same order on every
+    CPU). Not :func:`reverse_cuthill_mckee`'s search: its degrees are SciPy's (a row's entries, the
+    diagonal counted twice), these a node's neighbours, and the two orders differ on 31 of 154 small
+    patterns of the shipped scenes; small models keep this one, and with it the results they had."""
     adjacent = np.zeros((n, n), bool)
     adjacent[rows, cols] = adjacent[cols, rows] = True
     np.fill_diagonal(adjacent, False)
