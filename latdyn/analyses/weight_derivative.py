@@ -680,10 +680,8 @@ def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray,
     P, r_all = ev.projection, ev.assembled_residual
     K_all, C_all, M_all = ev._assembled(0.0, 0.0, 1.0, True), ev._assembled(0.0, 1.0, 0.0, True), \
         ev._assembled(1.0, 0.0, 0.0, True)
-    by_velocity, by_acceleration = ev.rates_tangent
-    by_velocity, by_acceleration = np.asarray(by_velocity), np.asarray(by_acceleration)
-    convective = np.asarray(ev.velocity_derivative.toarray() if hasattr(ev.velocity_derivative, "toarray")
-                            else ev.velocity_derivative)
+    by_velocity, by_acceleration = ev.rates_tangent   # dense, or sparse on a sparse storage: applied, not converted
+    convective = ev.velocity_derivative
     dependent = ev.dependent_rows
     native = assembler.native()
     out = np.zeros((n, dq.shape[1]))
@@ -694,8 +692,8 @@ def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray,
         dq_all = np.asarray(P @ along).reshape(-1)
         dv_all = np.asarray(P @ dv).reshape(-1)
         da_all = np.asarray(P @ dvdot).reshape(-1)
-        dv_all[dependent] += by_velocity @ along
-        da_all[dependent] += by_acceleration @ along + convective @ dv
+        dv_all[dependent] += np.asarray(by_velocity @ along).reshape(-1)
+        da_all[dependent] += np.asarray(by_acceleration @ along + convective @ dv).reshape(-1)
         moved_residual = K_all @ dq_all + C_all @ dv_all + M_all @ da_all
         out[:, c] = geometric_product(assembler, state, moved_residual, w)
 
