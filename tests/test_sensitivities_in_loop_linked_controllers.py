@@ -104,8 +104,8 @@ SLEWING_PD = (GIMBAL_SLEW
                        '  - {at: tip, force: [0, "P", "-0.5*P"]}\n  - {at: inner, force: [0, 0, "push"]}\n')
               .replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [Kp, Kd, ref, k1, m]"))
 #: the slider-crank closed by a rigid rod (a closure), a controller on the guided slider's place and the crank pin's
-#: driving the crank and pushing the slider (its sign keeps the controller's stiffness positive: with the other sign
-#: the run is refused before it starts, model.check_held's "a coordinate that nothing holds", on 6cda559 too)
+#: driving the crank and pushing the slider (its sign keeps the controller's stiffness positive; the other sign was
+#: refused before it started on 6cda559, model.check_held's "a coordinate that nothing holds": tests/test_held_check.py)
 CLOSED_PD = (CLOSED_SLIDER_CRANK.replace("parameters: {tau: 2.0, m: 1.0, k: 30.0}",
                                          "parameters: {tau: 2.0, m: 1.0, k: 30.0, Kp: 3.0, Kd: 0.2}")
              .replace('torque: "tau"}}}', 'torque: "ctl"}}}')

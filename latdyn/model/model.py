@@ -456,67 +456,74 @@ class Model:
         """Refuse a coordinate that neither inertia nor stiffness holds (SCENE.md).
 
         A direction x of the free coordinates is unheld when it lies in both null
-        spaces, M x = 0 and K x = 0 at rest; M and K (material stiffness, no load
-        terms) are positive semi-definite there, so that is xᵀ(M + K)x = 0.  Each
-        matrix is normalised by its largest diagonal entry and the sum A
-        Jacobi-scaled (unit diagonal), which makes the test blind to units and to
-        the n⁴ spread of bending stiffness in fine meshes.  A coordinate with a
-        zero diagonal is unheld at once; otherwise :func:`latdyn.numerics.linalg.psd_null_direction`
-        (inverse iteration on one sparse LU, any size; for a model the dense LU serves, the exact
-        smallest eigenpair of the dense A) returns the smallest Rayleigh quotient it reaches:
-        round-off (~1e-16) for an unheld direction, not below λ_min(A) (but for round-off) for a
-        held model, where the weakest held direction
-        of a fine mesh still has λ ≳ 1/N² (N elements in a chain).  The
-        direction need not be a coordinate axis (a massless body spinning about
-        the axis of a hinge that carries its only beam): the coordinates with the
-        largest components are named.  ``mass`` and ``stiffness`` may be dense or
-        sparse.
+        spaces, M x = 0 and K x = 0 at rest (K the material stiffness, no load terms):
+        nothing then enters the iteration matrix along x, which is singular at any
+        step.  M is positive semi-definite; K is too for elastic members, but a
+        controller (or a law) may give a coordinate a negative stiffness, which holds it
+        as well as a positive one (a destabilising controller: the run may diverge,
+        which is the physics asked for).  Each matrix is normalised by its largest
+        |diagonal| and the sum A = M̂ + K̂ Jacobi-scaled (by diag M̂ + |diag K̂|), which
+        makes the test blind to units and to the n⁴ spread of bending stiffness in fine
+        meshes.  A coordinate with a zero diagonal in both is unheld at once; otherwise
+        :func:`latdyn.numerics.linalg.psd_null_direction` (inverse iteration on one sparse
+        LU, any size; for a model the dense LU serves, the exact smallest eigenpair of
+        the dense A) returns the smallest Rayleigh quotient it reaches: round-off (~1e-16)
+        for an unheld direction, not below λ_min(A) (but for round-off) for a held model,
+        where the weakest held direction of a fine mesh still has λ ≳ 1/N² (N elements
+        in a chain).  λ_min(A) > τ proves every direction held whatever the sign of K
+        (an unheld x has xᵀAx = 0).  Where it is not, and K̂ may be indefinite (a negative
+        diagonal, or negative along the direction found), the decision is taken again on
+        M̂ + |K̂| (:func:`_sign_blind`: the same null space as M̂ and K̂ together, and for a
+        positive semi-definite K̂ the same matrix), so a negative stiffness is never taken
+        for none.  The direction need not be a coordinate axis (a massless body spinning
+        about the axis of a hinge that carries its only beam): the coordinates with the
+        largest components are named.  ``mass`` and ``stiffness`` may be dense or sparse.
         """
         n = self.n_dofs
         if n == 0:
             return
         names = self.dof_names()
         if isinstance(mass, CSR):  # both (the prepared run's check without SciPy: numerics.csr)
-            A = _csr_sum(_normalised_csr(mass), _normalised_csr(stiffness))
-            d = A.diagonal()
-            empty = np.flatnonzero(d <= 1e-14)
-            if len(empty):
-                raise SceneError(file, self._key_of(names[empty[0]]),
-                                 "a coordinate that nothing holds (neither inertia nor stiffness): "
-                                 + ", ".join(names[i] for i in empty[:3]))
+            M, K = _normalised_csr(mass), _normalised_csr(stiffness)
+            A = _csr_sum(M, K)
+            d = _held_diagonal(A, K)
+            self._refuse_empty(d, names, file)
             scale = 1.0 / np.sqrt(d)
             scaled = CSR(A.shape, A.indptr, A.indices, A.data * scale[A.rows] * scale[A.indices])
             if _held_by_cholesky(scaled, factorization):
                 return
-            self._refuse_a_null_direction(scaled, names, file, factorization)
-            return
-        if issparse(mass) or issparse(stiffness):  # one kind for both (dense + sparse is np.matrix)
-            import scipy.sparse as sps  # a model the dense LU serves runs without scipy.sparse
-
-            mass, stiffness = sps.csr_matrix(mass), sps.csr_matrix(stiffness)
-        A = _normalised(mass) + _normalised(stiffness)
-        d = A.diagonal()
-        empty = np.flatnonzero(d <= 1e-14)
-        if len(empty):
-            raise SceneError(file, self._key_of(names[empty[0]]),
-                             "a coordinate that nothing holds (neither inertia nor stiffness): "
-                             + ", ".join(names[i] for i in empty[:3]))
-        scale = 1.0 / np.sqrt(d)
-        if issparse(A):
-            import scipy.sparse as sps
-
-            scaled = (sps.diags(scale) @ A @ sps.diags(scale)).tocsc()
         else:
-            scaled = scale[:, None] * A * scale[None, :]
-        self._refuse_a_null_direction(scaled, names, file, factorization)
+            if issparse(mass) or issparse(stiffness):  # one kind for both (dense + sparse is np.matrix)
+                import scipy.sparse as sps  # a model the dense LU serves runs without scipy.sparse
 
-    def _refuse_a_null_direction(self, scaled, names, file: str, factorization) -> None:
+                mass, stiffness = sps.csr_matrix(mass), sps.csr_matrix(stiffness)
+            M, K = _normalised(mass), _normalised(stiffness)
+            A = M + K
+            d = _held_diagonal(A, K)
+            self._refuse_empty(d, names, file)
+            scale = 1.0 / np.sqrt(d)
+            if issparse(A):
+                import scipy.sparse as sps
+
+                scaled = (sps.diags(scale) @ A @ sps.diags(scale)).tocsc()
+            else:
+                scaled = scale[:, None] * A * scale[None, :]
         rho, mode = psd_null_direction(scaled, factorization, tol=HELD_TOLERANCE)
+        if rho <= HELD_TOLERANCE and _maybe_indefinite(K, mode * scale):
+            rho, mode = _sign_blind(M, K, factorization)
         if rho <= HELD_TOLERANCE:
             worst = [names[i] for i in np.argsort(-np.abs(mode))[:3] if abs(mode[i]) > 0.1]
             raise SceneError(file, self._key_of(worst[0]),
                              "a coordinate that nothing holds (neither inertia nor stiffness): "
                              + ", ".join(worst))
+
+    def _refuse_empty(self, diagonal, names, file: str) -> None:
+        """Refuse the coordinates with neither mass nor stiffness on their diagonal (Model.check_held)."""
+        empty = np.flatnonzero(diagonal <= 1e-14)
+        if len(empty):
+            raise SceneError(file, self._key_of(names[empty[0]]),
+                             "a coordinate that nothing holds (neither inertia nor stiffness): "
+                             + ", ".join(names[i] for i in empty[:3]))
 
     def _key_of(self, dof_name: str) -> str:
         """The scene key a coordinate belongs to, for error messages."""
@@ -531,6 +538,68 @@ class Model:
                 group = "cables" if nd.beam in self.scene.cables else "beams"
                 return f"bodies.{nd.body}" if nd.body else f"{group}.{nd.beam}"
         return "bodies"
+
+
+def _held_diagonal(A, K) -> np.ndarray:
+    """The diagonal of M̂ + |diag K̂| (Model.check_held): diag A where K̂'s diagonal is not negative (the
+    same sums as before a negative stiffness was looked for), else diag M̂ + |diag K̂|, which a negative
+    stiffness does not cancel."""
+    d = np.asarray(A.diagonal(), float)
+    k = np.asarray(K.diagonal(), float)
+    negative = k < 0.0
+    if negative.any():
+        d = d.copy()
+        d[negative] += -2.0 * k[negative]
+    return d
+
+
+def _maybe_indefinite(K, x) -> bool:
+    """Whether the normalised stiffness K̂ may be indefinite, so that a small xᵀ(M̂ + K̂)x does not prove
+    x unheld (Model.check_held): a negative diagonal, or xᵀK̂x negative beyond round-off along the
+    direction found (x in unscaled coordinates). A positive semi-definite K̂ gives neither."""
+    if (np.asarray(K.diagonal(), float) < 0.0).any():
+        return True
+    Kx = K.matvec(x) if isinstance(K, CSR) else K @ x
+    return float(x @ np.asarray(Kx).ravel()) < -1e-12 * float(x @ x)
+
+
+#: Largest model whose stiffness :func:`_sign_blind` takes as a dense matrix (|K̂| by its eigenvalues);
+#: above it, K̂ᵀK̂ (the same null space, its small eigenvalues squared).
+SIGN_BLIND_DENSE = 4000
+
+
+def _sign_blind(M, K, factorization) -> tuple[float, np.ndarray]:
+    """The smallest Rayleigh quotient and its direction of the Jacobi-scaled M̂ + |K̂| (Model.check_held
+    where K̂ may be indefinite): |K̂| = V|Λ|Vᵀ is positive semi-definite with K̂'s null space, so M̂ + |K̂|
+    is singular exactly where a direction is in both null spaces, and a negative stiffness holds as a
+    positive one does. Dense up to SIGN_BLIND_DENSE coordinates; above, K̂ᵀK̂ normalised (the same null
+    space; its weakest held directions are squared, so a refusal there is checked on both)."""
+    n = M.shape[0]
+    if n <= SIGN_BLIND_DENSE:
+        dense_M, dense_K = (m.toarray() if (isinstance(m, CSR) or issparse(m)) else np.asarray(m, float)
+                            for m in (M, K))
+        eigenvalues, vectors = np.linalg.eigh(0.5 * (dense_K + dense_K.T))
+        B = dense_M + (vectors * np.abs(eigenvalues)) @ vectors.T
+    else:
+        import scipy.sparse as sps
+
+        Ms, Ks = (sps.csr_matrix((m.data, m.indices, m.indptr), shape=m.shape) if isinstance(m, CSR)
+                  else sps.csr_matrix(m) for m in (M, K))
+        square = (Ks.T @ Ks).tocsr()
+        top = float(np.abs(square.diagonal()).max(initial=0.0))
+        B = (Ms + (square / top if top > 0 else square)).tocsr()
+    d = np.asarray(B.diagonal(), float)
+    if (d <= 1e-14).any():
+        x = (d <= 1e-14).astype(float)
+        return 0.0, x
+    scale = 1.0 / np.sqrt(d)
+    if issparse(B):
+        import scipy.sparse as sps
+
+        scaled = (sps.diags(scale) @ B @ sps.diags(scale)).tocsc()
+    else:
+        scaled = scale[:, None] * B * scale[None, :]
+    return psd_null_direction(scaled, factorization, tol=HELD_TOLERANCE)
 
 
 def _held_by_cholesky(scaled, factorization) -> bool:
