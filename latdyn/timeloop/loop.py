@@ -44,7 +44,7 @@ from latdyn.timeloop.impulse import prescribed_acceleration_jump, prescribed_vel
 from latdyn.timeloop.jumps import acceleration_only_jumps, starts_on_a_jump
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_gaps, cable_sides, crossing_fraction, hinge_events,
                                    lock_events, restart_accelerations, stick_at_start, stop_crossings)
-from latdyn.timeloop.progress import (DRIFT_WARNING, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
+from latdyn.timeloop.progress import (DRIFT_WARNING, impacts_before, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
                                       energy_round_off, factorizations, far_root, hinge_work, drive_forces, drive_work)
 from latdyn.timeloop.sampling import controller_memory, restore_controller_memory
 
@@ -942,7 +942,7 @@ class TimeLoop:
                        f"largest at t = {progress.balance_error_t:.6g}: energy created or lost beyond the work "
                        f"received; a smaller step reduces the part that is the step's error, not a part from the "
                        f"start or the model (a rerun at dt/2 tells them apart)")
-            self.writer.warn(warning)
+            self.writer.warn(warning + impacts_before(progress.events, progress.balance_error_t))
         if not self.unbounded:
             for warning in progress.unresolved_hinges([h.name for h in self.model.hinges]):
                 self.writer.warn(warning)
