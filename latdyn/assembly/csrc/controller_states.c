@@ -132,6 +132,9 @@ typedef struct ControllerStatesLoopTag {
     double *by_step;                    /* n_total + 1: ∂r/∂h through the states (ControllerStates.by_step_size) */
     int64_t width_s, width_S;           /* the widest sensors' and states' counts (the rows' strides) */
     double half_kept;                   /* the half step the evaluation held before the condensed one */
+    /* the rows recorded on the way (controller probes: TransientSensitivities.record reads δS and S at a row): per
+     * row the carried δS (P × k) then the accepted S (P), SensitivityLoop.record_rows; NULL: no row wanted */
+    double *row_states;
 } ControllerStatesLoop;
 
 /* Sensor i of the wiring at c, as the evaluation reads it (evaluate.c sensor_value): a joint's angle or a node's
@@ -295,4 +298,15 @@ static void controller_states_after_loop(const Model *m, ControllerStatesLoop *s
             st->f_n[first + j] = st->f_next[first + j];
         }
     }
+}
+
+/* Row r of the rows recorded on the way: the carried δS_{n+1} and the accepted S_{n+1} (after
+ * controller_states_after_loop), which a controller probe's row reads (controller_probe_sensitivities). */
+static void controller_states_row(const ControllerStatesLoop *st, int64_t k, int64_t r)
+{
+    if (st->row_states == NULL) return;
+    const int64_t P = st->first[st->n];
+    double *out = st->row_states + (size_t)(P * (k + 1)) * (size_t)r;
+    memcpy(out, st->dS, sizeof(double) * (size_t)(P * k));
+    memcpy(out + P * k, st->S_n, sizeof(double) * (size_t)P);
 }

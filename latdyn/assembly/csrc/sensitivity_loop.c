@@ -225,6 +225,7 @@ typedef struct SensitivityLoopTag {
 static void sensitivity_loop_row(const Model *m, const SensitivityLoop *s, int64_t r)
 {
     if (s->accounts != NULL) work_accounts_row(s->accounts, s->k, r);
+    if (s->states != NULL) controller_states_row(s->states, s->k, r); /* a controller probe's δS and S */
     if (!s->row_carried) return;
     const size_t nk = (size_t)m->n_dofs * (size_t)s->k;
     double *out = s->row_carried + (3 * nk + (size_t)s->k) * (size_t)r;

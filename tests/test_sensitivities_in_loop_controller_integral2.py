@@ -1,0 +1,47 @@
+"""More of the continuous controllers with states in the sensitivities' loop of steps (issue 34 item 2; the first part:
+tests/test_sensitivities_in_loop_controller_integral.py). Probes recording such a controller's state or output: the
+loop carries each recorded row's δS and accepted S (csrc/controller_states.c ``controller_states_row``), which
+SensitivityLoop.record_rows hands to TransientSensitivities.record as the per-step path's rows read them. The results
+are the Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the API and the CLI."""
+from __future__ import annotations
+
+import pytest
+
+from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.test_sensitivities_in_loop_controller_integral import BOOM, BOOM_CLIPPED, WHEEL_STOP
+from tests.test_sensitivities_in_loop_state_laws import _run, _same
+
+#: probes of the PI's integral E and of its output (the elbow's torque)
+PROBES = "  probes:\n    integral: {controller: ctl, state: E}\n    torque: {controller: ctl}\n"
+#: the 3D boom's PI, its state and output recorded
+BOOM_PROBED = BOOM.replace("  probes:\n", PROBES)
+#: the same clipped under HHT-α (the output's probe 0 while clipped)
+BOOM_CLIPPED_PROBED = BOOM_CLIPPED.replace("  probes:\n", PROBES)
+#: the 3D wheel's PI on a filtered angle beside its stop, both states and the output recorded
+WHEEL_PROBED = WHEEL_STOP.replace("  probes:\n", PROBES + "    filtered: {controller: ctl, state: F}\n")
+assert "integral:" in BOOM_PROBED and "integral:" in BOOM_CLIPPED_PROBED and "filtered:" in WHEEL_PROBED
+
+
+@pytest.mark.parametrize("text, events", [(BOOM_PROBED, ["latch"]), (BOOM_CLIPPED_PROBED, ["latch"]),
+                                          (WHEEL_PROBED, ["stop", "stop"])],
+                         ids=["PI beside a latch", "clipped PI, HHT-alpha", "PI on a filter beside a stop"])
+def test_probes_of_a_controller_with_states_take_the_loop(text, events, monkeypatch):
+    """Probes of the states and the output of a controller with states: every smooth step in the loop of steps, the
+    Python path's sensitivities (the probes' rows among them) and event time derivatives to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    steps = native.summary["steps"]
+    assert native.summary["time_loop"] == "compiled"
+    assert steps - 2 * len(events) <= native.summary["sensitivity_steps_in_loop"] < steps
+    assert [event["kind"] for event in native.summary["events"]] == events
+    _same(native, python)
+
+
+def test_the_probed_boom_through_the_cli_writes_the_python_paths_bytes(tmp_path):
+    """``latdyn run`` of the boom with its PI's state and output recorded, as a user types it: the smooth steps in the
+    loop, and the switch off (a process of its own) writes the same sensitivities.csv, probes.csv and summary.json's
+    sensitivities, byte for byte."""
+    completed, out = latdyn_run(tmp_path, BOOM_PROBED)
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] >= summary["steps"] - 2
+    the_loop_off_writes_the_same(tmp_path, out)
