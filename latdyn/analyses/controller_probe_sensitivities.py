@@ -91,8 +91,11 @@ def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dic
     raw = float(c.functions()[0](*arguments)) if compiled is None else compiled.output(c, arguments)
     slope = np.zeros(terms.k)
     if c.limits is None or c.limits[0] < raw < c.limits[1]:
-        # ∂f/∂(reads, S): the compiled output law's (SymPy's lambdified gradient where it did not compile)
-        gradient = c.output_gradient(*arguments) if compiled is None else compiled.gradient(c, arguments)
+        # ∂f/∂(reads, S): the step's compiled controller law's (ControllerStates.output_gradient), else the compiled
+        # output law's (SymPy's lambdified gradient where it did not compile)
+        gradient = terms.states.output_gradient(c, arguments) if c.states and terms.states is not None else None
+        if gradient is None:
+            gradient = c.output_gradient(*arguments) if compiled is None else compiled.gradient(c, arguments)
         probes = {p.name: p for p in scene.output.probes}
         for i, r in enumerate(c.reads):
             if r in probes:
