@@ -1,7 +1,8 @@
 """More of the continuous controllers with states in the sensitivities' loop of steps (issue 34 item 2; the first part:
 tests/test_sensitivities_in_loop_controller_integral.py). Probes recording such a controller's state or output: the
 loop carries each recorded row's δS and accepted S (csrc/controller_states.c ``controller_states_row``), which
-SensitivityLoop.record_rows hands to TransientSensitivities.record as the per-step path's rows read them. The results
+SensitivityLoop.record_rows hands to TransientSensitivities.record as the per-step path's rows read them. And such
+controllers beside sampled ones. The results
 are the Python path's (the private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the API and the CLI."""
 from __future__ import annotations
 
@@ -19,15 +20,23 @@ BOOM_PROBED = BOOM.replace("  probes:\n", PROBES)
 BOOM_CLIPPED_PROBED = BOOM_CLIPPED.replace("  probes:\n", PROBES)
 #: the 3D wheel's PI on a filtered angle beside its stop, both states and the output recorded
 WHEEL_PROBED = WHEEL_STOP.replace("  probes:\n", PROBES + "    filtered: {controller: ctl, state: F}\n")
+#: the probed boom's shoulder driven by a digital P controller at 25 Hz clipped at ±1, recorded too, beside the PI
+BOOM_SAMPLED = (BOOM_PROBED.replace('stiffness: "k", damping: 0.2}', 'stiffness: "k", damping: 0.2, torque: "dig"}')
+                .replace("controllers:\n", 'controllers:\n  dig: {output: "Kd*(0.3 - shoulder)", rate: 25, limits: [-1, 1]}\n')
+                .replace("Kp: 3.0,", "Kp: 3.0, Kd: 0.8,").replace("[Kp, Ki, a, k, EI]", "[Kp, Ki, a, k, EI, Kd]")
+                .replace("    integral:", "    held: {controller: dig}\n    integral:"))
+assert 'torque: "dig"' in BOOM_SAMPLED and "rate: 25" in BOOM_SAMPLED and "Kd]" in BOOM_SAMPLED and "held:" in BOOM_SAMPLED
 assert "integral:" in BOOM_PROBED and "integral:" in BOOM_CLIPPED_PROBED and "filtered:" in WHEEL_PROBED
 
 
 @pytest.mark.parametrize("text, events", [(BOOM_PROBED, ["latch"]), (BOOM_CLIPPED_PROBED, ["latch"]),
-                                          (WHEEL_PROBED, ["stop", "stop"])],
-                         ids=["PI beside a latch", "clipped PI, HHT-alpha", "PI on a filter beside a stop"])
+                                          (WHEEL_PROBED, ["stop", "stop"]), (BOOM_SAMPLED, ["latch"])],
+                         ids=["PI beside a latch", "clipped PI, HHT-alpha", "PI on a filter beside a stop",
+                              "PI beside a sampled controller"])
 def test_probes_of_a_controller_with_states_take_the_loop(text, events, monkeypatch):
     """Probes of the states and the output of a controller with states: every smooth step in the loop of steps, the
-    Python path's sensitivities (the probes' rows among them) and event time derivatives to the bit."""
+    Python path's sensitivities (the probes' rows among them) and event time derivatives to the bit; beside a sampled
+    controller too (its sample instants handed back to Python, its held output's δy carried between them)."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     steps = native.summary["steps"]
     assert native.summary["time_loop"] == "compiled"
