@@ -481,8 +481,6 @@ def _states_refusal(owner) -> str | None:
                 or (POSITION in kinds and owner.geometry is not None)):
             return (f"controller {c.name}: states, and it reads other than hinge and guide angles and nodes' positions "
                     "and displacements in global axes (or those beside geometry parameters)")
-        if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
-            return f"controller {c.name}: states, and it drives a load"
         if c.name in terms.rate_partials and compiled is None:
             return f"controller {c.name}: its states' rates' parameters' derivatives did not compile"
         if c.limits is not None and (compiled is None or c.name not in compiled.outputs):
