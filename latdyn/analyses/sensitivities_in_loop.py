@@ -82,11 +82,13 @@ differentiated as before, TransientSensitivities.after_sample; between them the 
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
 ``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) on a model without
 rigid links or guides that read hinge and guide angles and nodes' positions and displacements in global axes (not
-beside geometry parameters) and drive hinge torques and guide forces alone, read by
-no other controller, beside sampled controllers too (``_states_refusal``), and probes recording their states and
-outputs (each recorded row's δS and accepted S kept in C, csrc/controller_states.c ``controller_states_row``, and
-handed to TransientSensitivities.record by :meth:`SensitivityLoop.record_rows`, so a row's controller probe reads them
-as on the Python path): the loop carries δS, δf
+beside geometry parameters) and drive hinge torques, guide forces and load components (the step size's column
+through the states reaching the loads by csrc/sensitivity_loop.c ``controller_states_load_step_size``), read by
+no other controller (the package runs no such chain: latdyn/assembly/control.py), beside sampled controllers too
+(``_states_refusal``), and probes recording their states and outputs (each recorded row's δS and accepted S kept in C,
+csrc/controller_states.c ``controller_states_row``, and handed to TransientSensitivities.record by
+:meth:`SensitivityLoop.record_rows`, so a row's controller probe reads them as on the Python path): the loop carries
+δS, δf
 and the accepted (S, f) at each step's start (handed to and from the carried sensitivities around each call, so in the
 checkpoint), takes the states' rates' ∂f/∂s, ∂f/∂S and the output's ∂y/∂S from the step's own compiled controller law
 and the rates' ∂f/∂p from the compiled partials (ControllerPartials.rate_uses), evaluates M, C and the exact K with the
@@ -123,7 +125,7 @@ names θ, θ̇ or an input and does not compile (every form of the expression la
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
 that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
-its node, in a body's axes, a rate —, load actuators, chains, rigid links or guides, or whose laws did not compile),
+its node, in a body's axes, a rate —, rigid links or guides, or whose laws did not compile),
 controllers reading cables', elements' or joints' forces on a model with rigid links or guides, controllers reading a
 force whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C),
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
@@ -455,13 +457,13 @@ def _controller_refusal(owner) -> str | None:
 def _states_refusal(owner) -> str | None:
     """Why the continuous controllers with states of ``owner`` keep the run on the Python path, or None: the loop
     carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step and
-    after_step)
-    where each reads hinge or guide angles and the global components of nodes' positions and displacements alone (δs
-    their rows of δq; not beside geometry parameters, which move a point) through its step law (ControllerStates
-    ``place``), drives hinge torques or guide forces alone, is read by no other controller (a probe may record its states and
-    output: each row's δS and S are kept, :meth:`SensitivityLoop.record_rows`), its states' rates' partials and (with limits) its output compiled
-    (derivative_laws.ControllerPartials), on a model without rigid links or guides (beside sampled controllers too: their held δy are added first,
-    SampledTerms.add, on both paths)."""
+    after_step) where each reads hinge or guide angles and the global components of nodes' positions and displacements
+    alone (δs their rows of δq; not beside geometry parameters, which move a point) through its step law
+    (ControllerStates ``place``), drives hinge torques, guide forces or loads, is read by no other controller (a probe
+    may record its states and output: each row's δS and S are kept, :meth:`SensitivityLoop.record_rows`), its states'
+    rates' partials and (with limits) its output compiled (derivative_laws.ControllerPartials), on a model without
+    rigid links or guides (beside sampled controllers too: their held δy are added first, SampledTerms.add, on both
+    paths)."""
     from latdyn.assembly.control import ANGLE, POSITION
 
     terms, states = owner.controllers, owner.controllers.states
