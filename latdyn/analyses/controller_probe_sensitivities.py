@@ -11,9 +11,10 @@ Transient runs, forward method, from what the step already carries for the resid
       δy = Σ_s ∂f/∂s δs + Σ_j ∂f/∂y_j δy_j + Σ_S ∂f/∂S δS + ∂f/∂p      (t fixed: no event moves it),
 
   δs the sensors' derivatives (the probes' own, along the carried δq, δv), δy_j those of earlier
-  controllers it reads (the same, in file order), inputs held (no parameter moves them), the partial
-  derivatives SymPy's of the output's text (as the code generator's), ∂f/∂p :class:`ControllerTerms`'
-  ``partials``. While the output is clipped — at a limit too: the one-sided value of the clipped side,
+  controllers it reads (the same, in file order), inputs held (no parameter moves them), the output,
+  its partial derivatives and ∂f/∂p (:class:`ControllerTerms`' ``partials``) the step's compiled laws'
+  (derivative_laws.ControllerPartials; ∂f/∂S the compiled controller law's, ControllerStates.output_by_states,
+  as :meth:`ControllerTerms.add` reads them), SymPy's lambdified where they did not compile. While the output is clipped — at a limit too: the one-sided value of the clipped side,
   as the step's own ∂r/∂p takes it (:meth:`ControllerTerms.add`), so the probe's derivative is the
   derivative of the trajectory computed — δy = 0;
 - a sampled controller's output and state: the held δy_k and δS_{k+1} of the last sample
@@ -86,10 +87,15 @@ def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dic
             reads.append(done[r][0])
     S = terms.state_values(c)
     arguments = [state.t, *reads, *S]
-    raw = float(c.functions()[0](*arguments))
+    compiled = terms.compiled   # the step's compiled laws where they compiled (ControllerTerms.add reads the same)
+    raw = float(c.functions()[0](*arguments)) if compiled is None else compiled.output(c, arguments)
     slope = np.zeros(terms.k)
     if c.limits is None or c.limits[0] < raw < c.limits[1]:
-        gradient = c.output_gradient(*arguments)   # ∂f/∂(reads, S): the controller's one cached gradient
+        # ∂f/∂(reads, S): the step's compiled controller law's (ControllerStates.output_gradient), else the compiled
+        # output law's (SymPy's lambdified gradient where it did not compile)
+        gradient = terms.states.output_gradient(c, arguments) if c.states and terms.states is not None else None
+        if gradient is None:
+            gradient = c.output_gradient(*arguments) if compiled is None else compiled.gradient(c, arguments)
         probes = {p.name: p for p in scene.output.probes}
         for i, r in enumerate(c.reads):
             if r in probes:
@@ -97,11 +103,15 @@ def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dic
             elif r in scene.controllers:
                 slope += gradient[i] * done[r][1]
             # an input: held, no parameter moves it
-        if c.states:
+        if c.states:   # ∂y/∂S δS: the step's compiled controller law's ∂y/∂S (ControllerStates.output_by_states)
             first = terms.states.first[c.name]
-            slope += gradient[len(c.reads):] @ carried["controller_dS"][first:first + len(c.states)]
+            by_states = terms.states.output_by_states(c, arguments)
+            if by_states is None:
+                by_states = gradient[len(c.reads):]
+            for l, row in enumerate(carried["controller_dS"][first:first + len(c.states)]):
+                slope += by_states[l] * row   # in the states' order, as ControllerTerms.add sums them
         for column, partial in terms.partials.get(c.name, {}).items():
-            slope[column] += float(partial(*arguments))
+            slope[column] += float(partial(*arguments)) if compiled is None else compiled.value(partial, arguments)
         moved = np.asarray(carried.get("dt", 0.0))
         if np.any(moved) and c.output_names_t:   # the row's time moved (events, adaptive)
             slope += _time_partial(owner, c)(*arguments) * moved

@@ -1659,6 +1659,15 @@ class ControllerStates:
         out, m = self._law_at(c, arguments)
         return np.array([out[1 + m + l] for l in range(len(c.states))], float)
 
+    def output_gradient(self, c, arguments: list) -> np.ndarray | None:
+        """∂y/∂(reads, S) of ``c``'s output before its limits at ``arguments`` (t, the reads, the states): the step's
+        compiled controller law's (its ``out[1:1 + m + p]``, the sensors in the wiring's order) where ``c`` reads its
+        wired sensors alone, in their order; None where it does not (or keeps SymPy's)."""
+        if c.name not in self.place or tuple(c.reads) != self.terms.assembler.control.sensor_names(self.place[c.name]):
+            return None
+        out, m = self._law_at(c, arguments)
+        return np.array([out[1 + i] for i in range(m + len(c.states))], float)
+
     def _law_at(self, c, arguments: list):
         """The step's compiled controller law of ``c`` called at ``arguments`` (t, the reads, the states): (its
         ``out`` array, m its sensors)."""

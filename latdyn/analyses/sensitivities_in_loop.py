@@ -82,8 +82,13 @@ differentiated as before, TransientSensitivities.after_sample; between them the 
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
 ``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) on a model without
 rigid links or guides that read hinge and guide angles and nodes' positions and displacements in global axes (not
-beside geometry parameters) and drive hinge torques and guide forces alone, read by
-no other controller, recorded by no probe, beside no sampled controller (``_states_refusal``): the loop carries δS, δf
+beside geometry parameters) and drive hinge torques, guide forces and load components (the step size's column
+through the states reaching the loads by csrc/sensitivity_loop.c ``controller_states_load_step_size``), read by
+no other controller (the package runs no such chain: latdyn/assembly/control.py), beside sampled controllers too
+(``_states_refusal``), and probes recording their states and outputs (each recorded row's δS and accepted S kept in C,
+csrc/controller_states.c ``controller_states_row``, and handed to TransientSensitivities.record by
+:meth:`SensitivityLoop.record_rows`, so a row's controller probe reads them as on the Python path): the loop carries
+δS, δf
 and the accepted (S, f) at each step's start (handed to and from the carried sensitivities around each call, so in the
 checkpoint), takes the states' rates' ∂f/∂s, ∂f/∂S and the output's ∂y/∂S from the step's own compiled controller law
 and the rates' ∂f/∂p from the compiled partials (ControllerPartials.rate_uses), evaluates M, C and the exact K with the
@@ -120,8 +125,7 @@ names θ, θ̇ or an input and does not compile (every form of the expression la
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
 that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
-its node, in a body's axes, a rate —, load actuators, chains, a
-probe of the controller, rigid links or guides, beside sampled ones, or whose laws did not compile),
+its node, in a body's axes, a rate —, rigid links or guides, or whose laws did not compile),
 controllers reading cables', elements' or joints' forces on a model with rigid links or guides, controllers reading a
 force whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C),
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
@@ -453,24 +457,20 @@ def _controller_refusal(owner) -> str | None:
 def _states_refusal(owner) -> str | None:
     """Why the continuous controllers with states of ``owner`` keep the run on the Python path, or None: the loop
     carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step and
-    after_step)
-    where each reads hinge or guide angles and the global components of nodes' positions and displacements alone (δs
-    their rows of δq; not beside geometry parameters, which move a point) through its step law (ControllerStates
-    ``place``), drives hinge torques or guide forces alone, is read by no other controller, is recorded by no probe
-    (a row's controller probe needs δS there), its states' rates' partials and (with limits) its output compiled
-    (derivative_laws.ControllerPartials), on a model without rigid links or guides, beside no sampled controller."""
+    after_step) where each reads hinge or guide angles and the global components of nodes' positions and displacements
+    alone (δs their rows of δq; not beside geometry parameters, which move a point) through its step law
+    (ControllerStates ``place``), drives hinge torques, guide forces or loads, is read by no other controller (a probe
+    may record its states and output: each row's δS and S are kept, :meth:`SensitivityLoop.record_rows`), its states'
+    rates' partials and (with limits) its output compiled (derivative_laws.ControllerPartials), on a model without
+    rigid links or guides (beside sampled controllers too: their held δy are added first, SampledTerms.add, on both
+    paths)."""
     from latdyn.assembly.control import ANGLE, POSITION
 
     terms, states = owner.controllers, owner.controllers.states
     if owner.model.links is not None:
         return "controllers with states on a model with rigid links or guides"
-    if terms.sampled is not None:
-        return "controllers with states beside sampled controllers"
     wiring = owner.assembler.control
     stated = {c.name for c in states.controllers}
-    for probe in owner.scene.output.probes:
-        if probe.kind == "controller" and probe.controller in stated:
-            return f"controllers with states recorded by a probe ({probe.name}: its rows need δS there)"
     for c in terms.continuous:
         if stated & set(c.reads):
             return f"controller {c.name} reads a controller with states"
@@ -483,8 +483,6 @@ def _states_refusal(owner) -> str | None:
                 or (POSITION in kinds and owner.geometry is not None)):
             return (f"controller {c.name}: states, and it reads other than hinge and guide angles and nodes' positions "
                     "and displacements in global axes (or those beside geometry parameters)")
-        if any(int(kind) != 0 for kind, of in zip(wiring.actuator_kind, wiring.actuator_controller) if int(of) == k):
-            return f"controller {c.name}: states, and it drives a load"
         if c.name in terms.rate_partials and compiled is None:
             return f"controller {c.name}: its states' rates' parameters' derivatives did not compile"
         if c.limits is not None and (compiled is None or c.name not in compiled.outputs):
@@ -1183,6 +1181,9 @@ class SensitivityLoop:
         if d.states:   # the controllers' states' carried δS, δf and (S, f) at the loop's start (ControllerStates)
             for name, array in self._states_carried.items():
                 np.copyto(array, carried[name])
+            P = len(self._states_carried["controller_S"])   # each row's δS and S (a controller probe's: record_rows)
+            self._row_states = np.zeros((rows, P * (k + 1))) if rows else None
+            self._states_data.row_states = self._row_states.ctypes.data if rows else None
         if self._rates is not None:   # ∂r/∂t's laws' rates alike (_TimeRates)
             self._rates._tabulate(grid_index, stop_index, control)   # noqa: SLF001
             if self._rates.data.n_partials:   # the controllers' outputs' rates in t: their signals bound alike
@@ -1352,6 +1353,11 @@ class SensitivityLoop:
         if at_once is not None:   # every row in one pass (latdyn/analyses/sensitivity_rows.py)
             owner.held = owner._held(carried)   # noqa: SLF001 - as TransientSensitivities.record leaves it
             return {**carried, "rows": carried["rows"] + at_once}
+        states = self._row_states if self.data.states else None
+        if states is not None:   # the controllers' states as the loop leaves them, put back after the rows
+            slots = owner.controllers.states.slots
+            values = owner.scene.controller_states.values
+            kept, P = values[slots].copy(), len(slots)
         for r in range(rows):
             held = self._row_carried[r]
             at_row = {**carried, "dq": held[:nk].reshape(n, k), "dv": held[nk:2 * nk].reshape(n, k),
@@ -1361,7 +1367,12 @@ class SensitivityLoop:
                     at_row["dissipated_sensitivity"] = self._row_accounts[r, :k]
                 if "work" in self._account:
                     at_row["external_work_sensitivity"] = self._row_accounts[r, k:]
+            if states is not None:   # the carried δS and the accepted S at the row (controller probes read them)
+                at_row["controller_dS"] = states[r, :P * k].reshape(P, k)
+                values[slots] = states[r, P * k:]
             carried = {**carried, "rows": owner.record(at_row, block.state(r))["rows"]}
+        if states is not None:
+            values[slots] = kept
         return carried
 
     def steps_in_call(self) -> int:

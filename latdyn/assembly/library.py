@@ -271,7 +271,9 @@ class ControllerStatesLoopData(ctypes.Structure):
                 ("dS", P), ("df", P), ("S_n", P), ("f_n", P), ("S_next", P), ("f_next", P), ("f_s", P), ("f_S", P),
                 ("f_p", P), ("factor", P), ("by_h", P), ("held", P), ("pivots", P), ("ds", P), ("scratch", P),
                 ("law_args", P), ("law_out", P), ("by_step", P), ("width_s", I64), ("width_S", I64),
-                ("half_kept", ctypes.c_double)]
+                ("half_kept", ctypes.c_double),
+                # the rows recorded on the way: per row δS (P × k) then S (P); NULL: none (controller probes)
+                ("row_states", P)]
 
 
 class WorkAccountsData(ctypes.Structure):

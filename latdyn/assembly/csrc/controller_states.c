@@ -132,6 +132,9 @@ typedef struct ControllerStatesLoopTag {
     double *by_step;                    /* n_total + 1: ∂r/∂h through the states (ControllerStates.by_step_size) */
     int64_t width_s, width_S;           /* the widest sensors' and states' counts (the rows' strides) */
     double half_kept;                   /* the half step the evaluation held before the condensed one */
+    /* the rows recorded on the way (controller probes: TransientSensitivities.record reads δS and S at a row): per
+     * row the carried δS (P × k) then the accepted S (P), SensitivityLoop.record_rows; NULL: no row wanted */
+    double *row_states;
 } ControllerStatesLoop;
 
 /* Sensor i of the wiring at c, as the evaluation reads it (evaluate.c sensor_value): a joint's angle or a node's
@@ -238,25 +241,24 @@ static void controller_states_condensed(const Model *m, Work *w, ControllerState
     w->controller_half_step[0] = on ? 0.5 * h : st->half_kept;
 }
 
-/* ∂r/∂h through the states into the step size's column of explicit_ (n × cols, column k):
- * ControllerStates.by_step_size, ControllerTerms.add with the held δS its by_h: each controller's slope ∂y/∂S by_h
- * (0 while its output, by its compiled output law, is clipped), each hinge actuator's row less its factor times it, on
- * the free coordinates. */
+/* ∂r/∂h through the states (ControllerStates.by_step_size, ControllerTerms.add with the held δS its by_h) into
+ * st->by_step (n_total + 1): each controller with states' slope ∂y/∂S by_h into slopes (the wiring's controllers, 0
+ * for the others and while its output, by its compiled output law, is clipped), each hinge actuator's row less its
+ * factor times it. Its load actuators' part: controller_states_load_step_size (csrc/sensitivity_loop.c), then the
+ * column: controller_states_step_size_add. */
 static void controller_states_step_size_column(const Model *m, const Configuration *c, ControllerStatesLoop *st,
                                                void (*partials)(int64_t, double, const double *, double *),
                                                const int64_t *read_start, const int64_t *output_law,
                                                const int64_t *output_limited, const double *output_limits,
                                                int64_t n_actuators,
                                                const int64_t *actuator_hinge, const int64_t *actuator_of,
-                                               const double *actuator_factor, double t, int64_t cols,
-                                               double *explicit_)
+                                               const double *actuator_factor, double t, int64_t n_controllers,
+                                               double *slopes)
 {
-    const int64_t n = m->n_dofs, k = cols - 1;
     memset(st->by_step, 0, sizeof(double) * (size_t)(m->n_total + 1));
-    for (int64_t a = 0; a < n_actuators; ++a) {
-        const int64_t ctl = actuator_of[a], i = controller_with_states(st, ctl);
-        if (i < 0) continue;   /* a controller without states: slope 0 */
-        const int64_t sensors = read_start[ctl + 1] - read_start[ctl];
+    memset(slopes, 0, sizeof(double) * (size_t)n_controllers);
+    for (int64_t i = 0; i < st->n; ++i) {
+        const int64_t ctl = st->place[i], sensors = read_start[ctl + 1] - read_start[ctl];
         double *args = st->law_args;
         for (int64_t r = 0; r < sensors; ++r) args[r] = controller_state_sensor(m, c, read_start[ctl] + r);
         const int64_t count = controller_state_arguments(m, ctl, args, sensors);
@@ -265,11 +267,19 @@ static void controller_states_step_size_column(const Model *m, const Configurati
             partials(output_law[ctl], t, args, out);
             if (!(output_limits[2 * ctl] < out[0] && out[0] < output_limits[2 * ctl + 1])) continue;
         }
-        double slope = 0.0;
-        controller_states_held_slope(m, st, ctl, t, args, count, st->by_h + st->first[i], 1, &slope);
-        st->by_step[m->hinge_dofs[actuator_hinge[a]]] -= actuator_factor[a] * slope;
+        controller_states_held_slope(m, st, ctl, t, args, count, st->by_h + st->first[i], 1, slopes + ctl);
     }
-    for (int64_t i = 0; i < n; ++i) explicit_[i * cols + k] += st->by_step[i];
+    for (int64_t a = 0; a < n_actuators; ++a) {
+        const double slope = slopes[actuator_of[a]];
+        if (slope != 0.0) st->by_step[m->hinge_dofs[actuator_hinge[a]]] -= actuator_factor[a] * slope;
+    }
+}
+
+/* The step size's column of explicit_ (n × cols, column cols − 1) plus st->by_step, on the free coordinates. */
+static void controller_states_step_size_add(const Model *m, const ControllerStatesLoop *st, int64_t cols,
+                                            double *explicit_)
+{
+    for (int64_t i = 0; i < m->n_dofs; ++i) explicit_[i * cols + cols - 1] += st->by_step[i];
 }
 
 /* ControllerStates.after_step in the loop: δs the hinge angles' and the nodes' coordinates' rows of δq (0 for a joint
@@ -295,4 +305,15 @@ static void controller_states_after_loop(const Model *m, ControllerStatesLoop *s
             st->f_n[first + j] = st->f_next[first + j];
         }
     }
+}
+
+/* Row r of the rows recorded on the way: the carried δS_{n+1} and the accepted S_{n+1} (after
+ * controller_states_after_loop), which a controller probe's row reads (controller_probe_sensitivities). */
+static void controller_states_row(const ControllerStatesLoop *st, int64_t k, int64_t r)
+{
+    if (st->row_states == NULL) return;
+    const int64_t P = st->first[st->n];
+    double *out = st->row_states + (size_t)(P * (k + 1)) * (size_t)r;
+    memcpy(out, st->dS, sizeof(double) * (size_t)(P * k));
+    memcpy(out + P * k, st->S_n, sizeof(double) * (size_t)P);
 }

@@ -225,6 +225,7 @@ typedef struct SensitivityLoopTag {
 static void sensitivity_loop_row(const Model *m, const SensitivityLoop *s, int64_t r)
 {
     if (s->accounts != NULL) work_accounts_row(s->accounts, s->k, r);
+    if (s->states != NULL) controller_states_row(s->states, s->k, r); /* a controller probe's δS and S */
     if (!s->row_carried) return;
     const size_t nk = (size_t)m->n_dofs * (size_t)s->k;
     double *out = s->row_carried + (3 * nk + (size_t)s->k) * (size_t)r;
@@ -383,6 +384,19 @@ static void actuated_load_forces(const Model *m, const Configuration *c, const S
         for (int64_t p = 0; p < P; ++p)
             for (int j = 0; j < 6; ++j) s->total[d[j] * k + columns[p]] += force[6 * p + j];
     }
+}
+
+/* The load actuators' part of the step size's column through the states (ControllerStates.by_step_size: the
+ * loads of ControllerTerms.add in one column): actuated_load_forces with the slopes ∂y/∂S by_h
+ * (controller_states_step_size_column left them in controller_slopes) into the states' by_step. */
+static void controller_states_load_step_size(const Model *m, const Configuration *c, const SensitivityLoop *s)
+{
+    SensitivityLoop one = *s;
+    one.k = 1;
+    one.total = s->states->by_step;
+    const int64_t *const loads[3] = {s->load_actuator_load, s->load_actuator_component, s->load_actuator_of};
+    actuated_load_forces(m, c, &one, s->n_load_actuators, loads, s->load_actuator_factor, s->controller_slopes, 0,
+                         s->n_actuated_loads - s->n_sampled_loads);
 }
 
 /* The sampled controllers' held outputs' ∂r/∂p (SampledTerms.add, before the continuous controllers'): each hinge or
@@ -585,11 +599,14 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
         s->explicit_[i * cols + k] = 0.0;
     }
-    if (s->states != NULL)   /* the states' derivative by the step size (ControllerStates.by_step_size) */
+    if (s->states != NULL) {   /* the states' derivative by the step size (ControllerStates.by_step_size) */
         controller_states_step_size_column(m, c, s->states, s->controller_partials, s->read_start, s->output_law,
                                            s->output_limited, s->output_limits, s->n_hinge_actuators,
-                                           s->actuator_hinge, s->actuator_of, s->actuator_factor, t, cols,
-                                           s->explicit_);
+                                           s->actuator_hinge, s->actuator_of, s->actuator_factor, t,
+                                           s->n_partial_controllers, s->controller_slopes);
+        if (s->n_load_actuators) controller_states_load_step_size(m, c, s);
+        controller_states_step_size_add(m, s->states, cols, s->explicit_);
+    }
     if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t);
     const int64_t size = n * cols;
     const double *da0 = s->predicted, *dq0 = s->predicted + size, *dv0 = s->predicted + 2 * size;
