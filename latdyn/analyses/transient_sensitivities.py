@@ -129,6 +129,7 @@ from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.analyses.parameter_stiffness import exact_parameters, stiffness_along as parameter_stiffness_along
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
@@ -904,9 +905,11 @@ class TransientSensitivities(ParameterDerivatives):
         model = self.model
         out = np.zeros((model.n_dofs, len(self.names)))
         linked = model.links is not None
-        exact = np.zeros(len(self.names), bool) if linked else self.by_sections_only()
+        exact = np.zeros(len(self.names), bool) if linked else exact_parameters(self)
         if not linked:
             out += self._section_stiffness_along(state, w)
+            if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
+                out[:, exact] += self._on_free_coordinates(state, parameter_stiffness_along(self, state, w))[:, exact]
         if not np.all(exact):
             assembler = self.assembler
             eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
