@@ -36,7 +36,7 @@ import numpy as np
 from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY_KEY, SECTION_KEY
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["exact_parameters", "stiffness_along"]
+__all__ = ["exact_parameters", "stiffness_along", "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -51,13 +51,21 @@ def _generated_use(owner, key: str, laws: dict) -> bool:
     if load:
         return True
     if hinge:
-        if any(getattr(law, "input_names", ()) for law in laws.values()):
-            return False
         if hinge["law"] == "rest_angle":
             j = owner.model.hinge_index(hinge["beam"], hinge["end"])
-            return not getattr(owner.model.hinges[j].stiffness, "input_names", ())
-        return True
+            return _slopes_known(owner.model.hinges[j].stiffness)
+        return all(_slopes_known(law) for law in laws.values())
     return False
+
+
+def _slopes_known(law) -> bool:
+    """Whether a hinge law's (value, ∂/∂θ, ∂/∂θ̇) are the law's own at the state: it names no input or controller
+    (their values are the runtime's), and it has ``d_theta`` and ``d_rate`` or reads neither θ nor θ̇ (a law's rate
+    in t alone, :class:`latdyn.analyses.transient_sensitivities._TimeRate`)."""
+    if getattr(law, "input_names", ()):
+        return False
+    reads = getattr(law, "depends_on", ())
+    return hasattr(law, "d_theta") or not ({"theta", "theta_dot"} & set(reads))
 
 
 def exact_parameters(owner) -> np.ndarray:
@@ -66,7 +74,7 @@ def exact_parameters(owner) -> np.ndarray:
     time shift and held angles change at each event)."""
     shifted = owner.time_shift is not None and owner.explicit_time is not None and np.any(owner.time_shift)
     held = owner.held is not None and np.any(owner.held)
-    if shifted or held or owner.scene.controllers or owner.model.links is not None:
+    if (shifted and not time_generated(owner)) or held or owner.scene.controllers or owner.model.links is not None:
         return np.zeros(len(owner.names), bool)
     found = owner.__dict__.get("_parameter_stiffness_exact")
     if found is None:
@@ -78,7 +86,28 @@ def exact_parameters(owner) -> np.ndarray:
     return found
 
 
-def stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
+def time_generated(owner) -> bool:
+    """Whether the event's time shift's part, ∂(∂r/∂t)/∂q w δt_e, is generated (:func:`time_stiffness_along`): the
+    scene's laws in t are loads' and hinges' (or guides') whose rates in t have their slopes (:func:`_generated_use`
+    of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), no prescribed motion, reel or
+    controller's output in t. Found once."""
+    found = owner.__dict__.get("_time_stiffness_exact")
+    if found is None:
+        timed = owner.explicit_time
+        laws = timed.laws
+        found = (not timed.prescribed and not timed.reels and laws.controllers is None
+                 and all(_generated_use(laws, key, by) for key, by in laws.derivatives.items()))
+        owner._time_stiffness_exact = found
+    return found
+
+
+def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
+    """∂(∂r/∂t)/∂q w (n_total + 1,) of the static residual, where :func:`time_generated`: :func:`stiffness_along` of
+    the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them)."""
+    return stiffness_along(owner.explicit_time.laws, state, w, cables=False)[:, 0]
+
+
+def stiffness_along(owner, state, w: np.ndarray, cables: bool = True) -> np.ndarray:
     """(∂K/∂p) w (n_total + 1, k) of the hinges', loads', joint bodies' and cables' uses of the parameters
     (module docstring; the section values' are :meth:`ParameterDerivatives.add_section_stiffness_along`'s), w on the
     free coordinates; every column, exact or not (the caller takes the exact ones)."""
@@ -89,7 +118,8 @@ def stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     _hinges(owner, state, full, total)
     _loads(owner, state, full, total)
     _bodies(owner, state, full, total)
-    _cables(owner, state, full, total)
+    if cables:   # (ExplicitTime's laws in t have none: its reels are not generated here)
+        _cables(owner, state, full, total)
     return total
 
 
@@ -100,7 +130,10 @@ def _scattered(dofs, n_total: int) -> np.ndarray:
 
 
 def _law_row(law, theta: float, rate: float, t: float) -> tuple:
-    """(value, ∂/∂θ, ∂/∂θ̇) of a hinge law at the state: the ``hinge_force`` kernel's three slots of a law."""
+    """(value, ∂/∂θ, ∂/∂θ̇) of a hinge law at the state: the ``hinge_force`` kernel's three slots of a law (a law of
+    t alone: its slopes 0)."""
+    if not hasattr(law, "d_theta"):
+        return law.value(theta, rate, t), 0.0, 0.0
     return law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
 
 

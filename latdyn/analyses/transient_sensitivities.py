@@ -129,7 +129,8 @@ from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.parameter_stiffness import exact_parameters, stiffness_along as parameter_stiffness_along
+from latdyn.analyses.parameter_stiffness import (exact_parameters, stiffness_along as parameter_stiffness_along,
+                                                 time_stiffness_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
@@ -909,7 +910,11 @@ class TransientSensitivities(ParameterDerivatives):
         if not linked:
             out += self._section_stiffness_along(state, w)
             if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
-                out[:, exact] += self._on_free_coordinates(state, parameter_stiffness_along(self, state, w))[:, exact]
+                along = parameter_stiffness_along(self, state, w)
+                shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
+                if shifted:   # the state moved in time by δt_e: ∂(∂r/∂t)/∂q w δt_e, the laws' rates in t generated
+                    along += np.outer(time_stiffness_along(self, state, w), self.time_shift)
+                out[:, exact] += self._on_free_coordinates(state, along)[:, exact]
         if not np.all(exact):
             assembler = self.assembler
             eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
