@@ -117,3 +117,29 @@ def test_latdyn_run_writes_the_apis_sensitivities_and_the_loop_off_the_same(tmp_
     assert summary["event_sensitivities"] == boom_runs[True].summary["event_sensitivities"]
     assert summary["sensitivity_steps_in_loop"] > 0
     the_loop_off_writes_the_same(tmp_path, out)
+
+
+def test_a_damped_cables_stiffness_along_the_rates_is_generated():
+    """The boom of tests/test_weight_derivative_rest.py (its damped taut cable the only block of K moving with the
+    rates): ∂(K w)/∂v δv from the generated cable kernel (K_c affine in the rates) agrees with a central difference of
+    K w at a large step (exact for an affine K w but for round-off: 6.5e-8 absolute at 0.1, 2.4e-6 at 1e-3), to 1e-6 of
+    its largest entry; the difference it replaces, step 1e-5 of the rates' size, was 3.5e-4 of it off (K w of the
+    stiff arm, 1e6, carries its round-off over the step)."""
+    from latdyn.assembly.assembler import free_velocity, unpack_free
+
+    prepared, state, rng = _boom_state(BOOM)
+    owner = TransientSensitivities(prepared)
+    model = prepared.model
+    w, dv = rng.normal(size=model.n_dofs), rng.normal(size=(model.n_dofs, 2))
+    assert owner.stiffness_moves_with_rates(state) and owner._rates_moving[1] == ("loads and cables",)
+    computed = owner._stiffness_by_rates(state, w, dv)
+    v0 = free_velocity(model, state)
+
+    def product(v):
+        moved = state.copy()
+        unpack_free(model, v, moved.v, moved.w, moved.theta_dot)
+        return prepared.assembler.evaluate(moved, matrices=True).combined(0.0, 0.0, 1.0) @ w
+
+    h = 0.1
+    numeric = np.column_stack([(product(v0 + h * dv[:, c]) - product(v0 - h * dv[:, c])) / (2 * h) for c in range(2)])
+    assert np.abs(computed - numeric).max() <= 1e-6 * np.abs(numeric).max()

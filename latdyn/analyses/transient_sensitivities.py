@@ -135,7 +135,7 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
-from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, geometric_product,
+from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight, geometric_product,
                                                linked_configuration_tangent,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
                                                needs_the_kernel, refuse_without_kernel, stiffness_moving_with_rates,
@@ -837,7 +837,9 @@ class TransientSensitivities(ParameterDerivatives):
         """Whether the evaluation's K at ``state`` moves with the free rates (a model without rigid links or guides):
         :func:`latdyn.analyses.weight_derivative.stiffness_moving_with_rates`, two evaluations, which the event's
         weight derivative asks before the 2k of :meth:`_stiffness_by_rates` (the adjoint's transpose, 2n)."""
-        return bool(stiffness_moving_with_rates(self.assembler, state))
+        moving = stiffness_moving_with_rates(self.assembler, state)
+        self._rates_moving = (state, moving)   # which blocks: :meth:`_stiffness_by_rates` at the same state
+        return bool(moving)
 
     def _stiffness_by_rates(self, state, w: np.ndarray, dv: np.ndarray) -> np.ndarray:
         """∂(K w)/∂v δv (n, k) at ``state`` (a model without rigid links or guides), where
@@ -847,6 +849,9 @@ class TransientSensitivities(ParameterDerivatives):
         along each column's δv, as :func:`configuration_tangent_of_weight` differences the couplings' blocks along q
         (the step relative: the rates' own size, or 1)."""
         model, assembler = self.model, self.assembler
+        held = self.__dict__.get("_rates_moving")
+        if held is not None and held[0] is state and held[1] == ("loads and cables",) and not self.scene.controllers:
+            return cable_stiffness_by_rates(assembler, state, w, dv)   # the damped cables' c ℓ̇ alone: generated
         v0 = free_velocity(model, state)
         out = np.zeros_like(dv)
 
