@@ -356,41 +356,24 @@ def _taut_cables(assembler, state):
 
 def _cable_part(assembler, state, w: np.ndarray, scale: float):
     """(rows, cols, values) of the cable elements' part of H: s ∂(K_e w_e)/∂[d1, π1, d2, π2] for each element taut
-    at the state (csrc/evaluate.c ``cables``: held taut, or on no side a positive gap min(N_el, N); a slack one's K
-    is zero, its derivative too) with w on its coordinates, from the generated ``cable_stiffness_D_q``
-    (codegen/joints.py: the taut law, the damper's c ℓ̇ at the state's rates included)."""
-    from latdyn.analyses.cable_sensitivities import _turned
-
-    model, cables = assembler.model, assembler.model.cables
-    if cables is None or not len(cables.nodes):
+    at the state (:func:`_taut_cables`; a slack one's K is zero, its derivative too) with w on its coordinates, from
+    the generated ``cable_stiffness_D_q`` (codegen/joints.py: the taut law, the damper's c ℓ̇ at the state's rates
+    included)."""
+    model = assembler.model
+    taut = _taut_cables(assembler, state)
+    if taut is None:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    dofs, geometry, velocity, section = taut
     full = np.zeros(model.n_total + 1)
     full[:model.n_dofs] = w
-    dofs = _scattered(assembler.cable_dofs(), model.n_total)
     along = full[dofs]
     on = np.flatnonzero(np.any(along != 0.0, axis=1))
     if not len(on):
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    t = float(state.t)
-    nodes = cables.nodes[on]
-    geometry = np.array([np.concatenate([state.x[a], state.x[b], _turned(state.T[a], cables.offsets[e, 0]),
-                                         _turned(state.T[b], cables.offsets[e, 1])])
-                         for e, (a, b) in zip(on, nodes)])
-    velocity = np.concatenate([state.v[nodes[:, 0]], state.w[nodes[:, 0]], state.v[nodes[:, 1]], state.w[nodes[:, 1]]],
-                              axis=1)
-    rest = [cables.rest_length[cables.cable[e]] for e in on]
-    section = np.column_stack([cables.share[on] * [r.value(t) for r in rest],
-                               cables.share[on] * [r.rate(t) for r in rest], cables.EA[on], cables.damping[on]])
-    rows = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    kernels = assembler.kernels
-    law = np.asarray(kernels.cable_force(rows(geometry), rows(velocity), rows(section))[3]).reshape(-1, 5)
-    sides = np.asarray(cables.sides, float)[on]
-    taut = (sides > 0) | ((sides == 0) & (np.minimum(law[:, 3], law[:, 4]) > 0.0))
-    if not np.any(taut):
-        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    blocks = np.asarray(kernels.cable_stiffness_D_q(rows(geometry[taut]), rows(velocity[taut]), rows(section[taut]),
-                                                    rows(along[on[taut]]))[1]).reshape(-1, 12, 12) * scale
-    d = dofs[on[taut]]
+    rows = lambda a: np.ascontiguousarray(a[on], dtype=float)  # noqa: E731
+    blocks = np.asarray(assembler.kernels.cable_stiffness_D_q(rows(geometry), rows(velocity), rows(section),
+                                                              rows(along))[1]).reshape(-1, 12, 12) * scale
+    d = dofs[on]
     return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(d[:, None, :], blocks.shape).ravel(),
             blocks.ravel())
 
