@@ -135,8 +135,8 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
-from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight, geometric_product,
-                                               linked_configuration_tangent,
+from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight,
+                                               geometric_product, linked_configuration_tangent,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
                                                needs_the_kernel, refuse_without_kernel, stiffness_moving_with_rates,
                                                times)
@@ -807,7 +807,8 @@ class TransientSensitivities(ParameterDerivatives):
         controllers' couplings' blocks and those of the loads they drive differenced along the coordinates they are
         on), ∂M/∂p w exactly (the inertia forces
         are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
-        (:meth:`_stiffness_derivative`: the section values' part generated, the rest differenced along w).
+        (:meth:`_stiffness_derivative`: the section values', hinges', loads', joint bodies' and cables' EA and damping
+        parts generated, the rest differenced along w).
 
         With guides or rigid links (their reduction, latdyn/assembly/linked.py) K also holds the geometric term
         ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq moves the free rates along ``rates`` =
@@ -845,9 +846,11 @@ class TransientSensitivities(ParameterDerivatives):
         """∂(K w)/∂v δv (n, k) at ``state`` (a model without rigid links or guides), where
         :meth:`stiffness_moves_with_rates`: the evaluation's K depends on the free rates where a term does (a damped
         cable's geometric terms c ℓ̇, a hinge law whose ∂τ/∂θ holds θ̇, a compliant stop's damping in contact, a
-        controller's couplings), and the impulse's weight M + dt² K moves with them; a central difference of K w
-        along each column's δv, as :func:`configuration_tangent_of_weight` differences the couplings' blocks along q
-        (the step relative: the rates' own size, or 1)."""
+        controller's couplings), and the impulse's weight M + dt² K moves with them. Where the damped taut cables'
+        block is the only one moving (:meth:`stiffness_moves_with_rates` at the same state) and no controller:
+        generated, :func:`latdyn.analyses.weight_derivative.cable_stiffness_by_rates` (K_c affine in the rates);
+        otherwise a central difference of K w along each column's δv, as :func:`configuration_tangent_of_weight`
+        differences the couplings' blocks along q (the step relative: the rates' own size, or 1)."""
         model, assembler = self.model, self.assembler
         held = self.__dict__.get("_rates_moving")
         if held is not None and held[0] is state and held[1] == ("loads and cables",) and not self.scene.controllers:
@@ -901,13 +904,16 @@ class TransientSensitivities(ParameterDerivatives):
         force tangent, the joint bodies' weight, hinges, loads, cables, contact (the elements' gravity tangent is
         not in it: csrc/evaluate.c holds it in the inertia tangent). Without rigid links or guides: the section
         values' part generated for every parameter (``beam_stiffness_D_section``, :meth:`_section_stiffness_along`),
-        and where ∂r/∂p holds more (:meth:`by_sections_only` False) a central difference along w (step
-        :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element forces and without
-        the elements' gravity load (``sections``, ``element_gravity`` of :meth:`residual_derivatives`): hinge laws,
-        loads, joint bodies, cables, contact and friction laws, geometry parameters' internal forces, laws in t,
-        held angles, controllers. With rigid links or guides the difference of the static ∂r/∂p without the
-        elements' gravity load along w (the reduction's projection moves with it; :meth:`_geometric_derivative`
-        adds the rest of its geometric term)."""
+        the hinges', loads', joint bodies' and cables' EA and damping parts (and the event's time shift's through
+        loads' and hinges' laws in t) generated for the parameters whose every use has one
+        (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), and for the others a central difference along w
+        (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element forces and
+        without the elements' gravity load (``sections``, ``element_gravity`` of :meth:`residual_derivatives`): a
+        cable's rest length and ρA, contact and friction laws, geometry parameters' internal forces, a hinge law
+        naming an input, and all of them where a prescribed motion, a reel or a controller's output in t moves the
+        state in time, where friction holds angles, or with controllers. With rigid links or guides the difference
+        of the static ∂r/∂p without the elements' gravity load along w (the reduction's projection moves with it;
+        :meth:`_geometric_derivative` adds the rest of its geometric term)."""
         model = self.model
         out = np.zeros((model.n_dofs, len(self.names)))
         linked = model.links is not None

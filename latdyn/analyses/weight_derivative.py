@@ -86,7 +86,8 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   has no such block (:func:`linked_has_rest`).
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
-evaluations a parameter; its transpose in the adjoint, two a free rate). Which terms of K move with the rates is
+evaluations a parameter; its transpose in the adjoint, two a free rate; generated where the damped taut cables' block
+is the only one moving and no controller: :func:`cable_stiffness_by_rates`, K_c affine in the rates). Which terms of K move with the rates is
 asked of the model's own evaluation, not of a list of the laws that can make them (:func:`stiffness_moving_with_rates`:
 K's blocks at the state's rates and at rates moved, compared bit for bit): a damped cable's c ℓ̇ terms, a hinge law
 whose ∂τ/∂θ holds θ̇, a compliant stop's Hunt–Crossley damping n δⁿ⁻¹ c δ̇ in contact, a continuous controller's
@@ -104,7 +105,7 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads", "geometric_product",
+__all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads", "geometric_product",
            "linked_configuration_tangent", "linked_geometric_derivative", "linked_has_rest", "linked_rest_product",
            "needs_the_kernel",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
