@@ -34,6 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY_KEY, SECTION_KEY
+from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
 __all__ = ["exact_parameters", "stiffness_along", "time_generated", "time_stiffness_along"]
@@ -123,12 +124,6 @@ def stiffness_along(owner, state, w: np.ndarray, cables: bool = True) -> np.ndar
     return total
 
 
-def _scattered(dofs, n_total: int) -> np.ndarray:
-    """``dofs`` with the slots that are no coordinate (negative) on n_total (the row a direction reads 0 at)."""
-    dofs = np.asarray(dofs, np.int64)
-    return np.where(dofs < 0, n_total, dofs)
-
-
 def _law_row(law, theta: float, rate: float, t: float) -> tuple:
     """(value, ∂/∂θ, ∂/∂θ̇) of a hinge law at the state: the ``hinge_force`` kernel's three slots of a law (a law of
     t alone: its slopes 0)."""
@@ -144,7 +139,7 @@ def _hinges(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     contact = NO_CONTACT[None]
     t = float(state.t)
     for j, which, laws in owner._hinge_uses():
-        d = int(_scattered(model.hinge_dofs[j], model.n_total))
+        d = int(_scattered(np.asarray(model.hinge_dofs[j]), model.n_total))
         along = full[d]
         if along == 0.0:
             continue
