@@ -646,8 +646,9 @@ class AdjointSensitivities(TransientSensitivities):
         generated elements', joint bodies' (their weight's too), hinges', loads' and cables' parts, the differences
         of the couplings' blocks and the loads they drive only along the coordinates they are on), Dᵀū its
         transposed product; Pᵀū:
-        scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: the section values'
-        part generated, the rest a difference along w of ∂r/∂p without it and the elements' gravity load), and
+        scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: the section values',
+        hinges', loads', joint bodies' and cables' EA and damping parts generated, latdyn/analyses/parameter_stiffness.py,
+        the rest a difference along w of ∂r/∂p without them and the elements' gravity load), and
         with ``mass`` the transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w
         less at rest."""
         H = configuration_tangent_of_weight(self.assembler, state, w, scale, mass, self.coordinate_step())

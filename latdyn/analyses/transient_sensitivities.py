@@ -129,12 +129,14 @@ from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
+from latdyn.analyses.parameter_stiffness import (exact_parameters, stiffness_along as parameter_stiffness_along,
+                                                 time_stiffness_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
-from latdyn.analyses.weight_derivative import (configuration_tangent_of_weight, geometric_product,
-                                               linked_configuration_tangent,
+from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight,
+                                               geometric_product, linked_configuration_tangent,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
                                                needs_the_kernel, refuse_without_kernel, stiffness_moving_with_rates,
                                                times)
@@ -805,7 +807,8 @@ class TransientSensitivities(ParameterDerivatives):
         controllers' couplings' blocks and those of the loads they drive differenced along the coordinates they are
         on), ∂M/∂p w exactly (the inertia forces
         are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
-        (:meth:`_stiffness_derivative`: the section values' part generated, the rest differenced along w).
+        (:meth:`_stiffness_derivative`: the section values', hinges', loads', joint bodies' and cables' EA and damping
+        parts generated, the rest differenced along w).
 
         With guides or rigid links (their reduction, latdyn/assembly/linked.py) K also holds the geometric term
         ∂Pᵀ/∂q · r_all, with r_all at the state's rates: ∂(W w)/∂q δq moves the free rates along ``rates`` =
@@ -835,16 +838,23 @@ class TransientSensitivities(ParameterDerivatives):
         """Whether the evaluation's K at ``state`` moves with the free rates (a model without rigid links or guides):
         :func:`latdyn.analyses.weight_derivative.stiffness_moving_with_rates`, two evaluations, which the event's
         weight derivative asks before the 2k of :meth:`_stiffness_by_rates` (the adjoint's transpose, 2n)."""
-        return bool(stiffness_moving_with_rates(self.assembler, state))
+        moving = stiffness_moving_with_rates(self.assembler, state)
+        self._rates_moving = (state, moving)   # which blocks: :meth:`_stiffness_by_rates` at the same state
+        return bool(moving)
 
     def _stiffness_by_rates(self, state, w: np.ndarray, dv: np.ndarray) -> np.ndarray:
         """∂(K w)/∂v δv (n, k) at ``state`` (a model without rigid links or guides), where
         :meth:`stiffness_moves_with_rates`: the evaluation's K depends on the free rates where a term does (a damped
         cable's geometric terms c ℓ̇, a hinge law whose ∂τ/∂θ holds θ̇, a compliant stop's damping in contact, a
-        controller's couplings), and the impulse's weight M + dt² K moves with them; a central difference of K w
-        along each column's δv, as :func:`configuration_tangent_of_weight` differences the couplings' blocks along q
-        (the step relative: the rates' own size, or 1)."""
+        controller's couplings), and the impulse's weight M + dt² K moves with them. Where the damped taut cables'
+        block is the only one moving (:meth:`stiffness_moves_with_rates` at the same state) and no controller:
+        generated, :func:`latdyn.analyses.weight_derivative.cable_stiffness_by_rates` (K_c affine in the rates);
+        otherwise a central difference of K w along each column's δv, as :func:`configuration_tangent_of_weight`
+        differences the couplings' blocks along q (the step relative: the rates' own size, or 1)."""
         model, assembler = self.model, self.assembler
+        held = self.__dict__.get("_rates_moving")
+        if held is not None and held[0] is state and held[1] == ("loads and cables",) and not self.scene.controllers:
+            return cable_stiffness_by_rates(assembler, state, w, dv)   # the damped cables' c ℓ̇ alone: generated
         v0 = free_velocity(model, state)
         out = np.zeros_like(dv)
 
@@ -894,19 +904,28 @@ class TransientSensitivities(ParameterDerivatives):
         force tangent, the joint bodies' weight, hinges, loads, cables, contact (the elements' gravity tangent is
         not in it: csrc/evaluate.c holds it in the inertia tangent). Without rigid links or guides: the section
         values' part generated for every parameter (``beam_stiffness_D_section``, :meth:`_section_stiffness_along`),
-        and where ∂r/∂p holds more (:meth:`by_sections_only` False) a central difference along w (step
-        :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element forces and without
-        the elements' gravity load (``sections``, ``element_gravity`` of :meth:`residual_derivatives`): hinge laws,
-        loads, joint bodies, cables, contact and friction laws, geometry parameters' internal forces, laws in t,
-        held angles, controllers. With rigid links or guides the difference of the static ∂r/∂p without the
-        elements' gravity load along w (the reduction's projection moves with it; :meth:`_geometric_derivative`
-        adds the rest of its geometric term)."""
+        the hinges', loads', joint bodies' and cables' EA and damping parts (and the event's time shift's through
+        loads' and hinges' laws in t) generated for the parameters whose every use has one
+        (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), and for the others a central difference along w
+        (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element forces and
+        without the elements' gravity load (``sections``, ``element_gravity`` of :meth:`residual_derivatives`): a
+        cable's rest length and ρA, contact and friction laws, geometry parameters' internal forces, a hinge law
+        naming an input, and all of them where a prescribed motion, a reel or a controller's output in t moves the
+        state in time, where friction holds angles, or with controllers. With rigid links or guides the difference
+        of the static ∂r/∂p without the elements' gravity load along w (the reduction's projection moves with it;
+        :meth:`_geometric_derivative` adds the rest of its geometric term)."""
         model = self.model
         out = np.zeros((model.n_dofs, len(self.names)))
         linked = model.links is not None
-        exact = np.zeros(len(self.names), bool) if linked else self.by_sections_only()
+        exact = np.zeros(len(self.names), bool) if linked else exact_parameters(self)
         if not linked:
             out += self._section_stiffness_along(state, w)
+            if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
+                along = parameter_stiffness_along(self, state, w)
+                shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
+                if shifted:   # the state moved in time by δt_e: ∂(∂r/∂t)/∂q w δt_e, the laws' rates in t generated
+                    along += np.outer(time_stiffness_along(self, state, w), self.time_shift)
+                out[:, exact] += self._on_free_coordinates(state, along)[:, exact]
         if not np.all(exact):
             assembler = self.assembler
             eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))

@@ -86,7 +86,8 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   has no such block (:func:`linked_has_rest`).
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
-evaluations a parameter; its transpose in the adjoint, two a free rate). Which terms of K move with the rates is
+evaluations a parameter; its transpose in the adjoint, two a free rate; generated where the damped taut cables' block
+is the only one moving and no controller: :func:`cable_stiffness_by_rates`, K_c affine in the rates). Which terms of K move with the rates is
 asked of the model's own evaluation, not of a list of the laws that can make them (:func:`stiffness_moving_with_rates`:
 K's blocks at the state's rates and at rates moved, compared bit for bit): a damped cable's c ℓ̇ terms, a hinge law
 whose ∂τ/∂θ holds θ̇, a compliant stop's Hunt–Crossley damping n δⁿ⁻¹ c δ̇ in contact, a continuous controller's
@@ -104,7 +105,7 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads", "geometric_product",
+__all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads", "geometric_product",
            "linked_configuration_tangent", "linked_geometric_derivative", "linked_has_rest", "linked_rest_product",
            "needs_the_kernel",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
@@ -296,43 +297,84 @@ def _load_part(assembler, state, w: np.ndarray, scale: float):
             blocks.ravel())
 
 
-def _cable_part(assembler, state, w: np.ndarray, scale: float):
-    """(rows, cols, values) of the cable elements' part of H: s ∂(K_e w_e)/∂[d1, π1, d2, π2] for each element taut
-    at the state (csrc/evaluate.c ``cables``: held taut, or on no side a positive gap min(N_el, N); a slack one's K
-    is zero, its derivative too) with w on its coordinates, from the generated ``cable_stiffness_D_q``
-    (codegen/joints.py: the taut law, the damper's c ℓ̇ at the state's rates included)."""
+def cable_stiffness_by_rates(assembler, state, w: np.ndarray, dv: np.ndarray) -> np.ndarray:
+    """∂(K w)/∂v δv (n, k) of the cable elements taut at ``state`` (as :func:`_cable_part` finds them), each column of
+    ``dv`` (n, k) a move of the free rates: K_c is affine in the rates (the damper's c ℓ̇, ℓ̇ linear in the ends'
+    velocities), so K_c(δv) w − K_c(0) w from the generated ``cable_stiffness_D_q``'s ``cable_stiffness_along`` is
+    it exactly (``TransientSensitivities._stiffness_by_rates`` where the cables' block is the only one of K moving
+    with the rates, :func:`stiffness_moving_with_rates`, and no controller drives a load)."""
+    model = assembler.model
+    n, k = dv.shape
+    taut = _taut_cables(assembler, state)
+    if taut is None or not k:
+        return np.zeros((n, k))
+    dofs, geometry, _, section = taut
+    full, moves = np.zeros(model.n_total + 1), np.zeros((model.n_total + 1, k))
+    full[:n], moves[:n] = w, dv
+    along = full[dofs]                                          # (e, 12)
+    m = len(dofs)
+    rows = lambda a: np.ascontiguousarray(np.reshape(a, (m * k, -1)), dtype=float)  # noqa: E731
+    repeated = lambda a: np.repeat(a[:, None], k, axis=1)  # noqa: E731   (e, k, ·)
+    velocity = np.transpose(moves[dofs], (0, 2, 1))            # (e, k, 12): each column's move on the element
+    kernel = assembler.kernels.cable_stiffness_D_q
+    at = (rows(repeated(geometry)), rows(repeated(section)), rows(repeated(along)))
+    moved = np.asarray(kernel(at[0], rows(velocity), at[1], at[2])[0]).reshape(m, k, 12)
+    still = np.asarray(kernel(at[0], rows(np.zeros_like(velocity)), at[1], at[2])[0]).reshape(m, k, 12)
+    grown = np.zeros((model.n_total + 1, k))
+    np.add.at(grown, dofs, np.transpose(moved - still, (0, 2, 1)))
+    return grown[:n]
+
+
+def _taut_cables(assembler, state):
+    """(dofs (e, 12) with n_total for no coordinate, geometry (e, 12), velocity (e, 12), section (e, 4)) of the cable
+    elements taut at ``state`` (csrc/evaluate.c ``cables``: held taut, or on no side a positive gap min(N_el, N)), the
+    generated cable kernels' inputs; None where there is none."""
     from latdyn.analyses.cable_sensitivities import _turned
 
     model, cables = assembler.model, assembler.model.cables
     if cables is None or not len(cables.nodes):
-        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    full = np.zeros(model.n_total + 1)
-    full[:model.n_dofs] = w
-    dofs = _scattered(assembler.cable_dofs(), model.n_total)
-    along = full[dofs]
-    on = np.flatnonzero(np.any(along != 0.0, axis=1))
-    if not len(on):
-        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+        return None
     t = float(state.t)
-    nodes = cables.nodes[on]
+    on = np.arange(len(cables.nodes))
+    nodes = cables.nodes
     geometry = np.array([np.concatenate([state.x[a], state.x[b], _turned(state.T[a], cables.offsets[e, 0]),
                                          _turned(state.T[b], cables.offsets[e, 1])])
                          for e, (a, b) in zip(on, nodes)])
     velocity = np.concatenate([state.v[nodes[:, 0]], state.w[nodes[:, 0]], state.v[nodes[:, 1]], state.w[nodes[:, 1]]],
                               axis=1)
     rest = [cables.rest_length[cables.cable[e]] for e in on]
-    section = np.column_stack([cables.share[on] * [r.value(t) for r in rest],
-                               cables.share[on] * [r.rate(t) for r in rest], cables.EA[on], cables.damping[on]])
+    section = np.column_stack([cables.share * [r.value(t) for r in rest],
+                               cables.share * [r.rate(t) for r in rest], cables.EA, cables.damping])
     rows = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    kernels = assembler.kernels
-    law = np.asarray(kernels.cable_force(rows(geometry), rows(velocity), rows(section))[3]).reshape(-1, 5)
-    sides = np.asarray(cables.sides, float)[on]
+    law = np.asarray(assembler.kernels.cable_force(rows(geometry), rows(velocity), rows(section))[3]).reshape(-1, 5)
+    sides = np.asarray(cables.sides, float)
     taut = (sides > 0) | ((sides == 0) & (np.minimum(law[:, 3], law[:, 4]) > 0.0))
     if not np.any(taut):
+        return None
+    dofs = _scattered(assembler.cable_dofs(), model.n_total)
+    return dofs[taut], geometry[taut], velocity[taut], section[taut]
+
+
+def _cable_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the cable elements' part of H: s ∂(K_e w_e)/∂[d1, π1, d2, π2] for each element taut
+    at the state (:func:`_taut_cables`; a slack one's K is zero, its derivative too) with w on its coordinates, from
+    the generated ``cable_stiffness_D_q`` (codegen/joints.py: the taut law, the damper's c ℓ̇ at the state's rates
+    included)."""
+    model = assembler.model
+    taut = _taut_cables(assembler, state)
+    if taut is None:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    blocks = np.asarray(kernels.cable_stiffness_D_q(rows(geometry[taut]), rows(velocity[taut]), rows(section[taut]),
-                                                    rows(along[on[taut]]))[1]).reshape(-1, 12, 12) * scale
-    d = dofs[on[taut]]
+    dofs, geometry, velocity, section = taut
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    along = full[dofs]
+    on = np.flatnonzero(np.any(along != 0.0, axis=1))
+    if not len(on):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    rows = lambda a: np.ascontiguousarray(a[on], dtype=float)  # noqa: E731
+    blocks = np.asarray(assembler.kernels.cable_stiffness_D_q(rows(geometry), rows(velocity), rows(section),
+                                                              rows(along))[1]).reshape(-1, 12, 12) * scale
+    d = dofs[on]
     return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(d[:, None, :], blocks.shape).ravel(),
             blocks.ravel())
 

@@ -1,0 +1,245 @@
+"""The parameters' part of an event's impulse weight derivative, (∂K/∂p) w, generated (docs/parameters.md "The impulse
+weight's derivative"; latdyn/analyses/transient_sensitivities.py ``_stiffness_derivative``).
+
+At an event the forward sensitivities need δ(W w) = H δq + (∂W/∂p) w, W = M + s K, and the adjoint its transpose.
+(∂K/∂p) w is the derivative along w of the static ∂r/∂p (the evaluation's K is ∂r/∂q without the elements' gravity
+tangent). Each use of a parameter whose ∂r/∂p comes from a generated kernel with the derivative values in the
+parameter's place has the same kernel's stiffness with them there, so (∂K/∂p) w is that stiffness along w:
+
+* section values: ``beam_stiffness_D_section`` (:meth:`ParameterDerivatives.add_section_stiffness_along`, before);
+* a hinge's (or a guide's) spring, damper and torque laws: ∂r/∂p is ``hinge_force`` fed the derivative law's
+  value in the law's slot (:meth:`ParameterDerivatives._hinge_force`); its K along the angle, ∂f/∂θ
+  (``hinge_stiffness``), fed the derivative law's value, ∂/∂θ and ∂/∂θ̇ there, times w_j; the rest angle's ∂f/∂θ_r
+  = −k (θ = 0, θ_r = 1 in the kernel) moves along θ with the stiffness law's own ∂k/∂θ: the kernel's ∂f/∂θ there
+  with k's slot (0, ∂k/∂θ, ∂k/∂θ̇);
+* a point load's components: ∂r/∂p is ``point_load`` at the derivative values (linear in the values); its K along w,
+  ``point_load_stiffness_D_q``'s ``load_stiffness_along`` at the same values;
+* a joint body's mass and centre of mass: ∂r/∂p is ``joint_body``'s weight at (∂m/∂p, c) (linear in m) or
+  ``joint_body_D_com`` along ∂c/∂p (the weight's moment (T c) × m g is linear in c, its force free of the turns), so
+  its K along w, the weight's stiffness ``joint_body_gravity_stiffness_D_q``'s ``body_gravity_stiffness_along``, at
+  (∂m/∂p, c) or (m, ∂c/∂p); the inertia's static ∂r/∂p is 0, and so is its (∂K/∂p) w;
+* a cable's EA and damping: the taut law is linear in (EA, c) at a fixed rest length
+  (latdyn/analyses/cable_sensitivities.py), so ``cable_stiffness_D_q``'s ``cable_stiffness_along`` at (∂EA/∂p,
+  ∂c/∂p) for the elements taut at the state;
+* initial velocities: no ∂r/∂p.
+
+Not generated, differenced along w by the caller (:func:`exact_parameters` False): a cable's rest length and ρA
+(K is not linear in L0; no kernel holds ∂(K w)/∂L0), compliant stops' and friction's laws, geometry parameters,
+controllers' outputs and states, a hinge law that names an input (its value is the runtime's), and every parameter
+of a run whose ∂r/∂p holds more than the parameters' own terms (:meth:`TransientSensitivities.by_sections_only`'s
+conditions: a state moved in time, held angles, controllers, rigid links or guides).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY_KEY, SECTION_KEY
+from latdyn.analyses.weight_derivative import _scattered
+from latdyn.assembly.native_model import NO_CONTACT
+
+__all__ = ["exact_parameters", "stiffness_along", "time_generated", "time_stiffness_along"]
+
+
+def _generated_use(owner, key: str, laws: dict) -> bool:
+    """Whether a use ``key`` of the parameters (``laws``: column → derivative law) has its (∂K/∂p) w generated
+    (module docstring)."""
+    if SECTION_KEY.match(key) or INITIAL_VELOCITY_KEY.match(key) or BODY_KEY.match(key):
+        return True
+    cable = CABLE_KEY.match(key)
+    if cable:
+        return cable["value"] in ("EA", "damping")
+    load, hinge = owner._key_kinds(key)
+    if load:
+        return True
+    if hinge:
+        if hinge["law"] == "rest_angle":
+            j = owner.model.hinge_index(hinge["beam"], hinge["end"])
+            return _slopes_known(owner.model.hinges[j].stiffness)
+        return all(_slopes_known(law) for law in laws.values())
+    return False
+
+
+def _slopes_known(law) -> bool:
+    """Whether a hinge law's (value, ∂/∂θ, ∂/∂θ̇) are the law's own at the state: it names no input or controller
+    (their values are the runtime's), and it has ``d_theta`` and ``d_rate`` or reads neither θ nor θ̇ (a law's rate
+    in t alone, :class:`latdyn.analyses.transient_sensitivities._TimeRate`)."""
+    if getattr(law, "input_names", ()):
+        return False
+    reads = getattr(law, "depends_on", ())
+    return hasattr(law, "d_theta") or not ({"theta", "theta_dot"} & set(reads))
+
+
+def exact_parameters(owner) -> np.ndarray:
+    """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring); none where
+    ``owner.by_sections_only`` finds ∂r/∂p holding more than the parameters' own terms (checked per call: the state's
+    time shift and held angles change at each event)."""
+    shifted = owner.time_shift is not None and owner.explicit_time is not None and np.any(owner.time_shift)
+    held = owner.held is not None and np.any(owner.held)
+    if (shifted and not time_generated(owner)) or held or owner.scene.controllers or owner.model.links is not None:
+        return np.zeros(len(owner.names), bool)
+    found = owner.__dict__.get("_parameter_stiffness_exact")
+    if found is None:
+        found = np.ones(len(owner.names), bool)
+        for key, laws in owner.derivatives.items():
+            if not _generated_use(owner, key, laws):
+                found[list(laws)] = False
+        owner._parameter_stiffness_exact = found
+    return found
+
+
+def time_generated(owner) -> bool:
+    """Whether the event's time shift's part, ∂(∂r/∂t)/∂q w δt_e, is generated (:func:`time_stiffness_along`): the
+    scene's laws in t are loads' and hinges' (or guides') whose rates in t have their slopes (:func:`_generated_use`
+    of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), no prescribed motion, reel or
+    controller's output in t. Found once."""
+    found = owner.__dict__.get("_time_stiffness_exact")
+    if found is None:
+        timed = owner.explicit_time
+        laws = timed.laws
+        found = (not timed.prescribed and not timed.reels and laws.controllers is None
+                 and all(_generated_use(laws, key, by) for key, by in laws.derivatives.items()))
+        owner._time_stiffness_exact = found
+    return found
+
+
+def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
+    """∂(∂r/∂t)/∂q w (n_total + 1,) of the static residual, where :func:`time_generated`: :func:`stiffness_along` of
+    the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them)."""
+    return stiffness_along(owner.explicit_time.laws, state, w, cables=False)[:, 0]
+
+
+def stiffness_along(owner, state, w: np.ndarray, cables: bool = True) -> np.ndarray:
+    """(∂K/∂p) w (n_total + 1, k) of the hinges', loads', joint bodies' and cables' uses of the parameters
+    (module docstring; the section values' are :meth:`ParameterDerivatives.add_section_stiffness_along`'s), w on the
+    free coordinates; every column, exact or not (the caller takes the exact ones)."""
+    model = owner.model
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    total = np.zeros((model.n_total + 1, len(owner.names)))
+    _hinges(owner, state, full, total)
+    _loads(owner, state, full, total)
+    _bodies(owner, state, full, total)
+    if cables:   # (ExplicitTime's laws in t have none: its reels are not generated here)
+        _cables(owner, state, full, total)
+    return total
+
+
+def _law_row(law, theta: float, rate: float, t: float) -> tuple:
+    """(value, ∂/∂θ, ∂/∂θ̇) of a hinge law at the state: the ``hinge_force`` kernel's three slots of a law (a law of
+    t alone: its slopes 0)."""
+    if not hasattr(law, "d_theta"):
+        return law.value(theta, rate, t), 0.0, 0.0
+    return law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
+
+
+def _hinges(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """The hinges' (and guides') laws: ``hinge_force``'s ∂f/∂θ with the derivative law in the law's slot, times w_j
+    (the rest angle: with the stiffness law's slope in k's slot at θ = 0, θ_r = 1, times ∂θ_r/∂p)."""
+    model = owner.model
+    contact = NO_CONTACT[None]
+    t = float(state.t)
+    for j, which, laws in owner._hinge_uses():
+        d = int(_scattered(np.asarray(model.hinge_dofs[j]), model.n_total))
+        along = full[d]
+        if along == 0.0:
+            continue
+        theta, rate = float(state.theta[j]), float(state.theta_dot[j])
+        hinge = model.hinges[j]
+        for column, law in laws.items():
+            row = np.zeros((1, 9))
+            if which == "rest_angle":   # f = k (θ − θ_r) + …: ∂f/∂θ_r = −k, along θ −∂k/∂θ
+                slope = _law_row(hinge.stiffness, theta, rate, t)
+                row[0, 0:3] = 0.0, slope[1], slope[2]
+                at = np.array([[0.0, 0.0, 1.0, 1.0]])
+                scale = law.value(theta, rate, t)
+            else:
+                slot = {"stiffness": 0, "damping": 3, "torque": 6}[which]
+                row[0, slot:slot + 3] = _law_row(law, theta, rate, t)
+                at = np.array([[theta, rate, hinge.rest_angle, 1.0]])
+                scale = 1.0
+            stiffness = float(np.asarray(owner.kernels.hinge_force(at, row, contact)[1]).reshape(-1)[0])
+            total[d, column] += scale * stiffness * along
+
+
+def _loads(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """The point loads' components: ``point_load_stiffness_D_q``'s K_l w at the derivative values (the load factor
+    1, as the events' ∂r/∂p is taken), on the load's node rows."""
+    pairs, columns, place, _ = owner._load_layout()
+    if not len(pairs):
+        return
+    model = owner.model
+    distinct, use = owner.load_laws_distinct()
+    values = np.zeros((len(pairs), 6))
+    values[place] = np.array([owner._of_time(law, state.t) for law in distinct])[use]
+    node, offset, frame = owner._load_points()
+    nodes, frames = node[pairs], frame[pairs]
+    follower = frames >= 0
+    direction = np.zeros((len(pairs), 6))
+    direction[:, 0:3] = full[_scattered(model.node_dofs[nodes, 3:6], model.n_total)]
+    direction[follower, 3:6] = full[_scattered(model.node_dofs[frames[follower], 3:6], model.n_total)]
+    on = np.flatnonzero(np.any(direction != 0.0, axis=1))
+    if not len(on):
+        return
+    turns = np.where(follower[on, None, None], state.T[np.maximum(frames[on], 0)], np.eye(3))
+    rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(on), -1)), dtype=float)  # noqa: E731
+    along = np.asarray(owner.kernels.point_load_stiffness_D_q(
+        rows(state.T[nodes[on]]), rows(offset[pairs[on]]), rows(values[on]), rows(turns),
+        rows(direction[on]))[0]).reshape(len(on), 6)
+    np.add.at(total, (_scattered(model.node_dofs[nodes[on]], model.n_total), columns[on, None]), along)
+
+
+def _bodies(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """The joint bodies' mass and centre of mass: their weight's stiffness along w_b,
+    ``joint_body_gravity_stiffness_D_q`` at (∂m/∂p, c) or (m, ∂c/∂p) (linear in m, and in c with none at c = 0)."""
+    model = owner.model
+    gravity = np.asarray(owner.assembler.gravity, float)
+    if not np.any(gravity):
+        return
+    t = float(state.t)
+    for body, laws in owner._body_uses():
+        if body["inertia"]:   # the static ∂r/∂p of an inertia is 0
+            continue
+        node = model.body_node[body["body"]]
+        found = np.flatnonzero(model.body_nodes == node)
+        if not len(found):
+            continue
+        dofs = _scattered(model.node_dofs[node], model.n_total)
+        moving = full[dofs]
+        if not np.any(moving[3:6]):
+            continue
+        frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
+        for column, law in laws.items():
+            block, com = owner.body_block(body, int(found[0]), law.value(0.0, 0.0, t))
+            if com is not None:   # ∂f/∂c along ∂c/∂p: the weight at the centre of mass ∂c/∂p
+                block = block.copy()
+                block[0, 1:4] = com
+            along = owner.kernels.joint_body_gravity_stiffness_D_q(frame, np.ascontiguousarray(moving[None]), block,
+                                                                   np.ascontiguousarray(gravity[None]))[0]
+            total[dofs, column] += np.asarray(along).reshape(6)
+
+
+def _cables(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """The cables' EA and damping: ``cable_stiffness_D_q``'s K_c w at (∂EA/∂p, 0) or (0, ∂c/∂p) for the elements
+    taut at the state (:meth:`CableSensitivities.taut`)."""
+    cables = getattr(owner, "cables", None)
+    if cables is None or not cables.uses:
+        return
+    uses = [use for use in cables.uses if use[1] in ("EA", "damping")]
+    if not uses:
+        return
+    taut = cables.taut(state)
+    t = float(state.t)
+    for k, value, column, law in uses:
+        derivative = law.value(0.0, 0.0, t)
+        if derivative == 0.0:
+            continue
+        for e in np.flatnonzero((cables.cables.cable == k) & taut):
+            rows = cables._rows(e)
+            along = full[rows]
+            if not np.any(along):
+                continue
+            moved = {"EA": derivative, "c": 0.0} if value == "EA" else {"EA": 0.0, "c": derivative}
+            inputs = cables.inputs(state, e, **moved)
+            out = owner.kernels.cable_stiffness_D_q(*(np.ascontiguousarray(a[None]) for a in inputs),
+                                                    np.ascontiguousarray(along[None]))[0]
+            np.add.at(total[:, column], rows, np.asarray(out).reshape(12))
