@@ -50,8 +50,12 @@ as −skew(f) δx), so that the forward method contracts them with δq, δq̇ (:
 discrete adjoint seeds its rows with them (:func:`probe_forms`).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
-adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides all
-but the strain and potential energies (whose δq the reduction's projection carries to the guided bodies); the
+adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides the
+external work of a transient run with a prescribed motion (its drive's reaction through the guides' reduction) — with
+guides the rest are computed as without: a guided body is a dependent node of the links' reduction, its δq = J δq and
+its rates' δv_dep = J δv + ∂(J v)/∂q δq (latdyn/analyses/link_sensitivities.py ``dependent_rates``, the generated
+``prismatic_link_edge_rates_D_q``; a load on it csrc/work_accounts.c ``dependent_node_motion``), a guide's force and
+its parameters' uses a hinge's applied torque on its slide; the
 strain energy (and the total) by a compliant stop's exponent; the dissipated energy through events; the external work of a
 transient run with events where a load, a torque, a spring or a prescribed motion depends on t, with
 controllers; both sums over the steps under the discrete adjoint.
@@ -120,10 +124,12 @@ def _why_not(scene, probe) -> str | None:
     if scene.cables:
         return "energy and momentum sensitivities with cables are not computed yet"
     guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
-    if guided and not (probe.kind == "energy" and quantity in ("strain", "potential", "dissipated")):
-        return (f"with guides (bodies.{guided[0]}.guide) the sensitivities of the strain and potential energies "
-                "and of the dissipated energy are computed, not yet those of the kinetic energy, the total, the "
-                "external work and the momenta (the guided bodies' rates' derivatives)")
+    if guided and probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient" and (
+            any(body.prescribed for body in scene.bodies.values())
+            or any(hinge.angle is not None for _, _, hinge in scene.hinges)
+            or any(getattr(scene.bodies[name].guide, "position", None) is not None for name in guided)):
+        return (f"the external work of a prescribed motion with guides (bodies.{guided[0]}.guide) is not "
+                "differentiated yet (the drive's reaction moves through the guides' reduction)")
     for name in _solve_names(scene):
         used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
         if used is not None:
@@ -832,11 +838,11 @@ def _law_values(owner):
 def applied_torque_uses(owner) -> list:
     """(hinge, column, kind (:data:`_TORQUE_USE`), derivative law) of every parameter's use in a hinge's applied
     torque, in the order of ``owner.derivatives`` (a conservative spring's stiffness and rest angle do no external
-    work; a guide's laws are left out, as the external work with guides is refused)."""
+    work; a guide's force, stiffness and rest on its slide as a hinge's)."""
     model, uses = owner.model, []
     for key, laws in owner.derivatives.items():
         _, hinge = owner._key_kinds(key)   # noqa: SLF001
-        if not hinge or hinge["law"] not in _TORQUE_USE or hinge["end"] == "guide":
+        if not hinge or hinge["law"] not in _TORQUE_USE:
             continue
         j = model.hinge_index(hinge["beam"], hinge["end"])
         if hinge["law"] != "torque" and model.hinges[j].conservative_spring:
