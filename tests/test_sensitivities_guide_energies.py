@@ -22,10 +22,13 @@ from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of
 from tests.sensitivity_equality import assert_same_sensitivities
 from tests.test_sensitivities_events import _run as _api_run
+from tests.test_sensitivities_guides import GUIDE_3D, STATIC_GUIDE
+from tests.test_sensitivities_in_loop_energies import STATE_PROBES
 
 #: a bead on a rod that a prescribed motion turns at 2 rad/s about the skew axis (1, 2, 2)/3, along the skew axis
 #: (2, −2, 1)/3 of the rod, on a damped spring and a force of t along it, under gravity and a load of t: the
-#: centrifugal and Coriolis terms of a guide on a turning body in all three directions
+#: centrifugal and Coriolis terms of a guide on a turning body in all three directions; the slide and
+#: tests/test_sensitivities_in_loop_energies.py's STATE_PROBES (kinetic, strain, potential, total, the six momenta)
 BEAD_3D = """
 title: a bead on a rod turning about a skew axis, on a spring along the rod, pushed by a load
 parameters: {k: 3.0, c: 0.1, m: 0.5, rest: 0.05, F: 0.4, fg: 0.2}
@@ -41,44 +44,27 @@ output:
   every: 0.05
   probes:
     s: {guide: bead, quantity: position}
-    kinetic: {energy: kinetic}
-    total: {energy: total}
-    px: {momentum: linear, component: x}
-    py: {momentum: linear, component: y}
-    pz: {momentum: linear, component: z}
-    hx: {momentum: angular, component: x}
-    hy: {momentum: angular, component: y}
-    hz: {momentum: angular, component: z}
-"""
+""" + STATE_PROBES
 
-#: a mass on a skew guide (axis (1, −2, 2)/3) at the tip body of a flexible 3D arm, under gravity, pushed by a load of
-#: t on the guided mass and the guide's force of t; the external work beside the energies and momenta (no prescribed
-#: motion: its drive's reaction through the guide's reduction is refused)
-ARM_3D = """
-title: a mass sliding on a skew guide at the tip of a flexible arm, under gravity, pushed by a load
-parameters: {k: 40.0, c: 0.3, m: 0.4, rest: 0.02, EI: 30.0, F: 0.5, fg: 0.3}
-gravity: [0, 0, -9.81]
-sections:
-  s: {EA: 100000.0, EIy: "EI", EIz: "1.3*EI", GJ: "0.8*EI", rhoA: 0.5, rhoIy: 0.001, rhoIz: 0.0013}
-bodies:
-  base: {at: [0, 0, 0], fixed: true}
-  tip: {at: [0.6666666666666666, 0.3333333333333333, 0.6666666666666666], mass: 0.2, inertia: [0.002, 0.003, 0.004]}
-  slider: {at: [0.7, 0.35, 0.7], mass: "m", inertia: [0.001, 0.002, 0.0015],
-           guide: {'on': tip, axis: [1, -2, 2], stiffness: "k", damping: "c", rest: "rest", force: "fg*sin(5*t)"}}
-beams:
-  arm: {from: base, to: tip, section: s, elements: 3}
-loads:
-  - {at: slider, force: ["F", "-0.5*F", "0.3*F*t"]}
-solve: {analysis: transient, dt: 0.005, t_end: 0.3, tol: 1.0e-11, sensitivities: [k, m, EI, F, fg]}
-output:
-  every: 0.01
-  probes:
+#: tests/test_sensitivities_guides.py's GUIDE_3D (a mass on a skew guide (1, −2, 2)/3 at the tip body of a flexible 3D
+#: arm, under gravity) pushed by a load of t on the guided mass and the guide's force of t, to 0.3 s at a tight Newton
+#: tolerance; the external work beside the energies and momenta (no prescribed motion: its drive's reaction through
+#: the guide's reduction is refused)
+ARM_3D = (GUIDE_3D[:GUIDE_3D.index("  probes:\n")]
+          .replace("parameters: {k: 40.0, c: 0.3, m: 0.4, rest: 0.02, EI: 30.0}",
+                   "parameters: {k: 40.0, c: 0.3, m: 0.4, rest: 0.02, EI: 30.0, F: 0.5, fg: 0.3}")
+          .replace('rest: "rest"}}', 'rest: "rest", force: "fg*sin(5*t)"}}')
+          .replace("solve: {analysis: transient, dt: 0.005, t_end: 0.4, sensitivities: [k, m, EI, rest]}",
+                   'loads:\n  - {at: slider, force: ["F", "-0.5*F", "0.3*F*t"]}\n'
+                   "solve: {analysis: transient, dt: 0.005, t_end: 0.3, tol: 1.0e-11, sensitivities: [k, m, EI, F, fg]}")
+          ) + """  probes:
     kinetic: {energy: kinetic}
     total: {energy: total}
     py: {momentum: linear, component: y}
     hz: {momentum: angular, component: z}
     work: {energy: external_work}
 """
+assert "fg*sin(5*t)" in ARM_3D and "F: 0.5" in ARM_3D and "tol: 1.0e-11" in ARM_3D and "every: 0.01" in ARM_3D
 
 
 def _agree(result, text: str, name: str) -> float:
@@ -154,8 +140,6 @@ def test_a_static_guide_total_energy_agrees_and_the_rest_are_zero():
     (tests/test_sensitivities_guides.py STATIC_GUIDE): the total energy (strain + potential at rest) by F, EI and m
     against Richardson, measured 4.3e-10, 6.6e-11, 3.4e-10 (CI runs m); the kinetic energy, the momenta and the
     external work, which a static path records as 0, have zero sensitivities."""
-    from tests.test_sensitivities_guides import STATIC_GUIDE
-
     text = (STATIC_GUIDE.replace("solve:", "gravity: [0, 0, -9.81]\nsolve:").replace("[F, EI]", "[m]")
             .replace("rest: 0.0", "rest: 0.01").replace("    sz: {point", "    total: {energy: total}\n    sz: {point"))
     zeros = "    kinetic: {energy: kinetic}\n    px: {momentum: linear, component: x}\n    work: {energy: external_work}\n"
