@@ -57,7 +57,8 @@ its rates' δv_dep = J δv + ∂(J v)/∂q δq (latdyn/analyses/link_sensitiviti
 ``prismatic_link_edge_rates_D_q``; a load on it csrc/work_accounts.c ``dependent_node_motion``), a guide's force and
 its parameters' uses a hinge's applied torque on its slide; the
 strain energy (and the total) by a compliant stop's exponent; the dissipated energy through events; the external work of a
-transient run with events where a load, a torque, a spring or a prescribed motion depends on t, with
+transient run with events (a hinge's or a guide's) where a load, a torque, a guide's force, a spring or a prescribed
+motion depends on t, with
 controllers; both sums over the steps under the discrete adjoint.
 """
 from __future__ import annotations
@@ -175,9 +176,11 @@ def _why_not(scene, probe) -> str | None:
         if scene.solve.adaptive and timed is not None:
             return (f"the external work of an adaptive run with {timed}, which depends on t (the steps' ends move in "
                     "time with the parameters, and the power with them), is not differentiated yet")
-        for beam, which, hinge in scene.hinges:
+        joints = [(f"{beam}.{which}", hinge) for beam, which, hinge in scene.hinges] + [
+            (f"bodies.{name}.guide", scene.bodies[name].guide) for name in guided]   # a guide's events: a hinge's
+        for joint, hinge in joints:
             if (hinge.lock_at is not None or hinge.limits is not None) and timed is not None:
-                return (f"the external work through the events of {beam}.{which} (lock_at, limits) with {timed}, "
+                return (f"the external work through the events of {joint} (lock_at, limits) with {timed}, "
                         "which depends on t (the event's time moves the power there), is not differentiated yet")
         if getattr(scene, "controllers", None):
             return "the external work with controllers is not differentiated yet"
@@ -201,6 +204,10 @@ def _work_in_time(scene) -> str | None:
             return f"the torque or spring of {beam}.{which}"
         if hinge.angle is not None:
             return f"the prescribed angle of {beam}.{which}"
+    for name, body in scene.bodies.items():   # a guide's force or spring on its slide: a hinge's torque or spring
+        guide = getattr(body, "guide", None)
+        if guide is not None and (timed(guide.force) or timed(guide.stiffness)):
+            return f"the force or spring of bodies.{name}.guide"
     moving = next((name for name, body in scene.bodies.items() if body.prescribed), None)
     return None if moving is None else f"the prescribed motion of bodies.{moving}"
 
