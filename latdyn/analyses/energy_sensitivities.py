@@ -14,7 +14,8 @@ latdyn_momentum, csrc/rows.c), never from differences:
   of a hinge's spring with a constant stiffness k, ½ k s² (s = θ − θ_r): δ = τ_s (δθ − δθ_r) + ½ (∂k/∂p) s²
   with τ_s = k s the ``hinge_force`` kernel's spring torque; of a conservative law k(θ), ∫_{θ_r}^{θ} k(x)(x − θ_r) dx:
   δ = τ_s δθ + ∫ (∂k/∂p)(x)(x − θ_r) dx − ∫ k(x) dx δθ_r on latdyn_energies' own quadrature (a law in θ̇ or t
-  is not strain energy: its torque −k s does external work, below); of a compliant stop, the kernel's contact
+  is not strain energy: its torque −k s does external work, below); of a compliant stop (a hinge's or a guide's on its
+slide), the kernel's contact
   energy k(⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1): ∂/∂θ its contact force at θ̇ = 0, ∂/∂p linear in the stop's stiffness;
 - kinetic energy T = ½ q̇ᵀ M(q) q̇ of an element (``beam_kinetic_energy``): ∂T/∂q̇ = M q̇
   (``beam_mass_matrix``), ∂T/∂q δq = ½ q̇ᵀ [∂(M a)/∂q]_{a = q̇} δq (``beam_inertia_tangent`` at zero
@@ -77,9 +78,11 @@ from latdyn.errors import SceneError
 __all__ = ["STATE_ENERGIES", "is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step",
            "external_work_after_event"]
 
-#: a hinge's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
-_STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.stiffness$")
-_STOP_EXPONENT = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.exponent$")
+#: a hinge's or a guide's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
+_STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.stiffness$"
+                             r"|^bodies\.(?P<body>[^.]+)\.guide\.contact\.stiffness$")
+_STOP_EXPONENT = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.exponent$"
+                            r"|^bodies\.(?P<body>[^.]+)\.guide\.contact\.exponent$")
 #: the recorded energies this module differentiates
 _ENERGIES = ("kinetic", "strain", "potential", "external_work", "dissipated", "total")
 #: the energies of a row's state alone (no account carried through the steps: the sensitivity loop takes them,
@@ -518,7 +521,8 @@ class _StateForms:
             stop = _STOP_STIFFNESS.match(key)
             if not stop:
                 continue
-            i = stops.index(model.hinge_index(stop["beam"], stop["end"]))
+            joint = (stop["beam"], stop["end"]) if stop["beam"] is not None else (stop["body"], "guide")
+            i = stops.index(model.hinge_index(*joint))
             for column, law in laws.items():
                 changed = rows[i:i + 1].copy()
                 changed[0, 2] = law.value(0.0, 0.0, state.t)
