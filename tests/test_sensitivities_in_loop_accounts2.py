@@ -21,7 +21,7 @@ Python before and now take their smooth steps in the loop, their sensitivities t
   Python path computes it now: the guide's damper on its slide is a hinge's on its angle).
 
 Against Richardson central differences: the slewing boom's and the gimbal's (a load on a link) external work and
-the guided mass's dissipated energy. A guard: the external work with guides stays refused by the package."""
+the guided mass's dissipated energy. The external work with guides: tests/test_sensitivities_guide_energies.py."""
 from __future__ import annotations
 
 import numpy as np
@@ -29,7 +29,6 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_guides import GUIDE_3D
 from tests.test_sensitivities_in_loop_cables2 import MAST_PD_PUSHED
@@ -158,10 +157,3 @@ def test_the_accounts_from_the_loop_agree_with_richardson_differences(text, prob
     error = np.abs(result.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max()
     assert error <= 10 * measured, error
 
-
-def test_the_external_work_with_guides_stays_refused():
-    """(A guard: it passed before the change too.) With guides the package computes the dissipated energy's
-    sensitivities now, not the external work's (the guided bodies' rates' derivatives): refused naming the key."""
-    text = GUIDE_3D + "    work: {energy: external_work}\n"
-    with pytest.raises(SceneError, match="solve.sensitivities.*external_work"):
-        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))

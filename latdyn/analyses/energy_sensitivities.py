@@ -14,7 +14,8 @@ latdyn_momentum, csrc/rows.c), never from differences:
   of a hinge's spring with a constant stiffness k, ½ k s² (s = θ − θ_r): δ = τ_s (δθ − δθ_r) + ½ (∂k/∂p) s²
   with τ_s = k s the ``hinge_force`` kernel's spring torque; of a conservative law k(θ), ∫_{θ_r}^{θ} k(x)(x − θ_r) dx:
   δ = τ_s δθ + ∫ (∂k/∂p)(x)(x − θ_r) dx − ∫ k(x) dx δθ_r on latdyn_energies' own quadrature (a law in θ̇ or t
-  is not strain energy: its torque −k s does external work, below); of a compliant stop, the kernel's contact
+  is not strain energy: its torque −k s does external work, below); of a compliant stop (a hinge's or a guide's on its
+slide), the kernel's contact
   energy k(⟨δ_u⟩ⁿ⁺¹ + ⟨δ_l⟩ⁿ⁺¹)/(n + 1): ∂/∂θ its contact force at θ̇ = 0, ∂/∂p linear in the stop's stiffness;
 - kinetic energy T = ½ q̇ᵀ M(q) q̇ of an element (``beam_kinetic_energy``): ∂T/∂q̇ = M q̇
   (``beam_mass_matrix``), ∂T/∂q δq = ½ q̇ᵀ [∂(M a)/∂q]_{a = q̇} δq (``beam_inertia_tangent`` at zero
@@ -50,10 +51,15 @@ as −skew(f) δx), so that the forward method contracts them with δq, δq̇ (:
 discrete adjoint seeds its rows with them (:func:`probe_forms`).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
-adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides all
-but the strain and potential energies (whose δq the reduction's projection carries to the guided bodies); the
+adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides the
+external work of a transient run with a prescribed motion (its drive's reaction through the guides' reduction) — with
+guides the rest are computed as without: a guided body is a dependent node of the links' reduction, its δq = J δq and
+its rates' δv_dep = J δv + ∂(J v)/∂q δq (latdyn/analyses/link_sensitivities.py ``dependent_rates``, the generated
+``prismatic_link_edge_rates_D_q``; a load on it csrc/work_accounts.c ``dependent_node_motion``), a guide's force and
+its parameters' uses a hinge's applied torque on its slide; the
 strain energy (and the total) by a compliant stop's exponent; the dissipated energy through events; the external work of a
-transient run with events where a load, a torque, a spring or a prescribed motion depends on t, with
+transient run with events (a hinge's or a guide's) where a load, a torque, a guide's force, a spring or a prescribed
+motion depends on t, with
 controllers; both sums over the steps under the discrete adjoint.
 """
 from __future__ import annotations
@@ -72,9 +78,11 @@ from latdyn.errors import SceneError
 __all__ = ["STATE_ENERGIES", "is_energy_or_momentum", "refusal", "probe_derivatives", "probe_forms", "external_work_step",
            "external_work_after_event"]
 
-#: a hinge's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
-_STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.stiffness$")
-_STOP_EXPONENT = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.exponent$")
+#: a hinge's or a guide's compliant stops' stiffness (the potential is linear in it) and exponent (refused)
+_STOP_STIFFNESS = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.stiffness$"
+                             r"|^bodies\.(?P<body>[^.]+)\.guide\.contact\.stiffness$")
+_STOP_EXPONENT = re.compile(r"^beams\.(?P<beam>.+)\.(?P<end>start|end)\.hinge\.contact\.exponent$"
+                            r"|^bodies\.(?P<body>[^.]+)\.guide\.contact\.exponent$")
 #: the recorded energies this module differentiates
 _ENERGIES = ("kinetic", "strain", "potential", "external_work", "dissipated", "total")
 #: the energies of a row's state alone (no account carried through the steps: the sensitivity loop takes them,
@@ -120,10 +128,12 @@ def _why_not(scene, probe) -> str | None:
     if scene.cables:
         return "energy and momentum sensitivities with cables are not computed yet"
     guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
-    if guided and not (probe.kind == "energy" and quantity in ("strain", "potential", "dissipated")):
-        return (f"with guides (bodies.{guided[0]}.guide) the sensitivities of the strain and potential energies "
-                "and of the dissipated energy are computed, not yet those of the kinetic energy, the total, the "
-                "external work and the momenta (the guided bodies' rates' derivatives)")
+    if guided and probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient" and (
+            any(body.prescribed for body in scene.bodies.values())
+            or any(hinge.angle is not None for _, _, hinge in scene.hinges)
+            or any(getattr(scene.bodies[name].guide, "position", None) is not None for name in guided)):
+        return (f"the external work of a prescribed motion with guides (bodies.{guided[0]}.guide) is not "
+                "differentiated yet (the drive's reaction moves through the guides' reduction)")
     for name in _solve_names(scene):
         used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
         if used is not None:
@@ -169,9 +179,11 @@ def _why_not(scene, probe) -> str | None:
         if scene.solve.adaptive and timed is not None:
             return (f"the external work of an adaptive run with {timed}, which depends on t (the steps' ends move in "
                     "time with the parameters, and the power with them), is not differentiated yet")
-        for beam, which, hinge in scene.hinges:
+        joints = [(f"{beam}.{which}", hinge) for beam, which, hinge in scene.hinges] + [
+            (f"bodies.{name}.guide", scene.bodies[name].guide) for name in guided]   # a guide's events: a hinge's
+        for joint, hinge in joints:
             if (hinge.lock_at is not None or hinge.limits is not None) and timed is not None:
-                return (f"the external work through the events of {beam}.{which} (lock_at, limits) with {timed}, "
+                return (f"the external work through the events of {joint} (lock_at, limits) with {timed}, "
                         "which depends on t (the event's time moves the power there), is not differentiated yet")
         if getattr(scene, "controllers", None):
             return "the external work with controllers is not differentiated yet"
@@ -195,6 +207,10 @@ def _work_in_time(scene) -> str | None:
             return f"the torque or spring of {beam}.{which}"
         if hinge.angle is not None:
             return f"the prescribed angle of {beam}.{which}"
+    for name, body in scene.bodies.items():   # a guide's force or spring on its slide: a hinge's torque or spring
+        guide = getattr(body, "guide", None)
+        if guide is not None and (timed(guide.force) or timed(guide.stiffness)):
+            return f"the force or spring of bodies.{name}.guide"
     moving = next((name for name, body in scene.bodies.items() if body.prescribed), None)
     return None if moving is None else f"the prescribed motion of bodies.{moving}"
 
@@ -505,7 +521,8 @@ class _StateForms:
             stop = _STOP_STIFFNESS.match(key)
             if not stop:
                 continue
-            i = stops.index(model.hinge_index(stop["beam"], stop["end"]))
+            joint = (stop["beam"], stop["end"]) if stop["beam"] is not None else (stop["body"], "guide")
+            i = stops.index(model.hinge_index(*joint))
             for column, law in laws.items():
                 changed = rows[i:i + 1].copy()
                 changed[0, 2] = law.value(0.0, 0.0, state.t)
@@ -832,11 +849,11 @@ def _law_values(owner):
 def applied_torque_uses(owner) -> list:
     """(hinge, column, kind (:data:`_TORQUE_USE`), derivative law) of every parameter's use in a hinge's applied
     torque, in the order of ``owner.derivatives`` (a conservative spring's stiffness and rest angle do no external
-    work; a guide's laws are left out, as the external work with guides is refused)."""
+    work; a guide's force, stiffness and rest on its slide as a hinge's)."""
     model, uses = owner.model, []
     for key, laws in owner.derivatives.items():
         _, hinge = owner._key_kinds(key)   # noqa: SLF001
-        if not hinge or hinge["law"] not in _TORQUE_USE or hinge["end"] == "guide":
+        if not hinge or hinge["law"] not in _TORQUE_USE:
             continue
         j = model.hinge_index(hinge["beam"], hinge["end"])
         if hinge["law"] != "torque" and model.hinges[j].conservative_spring:

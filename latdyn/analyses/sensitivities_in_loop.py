@@ -117,8 +117,8 @@ and evaluated in C at the hinge's θ, θ̇, t (energy_sensitivities.account_laws
 prescribed motion's drive (δr_d = ∂r_d/∂p + K_d δq + C_d δv + M_d δv̇ from ∂r/∂p's rows and one evaluation's blocks,
 and ½ Σ_d Δq_d (δr_d,n + δr_d,n+1): csrc/drive_sensitivities.c, which energy_sensitivities._drive_reactions and
 external_work_step call too); the dissipated energy with rigid links and guides too (its dampers' δθ, δθ̇ — a guide's
-δs, δṡ — are free coordinates), the external work with rigid links (a load's node or frame that follows the links
-moved by J δq, J δv + ∂(J v)/∂q δq from the links' buffers: csrc/work_accounts.c dependent_node_motion, which
+δs, δṡ — are free coordinates), the external work with rigid links and guides (a load's node or frame that follows the links
+or a guide moved by J δq, J δv + ∂(J v)/∂q δq from the links' buffers: csrc/work_accounts.c dependent_node_motion, which
 energy_sensitivities._power calls too) (``_account_refusal``; the accounts and their terms handed back at the loop's end, an event's account
 after it is the Python path's, energy_sensitivities.external_work_after_event). Not native (the Python path): hinge and guide laws whose derivative
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
@@ -131,8 +131,7 @@ force whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and ker
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
-with a law of θ, θ̇ or an input in them that does not compile, the external work with guides (the package refuses
-it), and the NumPy kernels.
+with a law of θ, θ̇ or an input in them that does not compile, and the NumPy kernels.
 
 Step matrices of every storage: where a model has S on the supernodal sparse LU (above DENSE_LIMIT coordinates, its
 bandwidth after reverse Cuthill–McKee above BAND_LIMIT: a designer's lattice, with rigid links or not), the loop
@@ -365,9 +364,8 @@ def _account_refusal(owner, quantity: str) -> str | None:
     energy_sensitivities._dissipated_step, external_work_step) keeps the run on the Python path, or None: the loop
     carries them by csrc/work_accounts.c, the C the Python path calls (δθ, δθ̇, δπ, δu the carried δq, δv at the free
     coordinates: the dissipated energy with rigid links and guides too, its hinges' and guides' δθ, δθ̇ free
-    coordinates; the external work with rigid links too, a load's node or frame that follows them moved through the
-    links' J and rates' tangent, csrc/work_accounts.c dependent_node_motion; not with guides, which the package
-    refuses) with the laws' values tabulated per grid point where they are laws of t alone, as the Python step reads them,
+    coordinates; the external work with rigid links and guides too, a load's node or frame that follows them moved
+    through the links' J and rates' tangent, csrc/work_accounts.c dependent_node_motion) with the laws' values tabulated per grid point where they are laws of t alone, as the Python step reads them,
     and compiled where they name θ, θ̇ or an input (energy_sensitivities.account_laws: the same C on both paths, at the
     hinge's θ, θ̇, t): for the dissipated energy every hinge's damping law and the damping parameters' derivative laws,
     for the external work the loads' values and their derivative laws, every hinge's applied torque, a spring that is
@@ -377,9 +375,6 @@ def _account_refusal(owner, quantity: str) -> str | None:
 
     model = owner.model
     what = "the dissipated energy" if quantity == "dissipated" else "the external work"
-    if model.links is not None and quantity != "dissipated":   # the dampers' δθ, δθ̇: free coordinates
-        if any(getattr(body, "guide", None) is not None for body in owner.scene.bodies.values()):
-            return f"{what} with guides (the package refuses it)"
     if quantity == "dissipated":
         laws = [hinge.damping for hinge in model.hinges] + [law for _, _, law in damping_uses(owner)]
     else:
