@@ -137,6 +137,7 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
 from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight,
                                                geometric_product, linked_configuration_tangent,
+                                               linked_geometric_rate_in_time,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
                                                needs_the_kernel, refuse_without_kernel, stiffness_moving_with_rates,
                                                times)
@@ -1007,14 +1008,35 @@ class TransientSensitivities(ParameterDerivatives):
         n_asm = model.n_assembled
         inertial = (self.residual_derivatives(state, 1.0, inertia=True, on_all=True)
                     - self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False))[:n_asm]
-        out = np.zeros((model.n_dofs, len(self.names)))
+        out = self._geometric_rate_in_time(state, w)
         if not np.any(inertial):
             return out
         assembler.complete_links(state)   # J of the state in the links' buffers
         for c in range(len(self.names)):
             if np.any(inertial[:, c]):
-                out[:, c] = geometric_product(assembler, state, inertial[:, c], w)
+                out[:, c] += geometric_product(assembler, state, inertial[:, c], w)
         return out
+
+    def _geometric_rate_in_time(self, state, w: np.ndarray) -> np.ndarray:
+        """(n, k): at an event moved in time (``time_shift`` δt_e) on a model with rigid links or guides and
+        prescribed motions, ∂/∂t of the reduction's geometric term ∂Pᵀ/∂q[w] · r_inertia (r_inertia the inertia
+        forces' part of r_all: r_all with them less without) times δt_e — the part of ∂(K w)/∂t δt_e that
+        neither the static ∂r/∂t differenced along w (:meth:`_stiffness_derivative`: its geometric term is of the
+        static r_all) nor the inertia forces' ∂r_all/∂t through ∂Pᵀ/∂q[w] (below) holds: P moves with the
+        prescribed coordinates (:func:`latdyn.analyses.weight_derivative.linked_geometric_rate_in_time`). Zeros
+        elsewhere (left out before: 3e-6 of the slewing gimbal's sensitivities after its latch,
+        tests/test_sensitivities_slewing_latch.py)."""
+        model, k = self.model, len(self.names)
+        out = np.zeros((model.n_dofs, k))
+        shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
+        if not shifted or not self.explicit_time.prescribed:
+            return out
+        assembler, n_asm = self.assembler, model.n_assembled
+        inertia_forces = (np.asarray(assembler.evaluate_assembled(state, False, 1.0, True).residual)
+                          - np.asarray(assembler.evaluate_assembled(state, False, 1.0, False).residual))[:n_asm]
+        motion_rates = self.explicit_time.motions.values(float(state.t))[0]
+        rate = linked_geometric_rate_in_time(assembler, state, inertia_forces, w, motion_rates, self.length or 1.0)
+        return np.outer(rate, self.time_shift)
 
     def after_events(self, carried: dict, new) -> dict:
         """``carried`` after the events of the step ended at ``new`` (its coordinates renumbered, its

@@ -78,7 +78,10 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   with the inertia tangent, the dependent rates following the links through their compiled buffers), plus
   s ∂/∂q(∂(Pᵀ r)/∂q[w]) δq at fixed r = r_all — the links' second derivatives, which no generated kernel holds: a
   Richardson-extrapolated central difference of the links alone (:data:`LINKS_STEP`; their kinematics completed at
-  the moved configurations, the geometric term of the fixed r_all, no evaluation of the model);
+  the moved configurations, the geometric term of the fixed r_all, no evaluation of the model); at an event moved
+  in time (δt_e) with prescribed motions, P moves with the prescribed coordinates too: the geometric term of the
+  inertia forces moved in time, ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, a difference of the links alone in t
+  (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
 * differenced, the blocks not generated (as H_rest: loads, cables, couplings, hinges outside :func:`exact_hinges`),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
   part's round-off, 1e-8 of H δq over the step on the slider-crank), centrally along each column's move (δq, the free
@@ -105,8 +108,9 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads", "geometric_product",
-           "linked_configuration_tangent", "linked_geometric_derivative", "linked_has_rest", "linked_rest_product",
+__all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads",
+           "geometric_product", "linked_configuration_tangent", "linked_geometric_derivative",
+           "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
            "needs_the_kernel",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
@@ -754,6 +758,31 @@ def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray,
         out[:, c] += (4 * central[1] - central[0]) / 3
     native.complete_links(state)
     return scale * out
+
+
+def linked_geometric_rate_in_time(assembler, state, y: np.ndarray, w: np.ndarray, motion_rates: np.ndarray,
+                                  length: float) -> np.ndarray:
+    """∂/∂t (∂(Pᵀ y)/∂q[w]) at fixed y and fixed free coordinates (n,): the reduction's geometric term of y moved in
+    time by the prescribed motions (P hangs the dependent nodes from the prescribed coordinates too) — the links'
+    second derivatives ∂²(Pᵀ y)/∂q[w]∂q_p q̇_p, which no kernel holds: a Richardson-extrapolated central difference
+    in t of the geometric term (:func:`geometric_product`) at the prescribed coordinates moved to their laws at
+    t ± η (the dependent nodes completed, no evaluation), η = :data:`LINKS_STEP` ℓ over the motions' largest rate
+    ``motion_rates`` (their q̇_p at t; all 0: the term is 0). An event's weight at t_e + δt_e takes it with y the
+    inertia forces' part of r_all (module docstring, "Rigid links and guides";
+    ``TransientSensitivities._geometric_derivative``)."""
+    size = float(np.max(np.abs(motion_rates), initial=0.0))
+    if size == 0.0 or not np.any(y):
+        return np.zeros(assembler.model.n_dofs)
+
+    def at(shift):   # the prescribed coordinates at their laws at t + shift, the free ones held
+        moved = state.copy()
+        assembler.apply_prescribed(moved, state.t + shift)
+        return geometric_product(assembler, moved, y, w)
+
+    h = LINKS_STEP * length / size
+    central = [(at(step) - at(-step)) / (2 * step) for step in (h, h / 2)]
+    assembler.complete_links(state)   # the links' buffers at the state again
+    return (4 * central[1] - central[0]) / 3
 
 
 def _rates_jacobian_derivative(assembler, state, w: np.ndarray) -> np.ndarray:
