@@ -1,5 +1,13 @@
-"""Sensitivities beside cable events: a reel paying out a massive cable (latdyn/analyses/transient_sensitivities.py
-``TransientSensitivities.land``), through the CLI and the API.
+"""Sensitivities beside events, through the CLI and the API: the step sequence a run with solve.sensitivities takes
+(latdyn/timeloop/loop.py ``_accept``, summary.json ``warnings``), and a reel paying out a massive cable
+(latdyn/analyses/transient_sensitivities.py ``TransientSensitivities.land``).
+
+A run with sensitivities lands on each event to 1e-12 and restarts at dt after it and after each step onto the grid, so
+that its step sizes are differentiable in p; a run without lands to the events' tolerance in at most 4 passes and grows
+its steps back from the short one (docs/parameters.md, "Sensitivities through events"). Those two rules are the whole
+difference (measured: the run with sensitivities under the plain rules writes the plain run's probes to the bit); the
+plain run under the sensitivities' restart came 16 times as many Newton cuts on docs/cables.md's damped truss (305
+against 19 over 0.8 s, twice the CPU time), so the plain run keeps its rules and the run with sensitivities says so.
 
 tests/test_sensitivities_in_loop_cables2.py's PD mast pushed by a load of t, its three-element massive cable g1 reeled
 out (rest length L + 0.3 t): g1 goes slack near t = 0.097. The first trial across the change put element 2 first by
@@ -14,6 +22,53 @@ import yaml
 import latdyn
 from tests.cli_runs import latdyn_run, probe_columns, summary_of
 from tests.test_sensitivities_in_loop_cables2 import MAST_PD_PUSHED
+from tests.test_sensitivities_in_loop_controller_reads import BOOM_INPUT, CABLE_LIMIT
+
+#: the warning of a run whose steps the sensitivities' rules took otherwise
+OWN_STEPS = "of the run's steps are the sensitivities' own"
+
+
+def _without_sensitivities(text: str) -> str:
+    data = yaml.safe_load(text)
+    data["solve"].pop("sensitivities")
+    return yaml.safe_dump(data)
+
+
+def test_a_run_whose_steps_the_sensitivities_chose_says_so_and_stays_within_the_steps_error(tmp_path):
+    """The clipped controller on the skew cable's tension (five taut and slack changes): with sensitivities 69
+    steps, 7 of them the sensitivities' own (five landings, two restarts after steps onto the grid), a warning in
+    summary.json; without, 82 steps and no warning. Their probes differ (the cable's changes land 2.8e-4 s apart), by
+    less than a fifth of either's own error against a run at dt/8 (measured 0.047 to 0.14 of it; the tension 1.1e-2 of
+    its largest apart, 0.24 off the reference). Before this change the run with sensitivities said nothing."""
+    (tmp_path / "with").mkdir()
+    (tmp_path / "without").mkdir()
+    completed, out = latdyn_run(tmp_path / "with", CABLE_LIMIT, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    warnings = [w for w in summary_of(out).get("warnings", []) if OWN_STEPS in w]
+    assert len(warnings) == 1 and warnings[0].startswith("7 " + OWN_STEPS), summary_of(out).get("warnings")
+    assert "docs/parameters.md" in warnings[0] and summary_of(out)["steps"] == 69
+    plain_text = _without_sensitivities(CABLE_LIMIT)
+    completed, plain_out = latdyn_run(tmp_path / "without", plain_text, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    assert not any(OWN_STEPS in w for w in summary_of(plain_out).get("warnings", []))
+    assert summary_of(plain_out)["steps"] == 82
+    with_, without = probe_columns(out), probe_columns(plain_out)
+    data = yaml.safe_load(plain_text)
+    data["solve"]["dt"] /= 8
+    reference = latdyn.run(latdyn.load_scene(data)).probes
+    for probe, values in reference.items():
+        scale = np.abs(values).max()
+        apart = np.abs(with_[probe] - without[probe]).max() / scale
+        errors = [np.abs(run[probe] - values).max() / scale for run in (with_, without)]
+        assert 0 < apart < 0.2 * min(errors), (probe, apart, errors)
+
+
+def test_a_run_without_events_takes_the_same_steps_with_and_without_sensitivities():
+    """The PD boom with inputs (no event): the same probes to the bit, no warning."""
+    with_ = latdyn.run(latdyn.load_scene(yaml.safe_load(BOOM_INPUT)))
+    without = latdyn.run(latdyn.load_scene(yaml.safe_load(_without_sensitivities(BOOM_INPUT))))
+    assert not any(OWN_STEPS in w for w in with_.summary.get("warnings", []))
+    assert all(np.array_equal(with_.probes[k], without.probes[k]) for k in without.probes)
 
 #: the pushed PD mast with cable g1 paying out (L + 0.3 t) to t = 0.1, sensitivities by EA
 REEL_OUT = (MAST_PD_PUSHED.replace('rest_length: "L", rhoA', 'rest_length: "L + 0.3*t", rhoA')
