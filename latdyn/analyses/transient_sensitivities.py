@@ -151,7 +151,7 @@ from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.scene.expressions import TimeFunction, _drop_deltas
 from latdyn.step.integrators import consistent_acceleration, start_without_scipy
-from latdyn.timeloop.events import cable_gaps, first_crossing, lock_events, may_stick, sticking_hinges, stop_hits
+from latdyn.timeloop.events import cable_crossings, cable_gaps, first_crossing, lock_events, may_stick, sticking_hinges, stop_hits
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["TransientSensitivities"]
@@ -162,6 +162,9 @@ AT_REST = 1e-9
 #: passes at most of that landing's search on the step size (regula falsi, Illinois-modified, while the step
 #: brackets the event; a secant where it does not)
 LANDING_PASSES = 30
+#: landings at most of one step on a cable element that an earlier landing's step shows past its change before
+#: the element it landed on (:meth:`TransientSensitivities.land`)
+RELANDINGS = 4
 #: a landing farther than this (relative, as LANDING) from the event is flagged in summary.json warnings:
 #: the event-time derivative assumes the step ends on it
 LANDING_MISSED = 1e-10
@@ -378,7 +381,30 @@ class TransientSensitivities(ParameterDerivatives):
         first cable element's change of side to a gap |g| ≤ :data:`LANDING` · EA
         (:meth:`CableSensitivities.landing`), where the
         derivative of the event time assumes it exactly; ``step(h)`` takes a step of size h from
-        ``old``. Returns (state, stats, h, lands) of the last converged step."""
+        ``old``. Returns (state, stats, h, lands) of the last converged step.
+
+        A cable landing whose step ends with another element past its change (the trial's linear interpolation
+        put that one later: a reel paying out a massive cable, its elements' gaps far from linear in the step's
+        size) lands again, on that element, from the step kept (at most :data:`RELANDINGS` times): the earlier
+        change is the event (a reel of L + 0.3 t on tests/test_sensitivity_step_sequence.py's mast was refused as
+        "several cable elements changing at one instant", one element at −6.6e-12, another at −0.36)."""
+        event = first_crossing(self.assembler, old, attempt[0])
+        best, gap, tight = self._land_once(step, old, attempt)
+        if gap is None:
+            return attempt
+        for _ in range(RELANDINGS):
+            if event is not None or best is attempt or not cable_crossings(self.assembler, old, best[0]):
+                break
+            best, gap, tight = self._land_once(step, old, best)
+        if abs(ga_start := gap(old)) <= tight and abs(gap(best[0])) > tight:
+            self._refuse_change_at_step_start(old, ga_start)
+        if best is not attempt and not self._ends_on_a_change(old, best[0]):
+            self._refuse_landing_short(old, attempt, best, event, gap)
+        return best
+
+    def _land_once(self, step, old, attempt):
+        """One landing's search of :meth:`land` from the step ``attempt``: (the last converged step, the gap
+        function it landed on and its tolerance; the step and None, None where it crosses nothing)."""
         new, stats, h, lands = attempt
         event = first_crossing(self.assembler, old, new)
         cable = None if event is not None or self.cables is None else self.cables.landing(old, new)
@@ -388,7 +414,7 @@ class TransientSensitivities(ParameterDerivatives):
         elif cable is not None:
             gap, tight = cable
         else:
-            return attempt
+            return attempt, None, None
         a, ga = 0.0, gap(old)
         b, gb = h, gap(new)
         # the zero bracketed (the gap changes sign over the step): regula falsi, Illinois-modified, keeps it
@@ -414,11 +440,7 @@ class TransientSensitivities(ParameterDerivatives):
             else:
                 ga = 0.5 * ga
             b, gb = c, gc
-        if abs(ga_start := gap(old)) <= tight and abs(gap(best[0])) > tight:
-            self._refuse_change_at_step_start(old, ga_start)
-        if best is not attempt and not self._ends_on_a_change(old, best[0]):
-            self._refuse_landing_short(old, attempt, best, event, gap)
-        return best
+        return best, gap, tight
 
     def _ends_on_a_change(self, old, new) -> bool:
         """Whether the step old → new ends on an event its derivative takes (a latch, a stop, a compliant
@@ -462,10 +484,13 @@ class TransientSensitivities(ParameterDerivatives):
             names = sorted({f"cables.{cables.names[cables.cable[e]]}" for e in range(len(gaps))
                             if abs(gaps[e]) <= LANDING * float(cables.EA[e])})
         what = ", ".join(names) or "a joint's event"
-        raise SolverError(f"the sensitivities at t = {float(old.t):.6g} meet {what} changing side at the start of "
-                          f"a step, which no step lands on (its gap {gap_start:.3g} there: a cable at its rest length "
-                          "at t = 0, the default rest_length, that goes taut at once, or an element turning back at "
-                          "the instant it changed side): its event time's derivative is not computed "
+        raise SolverError(f"{self.scene.file}: solve.sensitivities: the sensitivities at t = {float(old.t):.6g} meet "
+                          f"{what} changing side at the start of a step, which no step lands on (its gap "
+                          f"{gap_start:.3g} there: a cable at its rest length at t = 0, the default rest_length, that "
+                          "goes taut at once, or an element turning back at the instant it changed side): its event "
+                          "time's derivative is not computed; expected each change of side landed on by a step of its "
+                          f"own: a rest length a little off the ends' distance at t = 0, or a solve.dt smaller than "
+                          f"{self.scene.solve.dt:g} that resolves an element's change and its turning back "
                           "(docs/parameters.md, \"Cables\")")
 
     # ------------------------------------------------------------------ a step

@@ -391,6 +391,16 @@ class StepControl:
         else:
             self.resize = Resize(0.0, 0.0, 0.0, 1.0)   # run.h as it was
 
+    def grows_back_short(self, h: float, lands: bool) -> bool:
+        """Whether fixed steps not restarted (:meth:`after_accepted`'s last branches) try a step shorter than dt after
+        the accepted step of size ``h`` (``lands``: onto the grid point :meth:`next_step` aimed it at): 2 h_proposed
+        after a step shortened onto a grid point, else 2h. Called before :meth:`after_accepted`."""
+        if self.adaptive:
+            return False
+        if lands and self.proposed is not None and h < self.proposed:
+            return 2 * self.proposed < self.dt
+        return 2 * h < self.dt
+
     def _watch_crawl(self, run: TransientProgress, h: float, event: bool) -> None:
         """Count the accepted step of size ``h`` (``event``: it ended on a latch or a stop) into the
         crawl window; a full window that advanced less than CRAWL_STEPS crawling steps ends the run,

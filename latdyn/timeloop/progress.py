@@ -113,6 +113,10 @@ class TransientProgress:
     #: the first landing whose step kept ended short of the event its trial crossed, as its warning says it
     #: (latdyn.timeloop.loop.TimeLoop._landing: closed less than half the gap); None: none
     short_landing: str | None = None
+    #: steps of a run with solve.sensitivities that the sensitivities' rules took otherwise than a run without them
+    #: would (an event or a cable's change landed on to 1e-12, or the step after one or after a step onto the grid
+    #: restarted at dt where the run without would grow back from a shorter one: latdyn.timeloop.loop.TimeLoop._accept)
+    steps_for_sensitivities: int = 0
 
     def count(self, stats) -> None:
         """Count a step's Newton iterations and factorizations (``stats``: a StepStats)."""
