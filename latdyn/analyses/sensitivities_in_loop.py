@@ -412,6 +412,7 @@ def _controller_refusal(owner) -> str | None:
     (``latdyn_linked_reduce_columns``), the C the per-step Python path calls too (``_on_free_coordinates``,
     sensitivities.reduced_columns): tests/test_sensitivities_in_loop_linked_controllers.py."""
     from latdyn.analyses.derivative_laws import chained_outputs
+    from latdyn.analyses.joint_force_sensitivities import is_joint_force
     from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_LENGTH, CABLE_TENSION, CONTROLLER, \
         JOINT_FORCE, OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
 
@@ -421,10 +422,22 @@ def _controller_refusal(owner) -> str | None:
         why = _states_refusal(owner)
         if why is not None:
             return why
-    moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads)
-    if moved:   # ∂f/∂s ∂F/∂p (ControllerTerms.sensed_force_slopes): NumPy and the probes' kernels, not in C yet
+    readers = {name for name, reads in getattr(terms, "forces_read", {}).items() if reads}
+    moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads
+                   if not is_joint_force(terms.moved_forces[read]))
+    if moved:   # ∂f/∂s ∂F/∂p of a section force or a cable's tension (the probes' NumPy and kernels): not in C yet
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
-    continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
+    if readers and (terms.compiled is None or any(name not in terms.compiled.outputs for name in readers)):
+        return "controllers reading a force whose own laws a parameter moves, whose outputs did not compile"
+    stopped = {owner.model.hinge_index(beam, end) for (beam, end, *_), _ in owner.joint_law_uses()}
+    for name, reads in getattr(terms, "forces_read", {}).items():
+        for read in reads:
+            probe = terms.moved_forces[read]
+            if _read_joint(owner.model, probe) in stopped:   # (C takes its row of the hinge laws' alone)
+                return (f"controller {name} reads the force {read!r}, whose compliant stop's or friction's law a "
+                        "parameter moves")
+    # (a free joint's ∂F/∂p: its row of ∂r/∂p before the controllers', SensitivityLoop._sensed_force_slopes)
+    continuous = {c.name for c in terms.continuous} & (set(terms.partials) | readers)   # (the sampled ones': Python's)
     if continuous and terms.compiled is None:
         return "controllers' parameters whose derivatives did not compile"
     if not continuous:
@@ -438,7 +451,7 @@ def _controller_refusal(owner) -> str | None:
         return "controllers of a chain whose outputs did not compile"
     wiring = owner.assembler.control
     for k, c in enumerate(wiring.controllers):
-        if c.name not in terms.partials and c.name not in chained:
+        if c.name not in terms.partials and c.name not in chained and c.name not in readers:
             continue
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
         if tuple(r for r in c.reads if r not in inputs) != wiring.sensor_names(k) \
@@ -448,6 +461,11 @@ def _controller_refusal(owner) -> str | None:
                        else "a probe other than joint coordinates and rates, points' positions and velocities, "
                        "cables' lengths and tensions, elements' section forces and joints' forces, or an input"))
     return None
+
+
+def _read_joint(model, probe) -> int:
+    """The joint (hinge or guide) whose torque or force the probe ``probe`` reads: its index among the model's."""
+    return model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
 
 
 def _states_refusal(owner) -> str | None:
@@ -942,6 +960,7 @@ class SensitivityLoop:
         start, kinds, indices = _reads(wiring, inputs.names if inputs is not None else ())
         d.read_start, d.read_kind, d.read_index = ints(start), ints(kinds), ints(indices)
         d.input_values = inputs.values.ctypes.data if inputs is not None else None   # (never reallocated)
+        self._sensed_force_slopes(terms, place, start)
         hinges = [(int(index), int(of), float(gain) if gain else 1.0) for kind, index, of, gain in zip(
             wiring.actuator_kind, wiring.actuator_index, wiring.actuator_controller, wiring.actuator_gain) if kind == 0]
         d.n_hinge_actuators = len(hinges)
@@ -968,6 +987,23 @@ class SensitivityLoop:
             d.load_actuator_factor = self._pointer(np.array([a[3] for a in actuators], float))
         if states is not None:
             self._controller_states(states, place)
+
+    def _sensed_force_slopes(self, terms, place: dict, start: list) -> None:
+        """The forces a controller reads whose own laws a parameter moves (ControllerTerms.forces_read; free joints'
+        torques and forces alone, :func:`_controller_refusal`): each read's slot among the laws' arguments
+        (:func:`_reads`: the reads' order) and its joint's row, whose ∂r/∂p before the controllers' is −∂F/∂p (the
+        hinge laws' alone where no parameter moves the joint's compliant stop or friction, :func:`_controller_refusal`,
+        as ControllerTerms.sensed_force_slopes sums them)."""
+        d, model = self.data, self.owner.model
+        reads = [(int(start[place[name]]) + i, probe) for name, forces in terms.forces_read.items()
+                 for probe, i in forces.items()]
+        d.n_force_reads = len(reads)
+        if not reads:
+            return
+        rows = [int(model.hinge_dofs[_read_joint(model, terms.moved_forces[name])]) for _, name in reads]
+        d.force_read = self._pointer(np.array([slot for slot, _ in reads], np.int64))
+        d.force_row = self._pointer(np.array(rows, np.int64))
+        d.force_slopes = self._pointer(np.zeros(len(reads) * len(self.owner.names)))
 
     def _controller_states(self, states, place: dict) -> None:
         """The controllers with states' part (csrc/controller_states.c ControllerStatesLoop): each one's place in the

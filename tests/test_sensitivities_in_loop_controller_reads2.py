@@ -1,0 +1,60 @@
+"""A controller reading a free joint's torque whose own laws a parameter moves, in the sensitivities' loop of steps
+(issue 34 item 2): the force's ∂F/∂p enters the controller's slope through ∂f/∂s (ControllerTerms.sensed_force_slopes
+on the Python path; csrc/sensitivity_loop.c ``controller_parameter_forces`` with the joint's row of the hinge laws'
+∂r/∂p, the generated hinge_force's, as ``hinge_parameter_forces`` left it: latdyn/analyses/sensitivities_in_loop.py
+``SensitivityLoop._sensed_force_slopes``). The reader's output is compiled (derivative_laws.ControllerPartials), its
+∂f/∂s the compiled law's on both paths. Each scene is tests/test_sensitivities_in_loop_controller_reads.py's 3D arm
+whose skew hinge's torque a clipped controller reads; the loop's sensitivities are the per-step Python path's (the
+private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, and they agree with Richardson-extrapolated central
+differences. A section force or a cable's tension whose laws a parameter moves keeps the Python path
+(tests/test_sensitivities_in_loop_controller_reads.py)."""
+from __future__ import annotations
+
+import pytest
+
+import latdyn
+
+from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.test_sensitivities_in_loop_controller_reads import ARM_TORQUE, TORQUE_K, _agree, _scene
+from tests.test_sensitivities_in_loop_state_laws import _run, _same
+
+#: the read hinge's damping, its applied torque (a law of t) and its rest angle by parameters, beside the gain
+TORQUE_LAWS = (ARM_TORQUE.replace("Kt: 0.4}", "Kt: 0.4, c0: 0.2, T: 1.5, a0: 0.1}")
+               .replace("stiffness: 30.0, damping: 0.2}",
+                        'stiffness: 30.0, damping: "c0", torque: "T*sin(4*t)", rest_angle: "a0"}')
+               .replace("sensitivities: [E, F, Kt]", "sensitivities: [c0, T, a0, Kt]"))
+#: the hinge's stiffness 30 E (E in the section values too) read by an unclipped controller without parameters
+TORQUE_K_ONLY = (TORQUE_K.replace('"Kt*tq + 0.2*hinge", limits: [-6, 6]}', '"0.4*tq + 0.2*hinge"}')
+                 .replace("sensitivities: [E, F, Kt]", "sensitivities: [E]"))
+assert 'rest_angle: "a0"' in TORQUE_LAWS and '"0.4*tq + 0.2*hinge"}' in TORQUE_K_ONLY
+
+
+@pytest.mark.parametrize("text", [TORQUE_K, TORQUE_LAWS, TORQUE_K_ONLY],
+                         ids=["hinge stiffness", "damping, torque of t, rest angle", "no partials, no limits"])
+def test_a_parameter_in_the_read_joints_laws_takes_every_step_in_the_loop(text, monkeypatch):
+    """Every step in the loop of steps (60 of 60); the Python path's sensitivities to the bit, every column nonzero."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 60
+    _same(native, python)
+
+
+@pytest.mark.parametrize("text, name", [(TORQUE_K, "E"), (TORQUE_LAWS, "a0")], ids=["stiffness", "rest angle"])
+def test_the_loops_sensitivities_agree_with_differences(text, name):
+    """By the parameter in the read hinge's laws, every probe over the rows, against Richardson-extrapolated central
+    differences (steps 1e-4 and 5e-5 of the value): within 1e-6 of each probe's largest (measured 5.6e-8 by E, 1.6e-8
+    by a0; by c0 3.8e-8, T 3.1e-8, Kt 3.0e-8, and E without partials 5.6e-8, not tests)."""
+    result = latdyn.run(_scene(text, name))
+    assert result.summary["sensitivity_steps_in_loop"] == 60
+    _agree(result, text, name)
+
+
+def test_the_cli_writes_the_python_paths_files(tmp_path):
+    """``latdyn run`` on the scene of the hinge's damping, torque and rest angle takes the loop; the same command with
+    the switch off (a process of its own) writes the same sensitivities.csv and probes.csv, byte for byte, and
+    summary.json's sensitivities."""
+    completed, out = latdyn_run(tmp_path, TORQUE_LAWS)
+    assert completed.returncode == 0, completed.stderr
+    summary = summary_of(out)
+    assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] == summary["steps"] == 60
+    the_loop_off_writes_the_same(tmp_path, out)
