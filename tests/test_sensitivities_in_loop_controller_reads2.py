@@ -6,7 +6,8 @@ on the Python path; csrc/sensitivity_loop.c ``controller_parameter_forces`` with
 ∂f/∂s the compiled law's on both paths. Each scene is tests/test_sensitivities_in_loop_controller_reads.py's 3D arm
 whose skew hinge's torque a clipped controller reads; the loop's sensitivities are the per-step Python path's (the
 private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, and they agree with Richardson-extrapolated central
-differences. A section force or a cable's tension whose laws a parameter moves keeps the Python path
+differences. On a model with rigid links too: the gimbal's PD on a force between a dependent and a free node and on a
+rigid ring's hinge torque. A section force or a cable's tension whose laws a parameter moves keeps the Python path
 (tests/test_sensitivities_in_loop_controller_reads.py)."""
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ import latdyn
 
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_in_loop_controller_reads import ARM_TORQUE, TORQUE_K, _agree, _scene
+from tests.test_sensitivities_in_loop_linked_controllers import POINT_PD
 from tests.test_sensitivities_in_loop_state_laws import _run, _same
 
 #: the read hinge's damping, its applied torque (a law of t) and its rest angle by parameters, beside the gain
@@ -26,6 +28,15 @@ TORQUE_LAWS = (ARM_TORQUE.replace("Kt: 0.4}", "Kt: 0.4, c0: 0.2, T: 1.5, a0: 0.1
 #: the hinge's stiffness 30 E (E in the section values too) read by an unclipped controller without parameters
 TORQUE_K_ONLY = (TORQUE_K.replace('"Kt*tq + 0.2*hinge", limits: [-6, 6]}', '"0.4*tq + 0.2*hinge"}')
                  .replace("sensitivities: [E, F, Kt]", "sensitivities: [E]"))
+#: tests/test_sensitivities_in_loop_linked_controllers.py's 3D gimbal of two rigid rings whose PD also reads the
+#: flexible boom's first element's axial force (between the inner ring, a rigid link's body: a dependent node, and a
+#: free node) and the outer ring's hinge's torque, whose stiffness k1 is a parameter
+LINKED_FORCES = (POINT_PD.replace('"Kp*(ref - outer_y) - Kd*vo + 0.5*Kp*iz"',
+                                  '"Kp*(ref - outer_y) - Kd*vo + 0.5*Kp*iz + 0.002*ax + 0.05*tq1"')
+                 .replace("    a1: {hinge", '    ax: {element: "boom.element[0]", quantity: axial_force}\n'
+                                            "    tq1: {hinge: gim1.start, quantity: torque}\n    a1: {hinge")
+                 .replace("sensitivities: [Kp, Kd, ref, k1, m, EI]", "sensitivities: [Kp, k1, m]"))
+assert "tq1: {" in LINKED_FORCES and "sensitivities: [Kp, k1, m]" in LINKED_FORCES
 assert 'rest_angle: "a0"' in TORQUE_LAWS and '"0.4*tq + 0.2*hinge"}' in TORQUE_K_ONLY
 
 
@@ -58,3 +69,15 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
     summary = summary_of(out)
     assert summary["time_loop"] == "compiled" and summary["sensitivity_steps_in_loop"] == summary["steps"] == 60
     the_loop_off_writes_the_same(tmp_path, out)
+
+
+def test_force_sensors_on_a_linked_model_take_every_step_in_the_loop(monkeypatch):
+    """The gimbal's PD on an element's axial force and a rigid ring's hinge torque (k1 in that hinge's law): every
+    step in the loop (30 of 30), the Python path's sensitivities to the bit; by k1 against Richardson differences
+    within 1e-6 of each probe's largest (measured 2.1e-7; by m 3.6e-7; by Kp 9e-7, 7e-8 at steps 1e-3 and 5e-4 of the
+    value: the differences' round-off)."""
+    native, python = _run(LINKED_FORCES, monkeypatch, True), _run(LINKED_FORCES, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] == 30
+    _same(native, python)
+    _agree(latdyn.run(_scene(LINKED_FORCES, "k1")), LINKED_FORCES, "k1")

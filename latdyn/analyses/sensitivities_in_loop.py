@@ -71,8 +71,10 @@ displacements and velocities (global, or in a body's axes) and, on a model witho
 lengths and tensions, elements' section forces and free joints' torques and forces (the values the
 evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
-δq, δv is in the exact K and C on both paths; where a parameter moves the force's own laws, its ∂F/∂p through ∂f/∂s
-is the Python path's alone: ControllerTerms.sensed_force_slopes), that read earlier
+δq, δv is in the exact K and C on both paths; where a parameter moves a free joint's own laws — its stiffness,
+damping, rest angle or torque — its ∂F/∂p through ∂f/∂s as ControllerTerms.sensed_force_slopes takes it: −(the
+joint's row of the hinge laws' ∂r/∂p, the generated hinge_force's, as ``hinge_parameter_forces`` leaves it) times the
+reader's compiled output's ∂f/∂s, SensitivityLoop._sensed_force_slopes), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -123,7 +125,8 @@ that ``_states_refusal`` names (sensors other than joint angles and nodes' globa
 its node, in a body's axes, a rate —, load actuators, chains, a
 probe of the controller, rigid links or guides, beside sampled ones, or whose laws did not compile),
 controllers reading cables', elements' or joints' forces on a model with rigid links or guides, controllers reading a
-force whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C),
+section force or a cable's tension whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in
+C) or a joint's torque or force whose compliant stop's or friction's law a parameter moves,
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
@@ -399,14 +402,17 @@ def _controller_refusal(owner) -> str | None:
     (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
     controller reads (derivative_laws.chained_outputs) reads only inputs (:func:`_reads`), probes and earlier continuous
     controllers — hinge and guide angles and rates, the global components of a point's position, displacement or
-    velocity and their components in a body's axes, and on a model without rigid links or guides also
-    cables' lengths and tensions, elements' section forces and free joints' forces
-    (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
+    velocity and their components in a body's axes, cables' lengths and tensions, elements' section forces and free
+    joints' forces (the values the evaluation computes in C, which the Python path reads too:
+    ControllerTerms.sensed_in_c; where a parameter moves a free joint's own laws, its ∂F/∂p the joint's row of the hinge
+    laws' ∂r/∂p, :meth:`SensitivityLoop._sensed_force_slopes`; a section force's or a cable's tension's keeps the
+    Python path, as does a joint's whose compliant stop's or friction's law a parameter moves) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add).
     On a model with rigid links or guides too: a point on a rigid link's body or a guided body is a dependent node,
-    which the step's evaluation completes (csrc/links.c) before its sensors are read, the sensors' derivatives along
+    which the step's evaluation completes (csrc/links.c) before its sensors are read (a force between dependent nodes
+    likewise), the sensors' derivatives along
     the free δq are in the reduced K and C (their couplings on all coordinates, reduced by the forward step's own
     reduction), and the actuators' columns, on all coordinates, are reduced by Pᵀ with the others
     (``latdyn_linked_reduce_columns``), the C the per-step Python path calls too (``_on_free_coordinates``,
@@ -417,7 +423,6 @@ def _controller_refusal(owner) -> str | None:
         JOINT_FORCE, OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
 
     terms = owner.controllers
-    linked = owner.model.links is not None
     if terms.states is not None:
         why = _states_refusal(owner)
         if why is not None:
@@ -442,9 +447,8 @@ def _controller_refusal(owner) -> str | None:
         return "controllers' parameters whose derivatives did not compile"
     if not continuous:
         return None
-    kinds = (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, BODY_VELOCITY, CONTROLLER)
-    if not linked:   # the forces' sensors on a model with rigid links or guides: not taken yet
-        kinds += (CABLE_LENGTH, CABLE_TENSION, SECTION_FORCE, JOINT_FORCE)
+    kinds = (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, BODY_VELOCITY, CONTROLLER,
+             CABLE_LENGTH, CABLE_TENSION, SECTION_FORCE, JOINT_FORCE)
     inputs = set(owner.scene.inputs.names) if owner.scene.inputs is not None else set()
     chained = set(chained_outputs(terms))
     if any(name not in terms.compiled.outputs for name in chained):
@@ -456,10 +460,9 @@ def _controller_refusal(owner) -> str | None:
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
         if tuple(r for r in c.reads if r not in inputs) != wiring.sensor_names(k) \
                 or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
-            return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
-                    + ("a cable's, an element's or a joint's force (a model with rigid links or guides)" if linked
-                       else "a probe other than joint coordinates and rates, points' positions and velocities, "
-                       "cables' lengths and tensions, elements' section forces and joints' forces, or an input"))
+            return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads a probe other "
+                    "than joint coordinates and rates, points' positions and velocities, cables' lengths and tensions, "
+                    "elements' section forces and joints' forces, or an input")
     return None
 
 
