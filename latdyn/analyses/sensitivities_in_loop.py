@@ -67,8 +67,7 @@ same C the Python step calls: derivative_laws.ControllerPartials; with limits th
 clip) for controllers without states that read hinge and guide angles and rates and inputs (constant in a run: the
 compiled laws read the scene's inputs' array, bound before each call of the loop; the law's argument read from that
 array, ``_reads`` kind 4) and drive hinge torques and guide forces, and for those that read points' positions,
-displacements and velocities (global, or in a body's axes) and, on a model without rigid links or guides, cables'
-lengths and tensions, elements' section forces and free joints' torques and forces (the values the
+displacements and velocities (global, or in a body's axes) and cables' lengths and tensions, elements' section forces and free joints' torques and forces (the values the
 evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
 δq, δv is in the exact K and C on both paths; where a parameter moves a free joint's own laws — its stiffness,
@@ -95,7 +94,8 @@ states condensed from (S_n, f_n) and h/2 as the step does, and does the p × p a
 links and guides too (with the controllers above, every kind of them: a sensor at a point on a rigid link's body or a
 guided body reads the dependent node the step's evaluation completed, its couplings reduced with K and C, and the
 actuated loads' columns reduced by Pᵀ with the others, tests/test_sensitivities_in_loop_linked_controllers.py; and
-with the explicit time dependence above): M, C and the exact K on the
+with the explicit time dependence above; a force sensor between dependent nodes reads the force the evaluation
+computed after completing them, tests/test_sensitivities_in_loop_controller_reads2.py): M, C and the exact K on the
 minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
 step's own reduction (csrc/linked_matrices.c, ``latdyn_linked_exact_values`` and ``latdyn_linked_reduce_columns``
 over csrc/links.c's), which the per-step Python path calls too (``Assembler.linked_exact_matrix_values``,
@@ -124,7 +124,7 @@ values whose derivative is a law in t or an input (the loader refuses those anyw
 that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
 its node, in a body's axes, a rate —, load actuators, chains, a
 probe of the controller, rigid links or guides, beside sampled ones, or whose laws did not compile),
-controllers reading cables', elements' or joints' forces on a model with rigid links or guides, controllers reading a
+controllers reading a
 section force or a cable's tension whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in
 C) or a joint's torque or force whose compliant stop's or friction's law a parameter moves,
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
