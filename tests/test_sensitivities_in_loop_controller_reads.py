@@ -169,13 +169,13 @@ CABLE_EA = CABLE_LIMIT.replace("[Kp, Kt, EI, m]", "[Kp, Kt, EA, c]")
 assert 'stiffness: "30*E"' in TORQUE_K and "[F, Ka, E]" in AXIAL_E and "[Kp, Kt, EA, c]" in CABLE_EA
 
 
-@pytest.mark.parametrize("text, name", [(TORQUE_K, "E"), (AXIAL_E, "E"), (CABLE_EA, "EA")],
-                         ids=["hinge stiffness", "section values", "cable EA"])
+@pytest.mark.parametrize("text, name", [(AXIAL_E, "E"), (CABLE_EA, "EA")], ids=["section values", "cable EA"])
 def test_a_parameter_in_the_sensed_forces_laws_is_differentiated_on_the_python_path(text, name, monkeypatch):
     """The force's own ∂F/∂p through ∂f/∂s (ControllerTerms.sensed_force_slopes: the probes' explicit parts, the
-    generated beam_section_forces_D_section, cable_force, hinge_force): every step from Python (the loop refuses it:
-    not in C yet), the same bits with the switch either way, and agreement with Richardson differences (measured
-    1.1e-9–5.6e-8, the cable's damping c too, 3.3e-8; without the term 2.4e-2 on the hinge)."""
+    generated beam_section_forces_D_section, cable_force): every step from Python (the loop refuses it: not in C yet),
+    the same bits with the switch either way, and agreement with Richardson differences (measured 1.1e-9–5.6e-8, the
+    cable's damping c too, 3.3e-8). The hinge's (TORQUE_K) takes the loop:
+    tests/test_sensitivities_in_loop_controller_reads2.py."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     assert native.summary["sensitivity_steps_in_loop"] == 0 and native.summary["time_loop"] == "python"
     _same(native, python)

@@ -156,7 +156,8 @@ class ControllerPartials:
     its output f itself (:attr:`outputs`), whose value decides whether it is clipped (ControllerTerms.add) on both
     paths, then of each controller of a chain (:func:`chained_outputs`) the output f, whose value a later controller
     reads and whose derivatives by what it reads (the law's ``out[1:]``: :meth:`gradient`) carry the earlier
-    controllers' slopes; last, the states' rates' partials ∂(dS/dt)/∂p (``ControllerTerms.rate_partials``, which
+    controllers' slopes, then of each controller that reads a force whose own laws a parameter moves the output f, whose
+    derivative by that force carries the force's ∂F/∂p (ControllerTerms.sensed_force_slopes); last, the states' rates' partials ∂(dS/dt)/∂p (``ControllerTerms.rate_partials``, which
     ControllerStates reads through :meth:`value`)."""
 
     def __init__(self, uses: list, compiled, width: int, scene, outputs: dict, rate_uses: list = ()):
@@ -189,7 +190,11 @@ class ControllerPartials:
         rate_expressions = rate_expressions or {}
         #: controllers with states and limits: their outputs compiled, which decide the clip on both paths
         stated = [c.name for c in terms.continuous if c.states and c.limits is not None]
-        if getattr(owner.kernels, "backend", None) != "c" or not (terms.partials or rate_expressions or stated):
+        #: controllers reading a force whose own laws a parameter moves: their outputs' derivatives ∂f/∂s carry its
+        #: ∂F/∂p (ControllerTerms.sensed_force_slopes) on both paths
+        readers = [c.name for c in terms.continuous if not c.states and getattr(terms, "forces_read", {}).get(c.name)]
+        if getattr(owner.kernels, "backend", None) != "c" or not (terms.partials or rate_expressions or stated
+                                                                   or readers):
             return None
         by_name = {c.name: c for c in terms.continuous}
         uses, laws = [], []
@@ -205,7 +210,8 @@ class ControllerPartials:
         outputs = {}
         limited = [name for name in dict.fromkeys(name for name, _, _ in uses) if by_name[name].limits is not None]
         limited += [name for name in stated if name not in limited]
-        for name in limited + [name for name in chained_outputs(terms) if name not in limited]:
+        chained = [name for name in chained_outputs(terms) if name not in limited]
+        for name in limited + chained + [name for name in readers if name not in limited and name not in chained]:
             c = by_name[name]   # the outputs of those with limits, then of the chains' (after the partials)
             outputs[name] = len(laws)
             laws.append((SimpleNamespace(name=f"{name}.y", symbols=c.symbols, output_expr=c.output_expr,

@@ -67,12 +67,13 @@ same C the Python step calls: derivative_laws.ControllerPartials; with limits th
 clip) for controllers without states that read hinge and guide angles and rates and inputs (constant in a run: the
 compiled laws read the scene's inputs' array, bound before each call of the loop; the law's argument read from that
 array, ``_reads`` kind 4) and drive hinge torques and guide forces, and for those that read points' positions,
-displacements and velocities (global, or in a body's axes) and, on a model without rigid links or guides, cables'
-lengths and tensions, elements' section forces and free joints' torques and forces (the values the
+displacements and velocities (global, or in a body's axes) and cables' lengths and tensions, elements' section forces and free joints' torques and forces (the values the
 evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
-δq, δv is in the exact K and C on both paths; where a parameter moves the force's own laws, its ∂F/∂p through ∂f/∂s
-is the Python path's alone: ControllerTerms.sensed_force_slopes), that read earlier
+δq, δv is in the exact K and C on both paths; where a parameter moves a free joint's own laws — its stiffness,
+damping, rest angle or torque — its ∂F/∂p through ∂f/∂s as ControllerTerms.sensed_force_slopes takes it: −(the
+joint's row of the hinge laws' ∂r/∂p, the generated hinge_force's, as ``hinge_parameter_forces`` leaves it) times the
+reader's compiled output's ∂f/∂s, SensitivityLoop._sensed_force_slopes), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -98,7 +99,8 @@ states condensed from (S_n, f_n) and h/2 as the step does, and does the p × p a
 links and guides too (with the controllers above, every kind of them: a sensor at a point on a rigid link's body or a
 guided body reads the dependent node the step's evaluation completed, its couplings reduced with K and C, and the
 actuated loads' columns reduced by Pᵀ with the others, tests/test_sensitivities_in_loop_linked_controllers.py; and
-with the explicit time dependence above): M, C and the exact K on the
+with the explicit time dependence above; a force sensor between dependent nodes reads the force the evaluation
+computed after completing them, tests/test_sensitivities_in_loop_controller_reads2.py): M, C and the exact K on the
 minimum coordinates and ∂r/∂p (the controllers' columns among them) and ∂r/∂t each reduced by Pᵀ, from the compiled
 step's own reduction (csrc/linked_matrices.c, ``latdyn_linked_exact_values`` and ``latdyn_linked_reduce_columns``
 over csrc/links.c's), which the per-step Python path calls too (``Assembler.linked_exact_matrix_values``,
@@ -126,8 +128,9 @@ a failed build or no compiler), cable parameters whose derivative names θ, θ̇
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
 that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
 its node, in a body's axes, a rate —, rigid links or guides, or whose laws did not compile),
-controllers reading cables', elements' or joints' forces on a model with rigid links or guides, controllers reading a
-force whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in C),
+controllers reading a
+section force or a cable's tension whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in
+C) or a joint's torque or force whose compliant stop's or friction's law a parameter moves,
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
@@ -398,55 +401,73 @@ def _controller_refusal(owner) -> str | None:
     (derivative_laws.ControllerPartials), where every controller a parameter's slope reaches or whose output such a
     controller reads (derivative_laws.chained_outputs) reads only inputs (:func:`_reads`), probes and earlier continuous
     controllers — hinge and guide angles and rates, the global components of a point's position, displacement or
-    velocity and their components in a body's axes, and on a model without rigid links or guides also
-    cables' lengths and tensions, elements' section forces and free joints' forces
-    (the values the evaluation computes in C, which the Python path reads too: ControllerTerms.sensed_in_c) and earlier
+    velocity and their components in a body's axes, cables' lengths and tensions, elements' section forces and free
+    joints' forces (the values the evaluation computes in C, which the Python path reads too:
+    ControllerTerms.sensed_in_c; where a parameter moves a free joint's own laws, its ∂F/∂p the joint's row of the hinge
+    laws' ∂r/∂p, :meth:`SensitivityLoop._sensed_force_slopes`; a section force's or a cable's tension's keeps the
+    Python path, as does a joint's whose compliant stop's or friction's law a parameter moves) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add).
     On a model with rigid links or guides too: a point on a rigid link's body or a guided body is a dependent node,
-    which the step's evaluation completes (csrc/links.c) before its sensors are read, the sensors' derivatives along
+    which the step's evaluation completes (csrc/links.c) before its sensors are read (a force between dependent nodes
+    likewise), the sensors' derivatives along
     the free δq are in the reduced K and C (their couplings on all coordinates, reduced by the forward step's own
     reduction), and the actuators' columns, on all coordinates, are reduced by Pᵀ with the others
     (``latdyn_linked_reduce_columns``), the C the per-step Python path calls too (``_on_free_coordinates``,
     sensitivities.reduced_columns): tests/test_sensitivities_in_loop_linked_controllers.py."""
     from latdyn.analyses.derivative_laws import chained_outputs
+    from latdyn.analyses.joint_force_sensitivities import is_joint_force
     from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_LENGTH, CABLE_TENSION, CONTROLLER, \
         JOINT_FORCE, OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
 
     terms = owner.controllers
-    linked = owner.model.links is not None
     if terms.states is not None:
         why = _states_refusal(owner)
         if why is not None:
             return why
-    moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads)
-    if moved:   # ∂f/∂s ∂F/∂p (ControllerTerms.sensed_force_slopes): NumPy and the probes' kernels, not in C yet
+    readers = {name for name, reads in getattr(terms, "forces_read", {}).items() if reads}
+    moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads
+                   if not is_joint_force(terms.moved_forces[read]))
+    if moved:   # ∂f/∂s ∂F/∂p of a section force or a cable's tension (the probes' NumPy and kernels): not in C yet
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
-    continuous = {c.name for c in terms.continuous} & set(terms.partials)   # (the sampled ones' partials: Python's)
+    if readers and (terms.compiled is None or any(name not in terms.compiled.outputs for name in readers)):
+        return "controllers reading a force whose own laws a parameter moves, whose outputs did not compile"
+    stopped = {owner.model.hinge_index(beam, end) for (beam, end, *_), _ in owner.joint_law_uses()}
+    for name, reads in getattr(terms, "forces_read", {}).items():
+        for read in reads:
+            probe = terms.moved_forces[read]
+            if _read_joint(owner.model, probe) in stopped:   # (C takes its row of the hinge laws' alone)
+                return (f"controller {name} reads the force {read!r}, whose compliant stop's or friction's law a "
+                        "parameter moves")
+    # (a free joint's ∂F/∂p: its row of ∂r/∂p before the controllers', SensitivityLoop._sensed_force_slopes)
+    continuous = {c.name for c in terms.continuous} & (set(terms.partials) | readers)   # (the sampled ones': Python's)
     if continuous and terms.compiled is None:
         return "controllers' parameters whose derivatives did not compile"
     if not continuous:
         return None
-    kinds = (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, BODY_VELOCITY, CONTROLLER)
-    if not linked:   # the forces' sensors on a model with rigid links or guides: not taken yet
-        kinds += (CABLE_LENGTH, CABLE_TENSION, SECTION_FORCE, JOINT_FORCE)
+    kinds = (ANGLE, RATE, POSITION, VELOCITY, OFFSET_POSITION, OFFSET_VELOCITY, BODY_FRAME, BODY_VELOCITY, CONTROLLER,
+             CABLE_LENGTH, CABLE_TENSION, SECTION_FORCE, JOINT_FORCE)
     inputs = set(owner.scene.inputs.names) if owner.scene.inputs is not None else set()
     chained = set(chained_outputs(terms))
     if any(name not in terms.compiled.outputs for name in chained):
         return "controllers of a chain whose outputs did not compile"
     wiring = owner.assembler.control
     for k, c in enumerate(wiring.controllers):
-        if c.name not in terms.partials and c.name not in chained:
+        if c.name not in terms.partials and c.name not in chained and c.name not in readers:
             continue
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
         if tuple(r for r in c.reads if r not in inputs) != wiring.sensor_names(k) \
                 or any(int(wiring.sensor_kind[i]) not in kinds for i in sensors):
-            return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads "
-                    + ("a cable's, an element's or a joint's force (a model with rigid links or guides)" if linked
-                       else "a probe other than joint coordinates and rates, points' positions and velocities, "
-                       "cables' lengths and tensions, elements' section forces and joints' forces, or an input"))
+            return (f"controller {c.name}: a parameter's slope reaches it or its output, and it reads a probe other "
+                    "than joint coordinates and rates, points' positions and velocities, cables' lengths and tensions, "
+                    "elements' section forces and joints' forces, or an input")
     return None
+
+
+def _read_joint(model, probe) -> int:
+    """The joint (hinge or guide) whose torque or force the probe ``probe`` reads: its index among the model's."""
+    return model.hinge_index(probe.beam, probe.end) if probe.kind == "hinge" else model.hinge_index(probe.body, "guide")
 
 
 def _states_refusal(owner) -> str | None:
@@ -935,6 +956,7 @@ class SensitivityLoop:
         start, kinds, indices = _reads(wiring, inputs.names if inputs is not None else ())
         d.read_start, d.read_kind, d.read_index = ints(start), ints(kinds), ints(indices)
         d.input_values = inputs.values.ctypes.data if inputs is not None else None   # (never reallocated)
+        self._sensed_force_slopes(terms, place, start)
         hinges = [(int(index), int(of), float(gain) if gain else 1.0) for kind, index, of, gain in zip(
             wiring.actuator_kind, wiring.actuator_index, wiring.actuator_controller, wiring.actuator_gain) if kind == 0]
         d.n_hinge_actuators = len(hinges)
@@ -961,6 +983,23 @@ class SensitivityLoop:
             d.load_actuator_factor = self._pointer(np.array([a[3] for a in actuators], float))
         if states is not None:
             self._controller_states(states, place)
+
+    def _sensed_force_slopes(self, terms, place: dict, start: list) -> None:
+        """The forces a controller reads whose own laws a parameter moves (ControllerTerms.forces_read; free joints'
+        torques and forces alone, :func:`_controller_refusal`): each read's slot among the laws' arguments
+        (:func:`_reads`: the reads' order) and its joint's row, whose ∂r/∂p before the controllers' is −∂F/∂p (the
+        hinge laws' alone where no parameter moves the joint's compliant stop or friction, :func:`_controller_refusal`,
+        as ControllerTerms.sensed_force_slopes sums them)."""
+        d, model = self.data, self.owner.model
+        reads = [(int(start[place[name]]) + i, probe) for name, forces in terms.forces_read.items()
+                 for probe, i in forces.items()]
+        d.n_force_reads = len(reads)
+        if not reads:
+            return
+        rows = [int(model.hinge_dofs[_read_joint(model, terms.moved_forces[name])]) for _, name in reads]
+        d.force_read = self._pointer(np.array([slot for slot, _ in reads], np.int64))
+        d.force_row = self._pointer(np.array(rows, np.int64))
+        d.force_slopes = self._pointer(np.zeros(len(reads) * len(self.owner.names)))
 
     def _controller_states(self, states, place: dict) -> None:
         """The controllers with states' part (csrc/controller_states.c ControllerStatesLoop): each one's place in the

@@ -260,7 +260,10 @@ class SensitivityLoopData(ctypes.Structure):
                 ("input_values", P),
                 # continuous controllers with states (ControllerStates; csrc/controller_states.c
                 # ControllerStatesLoop, ControllerStatesLoopData); NULL: none
-                ("states", P)]
+                ("states", P),
+                # controllers reading a free joint's torque or force whose own laws a parameter moves: each read's
+                # slot, its joint's row, their ∂F/∂p (n_force_reads × k; ControllerTerms.sensed_force_slopes)
+                ("n_force_reads", I64), ("force_read", P), ("force_row", P), ("force_slopes", P)]
 
 
 class ControllerStatesLoopData(ctypes.Structure):

@@ -219,6 +219,13 @@ typedef struct SensitivityLoopTag {
     /* continuous controllers with states (ControllerStates; controller_states.c): their carried δS, δf and (S, f) at
      * the step's start, in/out around each call; NULL: none (or the Python path) */
     ControllerStatesLoop *states;
+    /* controllers reading a free joint's torque or force whose own laws a parameter moves
+     * (ControllerTerms.sensed_force_slopes): each such read's slot among read_kind's and its joint's row in total,
+     * whose ∂r/∂p of the hinge laws alone (hinge_parameter_forces, the first in total) is −∂F/∂p, taken into
+     * force_slopes (n_force_reads × k) and added to the reader's slope times ∂f/∂s; 0: none */
+    int64_t n_force_reads;
+    const int64_t *force_read, *force_row;
+    double *force_slopes;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -428,7 +435,7 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
     const int64_t k = s->k;
     double *slopes = s->controller_slopes, *args = s->controller_scratch, *gradient = s->output_gradient;
     if (s->sampled_held != NULL) sampled_parameter_forces(m, c, s);
-    if (!s->n_partials && s->states == NULL) return;
+    if (!s->n_partials && s->states == NULL && !s->n_force_reads) return;
     memset(slopes, 0, sizeof(double) * (size_t)(s->n_partial_controllers * k));
     for (int64_t ctl = 0; ctl < s->n_partial_controllers; ++ctl) {
         const int64_t output = s->output_law[ctl], first = s->read_start[ctl];
@@ -457,6 +464,12 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
             if (s->partial_controller[u] != ctl) continue;
             s->controller_partials(u, t, args, out);
             slope[s->partial_column[u]] += out[0];
+        }
+        for (int64_t f = 0; f < s->n_force_reads; ++f) {   /* ∂f/∂s ∂F/∂p of the forces whose laws p moves */
+            const int64_t i = s->force_read[f];
+            if (i < first || i >= s->read_start[ctl + 1]) continue;
+            const double g = gradient[i - first], *by_p = s->force_slopes + f * k;
+            for (int64_t col = 0; col < k; ++col) slope[col] += g * by_p[col];
         }
         for (int64_t i = first; chained && i < s->read_start[ctl + 1]; ++i) {   /* the chain rule, in its reads' order */
             if (s->read_kind[i] != 3) continue;
@@ -584,6 +597,8 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
      * geometry parameters', the joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
     if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid, t);
+    for (int64_t f = 0; f < s->n_force_reads; ++f)   /* a read joint's ∂F/∂p: −(its row of the hinge laws' alone) */
+        for (int64_t col = 0; col < k; ++col) s->force_slopes[f * k + col] = -s->total[s->force_row[f] * k + col];
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
@@ -591,7 +606,8 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
-    if (s->n_partials || s->sampled_held != NULL || s->states != NULL) controller_parameter_forces(m, w, c, s, t);
+    if (s->n_partials || s->sampled_held != NULL || s->states != NULL || s->n_force_reads)
+        controller_parameter_forces(m, w, c, s, t);
     load_parameter_forces(m, c, s, grid);
     if (s->cables != NULL) cable_parameter_forces(m, w, c, s->cables, k, grid, s->total);
     if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
