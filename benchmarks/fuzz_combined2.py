@@ -72,7 +72,7 @@ def _add_state(rng: random.Random, data: dict, name: str, reads: str, listed: li
         c["initial"] = {state: 0.05}
     if rng.random() < 0.35 and "limits" not in c:
         c["limits"] = [-1.5, 1.5]
-    if rng.random() < 0.7:
+    if rng.random() < 0.3:   # (the loop of steps declines a probe of a state: those runs take the Python path)
         _probe_names(data)[f"st_{name}"] = {"controller": name, "state": state}
 
 
@@ -92,7 +92,7 @@ def random_boom(rng: random.Random) -> str:
     # the PD with a state (its rate terms dropped: a controller with states reading a rate is refused by name)
     if "pd" in controllers and rng.random() < 0.6:
         if rng.random() < 0.85:
-            controllers["pd"]["output"] = controllers["pd"]["output"].split(")")[0] + ") - 0.3*p_y"
+            controllers["pd"]["output"] = controllers["pd"]["output"].split(")")[0] + ") - 0.3*tip_z"
         _add_state(rng, data, "pd", reads, listed)
     elif rng.random() < 0.5:   # a PI of its own on the angle, driving a load on the tip
         data["parameters"]["Kq"] = round(rng.uniform(0.5, 3.0), 2)
@@ -255,7 +255,22 @@ def without_sensitivities(scene_path: Path, out: Path) -> dict:
 
 
 def worker(scene_path: Path, out: Path) -> dict:
-    record = base.worker(scene_path, out)
+    import latdyn.analyses.sensitivities_in_loop as loop
+
+    reasons: list = []
+    original = loop.refusal
+
+    def refusal(owner):
+        reason = original(owner)
+        reasons.append(reason)
+        return reason
+
+    loop.refusal = refusal
+    try:
+        record = base.worker(scene_path, out)
+    finally:
+        loop.refusal = original
+    record["loop_refusal"] = reasons[0] if reasons else None
     if "on" in record:
         record.update(without_sensitivities(scene_path, out))
     return record
