@@ -58,16 +58,16 @@ def _add_state(rng: random.Random, data: dict, name: str, reads: str, listed: li
     params = data["parameters"]
     if rng.random() < 0.5:
         params["Ki"] = round(rng.uniform(0.5, 4.0), 2)
-        c["states"] = {"I": f"0.2 - {reads}"}
-        c["output"] = f"{c['output']} + Ki*I"
+        c["states"] = {"Si": f"0.2 - {reads}"}
+        c["output"] = f"{c['output']} + Ki*Si"
         listed.append("Ki")
-        state = "I"
+        state = "Si"
     else:
         params["wf"] = round(rng.uniform(5.0, 30.0), 1)
-        c["states"] = {"F": f"wf*({reads} - F)"}
-        c["output"] = f"{c['output']} - 0.4*F"
+        c["states"] = {"Sf": f"wf*({reads} - Sf)"}
+        c["output"] = f"{c['output']} - 0.4*Sf"
         listed.append("wf")
-        state = "F"
+        state = "Sf"
     if rng.random() < 0.3:
         c["initial"] = {state: 0.05}
     if rng.random() < 0.35 and "limits" not in c:
@@ -214,6 +214,47 @@ def _energies(rng: random.Random, data: dict) -> None:
         data["output"]["probes"][f"e_{kind}"] = {"energy": kind}
 
 
+def tally_records(folders: list[Path]) -> dict:
+    """Counts over the cases' record.json files under ``folders``: cases, solved (and the same on every path),
+    refused or failed (by message head), steps in the loop, events, the loop's refusals, and (e)."""
+    counts = {"cases": 0, "solved": 0, "same": 0, "problems": [], "refused": {}, "steps": 0, "in_loop": 0,
+              "with_events": 0, "events": 0, "loop_refusals": {}, "plain_bit_equal": 0, "plain_with_events": [],
+              "cli_resumed": 0, "resumed": 0, "worker_errors": []}
+    for folder in folders:
+        for path in sorted(folder.glob("*/record.json")):
+            r = json.loads(path.read_text())
+            counts["cases"] += 1
+            if "worker_error" in r:
+                counts["worker_errors"].append(path.parent.name)
+                continue
+            if "on" not in r:
+                head = r.get("on_error", "")[:150]
+                counts["refused"][head] = counts["refused"].get(head, 0) + 1
+                continue
+            counts["solved"] += 1
+            problems = judge(r)
+            if problems:
+                counts["problems"].append([path.parent.name, problems])
+            else:
+                counts["same"] += 1
+            on = r["on"]
+            counts["steps"] += on["steps"] or 0
+            counts["in_loop"] += on["in_loop"] or 0
+            counts["events"] += len(on["events"])
+            counts["with_events"] += bool(on["events"])
+            counts["resumed"] += "resumed" in r
+            counts["cli_resumed"] += "cli_resumed" in r
+            reason = (r.get("loop_refusal") or "")[:80]
+            if reason:
+                counts["loop_refusals"][reason] = counts["loop_refusals"].get(reason, 0) + 1
+            if r.get("plain_same"):
+                counts["plain_bit_equal"] += 1
+            elif on["events"]:
+                counts["plain_with_events"].append([path.parent.name, r.get("plain_worst"),
+                                                    r.get("plain_worst_column")])
+    return counts
+
+
 GENERATORS = {"boom": random_boom, "linked": random_linked}
 
 
@@ -308,7 +349,11 @@ def main(argv=None) -> int:
     parser.add_argument("--no-cli", action="store_true", help="skip (b) and the command's (c)")
     parser.add_argument("--worker", nargs=2)
     parser.add_argument("--richardson", nargs=2, help="SCENE OUT: (d) for one scene")
+    parser.add_argument("--tally", nargs="+", type=Path, help="DIR…: counts over the records kept there")
     args = parser.parse_args(argv)
+    if args.tally:
+        print(json.dumps(tally_records(args.tally), indent=1))
+        return 0
     if args.worker:
         print("RECORD " + json.dumps(worker(Path(args.worker[0]), Path(args.worker[1]))))
         return 0
