@@ -1,0 +1,67 @@
+"""What benchmarks/fuzz_combined2.py found in int19's combinations (session 2026-11-28 eleventh, helper fuzz6).
+
+A controller's state named like a parameter: a parameter's name is replaced by its value in every expression text
+before the text is read (latdyn/scene/expressions.py ``_with_parameters``), so a filter state ``F`` beside a load
+parameter ``F`` was never read: the output and the state's own rate read F = 1.0, the run solved and said nothing
+(the fuzzer's boom s5-5, whose filter gain ``wf`` then had sensitivities 0.0 on every probe, and Richardson
+differences agreed: the state really was out of the loop). It is refused now, naming the file, the key and the clash
+(latdyn/scene/controllers.py ``read_controllers``), through the command and the API alike."""
+from __future__ import annotations
+
+import pytest
+import yaml
+
+import latdyn
+from latdyn.errors import SceneError
+from tests.cli_runs import latdyn_run
+
+#: a filter state F in a controller driving a hinge, beside a load whose size is the parameter F
+CLASH = """\
+title: a controller's state named like a parameter
+parameters: {F: 1.0, w: 5.0}
+sections:
+  s: {EA: 1.0e4, EIy: 20, EIz: 30, GJ: 15, rhoA: 0.5, rhoIy: 0.005, rhoIz: 0.01}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  n1: {at: [0.5, 0, 0], mass: 0.5, inertia: [0.01, 0.01, 0.02]}
+  n2: {at: [1.0, 0.2, 0.1], mass: 0.5, inertia: [0.01, 0.01, 0.02]}
+beams:
+  b0: {from: base, to: n1, section: s, elements: 1}
+  b1: {from: n1, to: n2, section: s, elements: 1, start: {hinge: {axis: [0, 0.3, 1], stiffness: 2.0, damping: 0.2, torque: ctl}}}
+loads:
+  - {at: n2, force: [0, 0, "-F"]}
+controllers:
+  ctl: {output: "-2*F", states: {F: "w*(a1 + 1 - F)"}}
+solve: {analysis: transient, dt: 0.005, t_end: 0.02}
+output:
+  every: 0.005
+  probes:
+    a1: {hinge: b1.start, quantity: angle}
+    out: {controller: ctl}
+    state: {controller: ctl, state: F}
+"""
+assert 'states: {F: "w*(a1 + 1 - F)"}' in CLASH and "parameters: {F: 1.0" in CLASH
+
+
+def test_a_state_named_like_a_parameter_is_refused_through_the_api():
+    with pytest.raises(SceneError) as refused:
+        latdyn.load_scene(yaml.safe_load(CLASH))
+    message = str(refused.value)
+    assert "controllers.ctl.states.F" in message and "already names a parameter (parameters.F)" in message, message
+
+
+def test_a_state_named_like_a_parameter_is_refused_by_the_command(tmp_path):
+    run, out = latdyn_run(tmp_path, CLASH)
+    assert run.returncode != 0, run.stdout
+    assert "Traceback" not in run.stderr, run.stderr
+    assert "scene.yaml" in run.stderr and "controllers.ctl.states.F" in run.stderr, run.stderr
+    assert "already names a parameter" in run.stderr and "expected a state name of its own" in run.stderr, run.stderr
+
+
+def test_the_state_renamed_is_read():
+    """The same scene with the state named S solves, and its output is the state's (not a constant −2)."""
+    text = CLASH.replace('"-2*F", states: {F: "w*(a1 + 1 - F)"}', '"-2*S", states: {S: "w*(a1 + 1 - S)"}').replace(
+        "state: F}", "state: S}")
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    out, state = result.probes["out"], result.probes["state"]
+    assert state[-1] > 0.05 and abs(out[-1] + 2 * state[-1]) < 1e-12, (out, state)
