@@ -1,6 +1,13 @@
 """What benchmarks/fuzz_combined2.py found in int19's combinations (session 2026-11-28 eleventh, helper fuzz6).
 
-A controller's state named like a parameter: a parameter's name is replaced by its value in every expression text
+1. A controller with states beside a controller reading a force whose law a parameter moves (sensctlread's
+   ``sensed_force_slopes``, ∂f/∂s ∂F/∂p), at a step whose size is differentiated (the landing on a latch): the states'
+   derivative by the step size (``ControllerStates.by_step_size``) ran the controllers' ∂r/∂p with one column but
+   kept the sensed forces' slopes of every parameter, and the run ended in an internal error (ValueError:
+   non-broadcastable output operand with shape (1,) … (3,)), through the API and the command (the fuzzer's boom
+   s6-2). The step size's column now leaves the sensed forces' ∂F/∂p out (they are the parameters' columns).
+
+2. A controller's state named like a parameter: a parameter's name is replaced by its value in every expression text
 before the text is read (latdyn/scene/expressions.py ``_with_parameters``), so a filter state ``F`` beside a load
 parameter ``F`` was never read: the output and the state's own rate read F = 1.0, the run solved and said nothing
 (the fuzzer's boom s5-5, whose filter gain ``wf`` then had sensitivities 0.0 on every probe, and Richardson
@@ -14,6 +21,52 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
+from tests.test_sensitivities_events import _agree
+
+#: a PI controller on the 3D boom's hinge, which latches at 0.2 rad, beside a controller pushing the tip by the first
+#: element's axial force, whose law the section's EA moves
+PI_BESIDE_FORCE_READER = """\
+title: a PI controller beside a controller reading an element's axial force, landing on a latch
+gravity: [0, 0, -9.81]
+parameters: {EA: 1.0e4, Ki: 2.0, Kr: 0.02}
+sections:
+  s: {EA: EA, EIy: 20, EIz: 30, GJ: 15, rhoA: 0.5, rhoIy: 0.005, rhoIz: 0.01}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  n1: {at: [0.5, -0.4, 0.3], mass: 0.7, inertia: [0.01, 0.01, 0.02]}
+  n2: {at: [1.2, -0.1, 0.1], mass: 0.4, inertia: [0.01, 0.01, 0.02]}
+beams:
+  b0: {from: base, to: n1, section: s, elements: 2, y_axis: [0, 1, 0]}
+  b1: {from: n1, to: n2, section: s, elements: 1, y_axis: [0, 1, 0], start: {hinge: {axis: [1.0, 0.5, -0.7], stiffness: 2.0, damping: 0.05, torque: pd, lock_at: 0.2}}}
+loads:
+  - {at: n2, force: [0, rd, 0]}
+controllers:
+  pd: {output: "8*(0.3 - a1) + Ki*S", states: {S: "0.2 - a1"}}
+  rd: {output: "Kr*ax"}
+solve: {analysis: transient, dt: 0.005, t_end: 0.3, sensitivities: [EA, Ki, Kr]}
+output:
+  every: 0.01
+  probes:
+    a1: {hinge: b1.start, quantity: angle}
+    ax: {element: "b0.element[0]", quantity: axial_force}
+"""
+assert 'states: {S: "0.2 - a1"}' in PI_BESIDE_FORCE_READER and 'rd: {output: "Kr*ax"}' in PI_BESIDE_FORCE_READER
+
+
+def test_a_state_beside_a_force_reader_through_a_latch_agrees_with_central_differences():
+    """The run solves through the latch (t = 0.094), and its sensitivities by the PI's Ki and the reader's Kr agree
+    with Richardson-extrapolated central differences of whole runs, the latch's time too (measured 1.1e-8 at
+    h = 1e-3 p)."""
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(PI_BESIDE_FORCE_READER)))
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    for name in ("Ki", "Kr"):
+        _agree(result, PI_BESIDE_FORCE_READER, name)
+
+
+def test_a_state_beside_a_force_reader_through_a_latch_solves_by_the_command(tmp_path):
+    run, out = latdyn_run(tmp_path, PI_BESIDE_FORCE_READER)
+    assert run.returncode == 0 and "internal error" not in run.stderr, run.stderr
+    assert (out / "sensitivities.csv").exists()
 
 #: a filter state F in a controller driving a hinge, beside a load whose size is the parameter F
 CLASH = """\
