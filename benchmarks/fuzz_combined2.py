@@ -370,32 +370,14 @@ def main(argv=None) -> int:
         case.mkdir(parents=True, exist_ok=True)
         (case / "scene.yaml").write_text(text)
         start = time.time()
-        try:
-            w = subprocess.run([sys.executable, __file__, "--worker", str(case / "scene.yaml"), str(case)],
-                               env=env, capture_output=True, text=True, timeout=args.timeout)
-            line = [x for x in w.stdout.splitlines() if x.startswith("RECORD ")]
-            record = json.loads(line[-1][7:]) if line else {"worker_error": w.stderr[-800:]}
-        except subprocess.TimeoutExpired:
-            record = {"worker_error": "timeout"}
+        record = base.run_worker(__file__, case, env, args.timeout)
         if "on" in record and not args.no_cli:
-            c = subprocess.run([sys.executable, "-m", "latdyn", "run", str(case / "scene.yaml"), "-o",
-                                str(case / "cli"), "-q"], env=env, capture_output=True, text=True,
-                               timeout=args.timeout)
-            if c.returncode == 0:
-                record["cli"] = base._digest(case / "cli")
-                record.update(base._cli_interrupted(case, env, random.Random(f"{args.seed}-{n}-stop").uniform(0.3, 0.9)))
-            else:
-                record["cli_error"] = c.stderr[-300:]
-        problems = judge(record)
-        outcome = ("DIFFERS" if problems else "same") if "on" in record else (
-            "worker_error" if "on_error" not in record else "REFUSED ONLY IN LOOP" if problems else "refused/failed")
-        tally[outcome] = tally.get(outcome, 0) + 1
-        record["problems"] = problems
-        (case / "record.json").write_text(json.dumps(record, indent=1))
+            record.update(base.command_checks(case, env, args.timeout, random.Random(f"{args.seed}-{n}-stop")))
+        outcome = base.judged(record, judge, case, tally)
         on = record.get("on", {})
         print(f"{n}: {outcome} {time.time() - start:.0f}s in_loop {on.get('in_loop')}/{on.get('steps')} "
               f"events {on.get('events')} plain {record.get('plain_same')} {record.get('plain_worst')} "
-              f"{problems or record.get('on_error', '') or record.get('worker_error', '')[-200:]}", flush=True)
+              f"{record['problems'] or record.get('on_error', '') or record.get('worker_error', '')[-200:]}", flush=True)
     print(json.dumps(tally))
     return 0
 
