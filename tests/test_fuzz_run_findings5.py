@@ -7,6 +7,13 @@
    non-broadcastable output operand with shape (1,) … (3,)), through the API and the command (the fuzzer's boom
    s6-2). The step size's column now leaves the sensed forces' ∂F/∂p out (they are the parameters' columns).
 
+3. Not mended (strict xfail below): a controller with a state that reads a cable's length, the cable's end on a
+   prescribed base, through the cable's taut event (Python path): the sensitivities after the event are off by up to
+   2.4e-5 of the probe's largest (the tension by the hinge's damping c1), where Richardson differences of whole runs are
+   resolved to 6e-8 (their two steps' spread). The same scene with the base fixed agrees to 1.6e-9, and without the
+   state (rd = Kr·span) to 1.4e-9; 06a6a72 gives the same 2.4e-5. Where it is, not measured: a guess is the state's
+   rate's dependence on t through the prescribed end (span moves with the base) in the landing step's size column
+   (``ControllerStates.by_step_size`` takes ½(f_n + f_{n+1}) at a fixed configuration).
 2. A controller's state named like a parameter: a parameter's name is replaced by its value in every expression text
 before the text is read (latdyn/scene/expressions.py ``_with_parameters``), so a filter state ``F`` beside a load
 parameter ``F`` was never read: the output and the state's own rate read F = 1.0, the run solved and said nothing
@@ -15,6 +22,7 @@ differences agreed: the state really was out of the loop). It is refused now, na
 (latdyn/scene/controllers.py ``read_controllers``), through the command and the API alike."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import yaml
 
@@ -118,3 +126,136 @@ def test_the_state_renamed_is_read():
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     out, state = result.probes["out"], result.probes["state"]
     assert state[-1] > 0.05 and abs(out[-1] + 2 * state[-1]) < 1e-12, (out, state)
+
+
+#: fuzz6 boom s6-11 (its PD's state left out: not needed): a filter state Sf on the cable's length span, the cable
+#: from a prescribed base to the tip, going taut at 0.124 s
+TAUT_STATE = """\
+title: a filter state on a cable's length through its taut event (fuzz6 boom s6-11)
+gravity: [0, 0, -9.81]
+parameters: {Kp: 17.11, Kd: 0.48, k1: 2.0, c1: 0.2, k2: 2.0, r2: 0.3, EA: 2000.0, wf: 28.6, Kr: 0.056}
+sections:
+  s: {EA: 1.0e4*1.0, EIy: 20*1.0, EIz: 30*1.0, GJ: 15*1.0, rhoA: '0.5', rhoIy: 0.01*0.5, rhoIz: 0.02*0.5}
+bodies:
+  base:
+    at: [0, 0, 0]
+    motion:
+      translation: [0.05*sin(3*t), 0, 0.02*t**2]
+  n1:
+    at: [0.5532, -0.1758, -0.1166]
+    mass: 0.9635
+    com: [0.02, 0, -0.01]
+    inertia: [0.01, 0.01, 0.02]
+  n2:
+    at: [1.0187, -0.4542, 0.2418]
+    mass: 0.773
+    com: [0.02, 0, -0.01]
+    inertia: [0.01, 0.01, 0.02]
+  n3:
+    at: [1.4958, -0.5583, 0.4781]
+    mass: 0.5023
+    com: [0.02, 0, -0.01]
+    inertia: [0.01, 0.01, 0.02]
+beams:
+  b0:
+    from: base
+    to: n1
+    section: s
+    elements: 1
+    y_axis: [0, 0, 1]
+  b1:
+    from: n1
+    to: n2
+    section: s
+    elements: 3
+    y_axis: [0, 1, 0]
+    start:
+      hinge:
+        axis: [1.0, 0.87, 0.32]
+        stiffness: k1
+        damping: c1
+        torque: 0.3*sin(4*t)*cos(theta) + 0.1*t*theta_dot + rd
+        rest_angle: 1.2
+        limits: [-1.0, 0.4]
+        restitution: 0.5
+  b2:
+    from: n2
+    to: n3
+    section: s
+    elements: 3
+    y_axis: [0, 1, 0]
+    start:
+      hinge:
+        axis: [-0.51, 1.0, -0.57]
+        stiffness: k2
+        damping: (0.05)*(1 + theta_dot**2)
+        torque: pd + 0.5*sin(9*t)
+        rest_angle: r2
+loads:
+- at: n3
+  force: [0.3*1.0, -1.0*t, 0.5*1.0*sin(5*t)]
+cables:
+  tie: {from: base, to: n3, EA: EA, rest_length: 1.67}
+controllers:
+  pd:
+    output: Kp*(0.3 - a2) - 0.3*tip_z
+    limits: [-1.5, 1.5]
+  rd:
+    output: Kr*span - 0.4*Sf
+    states: {Sf: wf*(span - Sf)}
+    limits: [-1.5, 1.5]
+solve:
+  analysis: transient
+  dt: 0.004
+  t_end: 0.2
+  sensitivities: [c1]
+  method: newmark
+output:
+  every: 0.004
+  probes:
+    tip_z: {point: n3, quantity: position, component: z}
+    tip_vy: {point: n3, quantity: velocity, component: y}
+    a2: {hinge: b2.start, quantity: angle}
+    w2: {hinge: b2.start, quantity: rate}
+    p_y: {point: n3, quantity: position, frame: n2, component: y}
+    pull: {cable: tie, quantity: tension}
+    span: {cable: tie, quantity: length}
+"""
+assert "states: {Sf: wf*(span - Sf)}" in TAUT_STATE and "translation: [0.05*sin(3*t)" in TAUT_STATE
+
+
+def _rows_against_richardson(text: str, name: str) -> float:
+    """The largest error of ``name``'s sensitivities over every row, relative to each probe's largest, against
+    Richardson-extrapolated central differences of whole runs (h = 1e-3 |p|, ``solve.tol: 1e-12``)."""
+    def run(value=None):
+        data = yaml.safe_load(text)
+        data["solve"]["tol"] = 1e-12
+        if value is not None:
+            data["parameters"][name] = value
+        return latdyn.run(latdyn.load_scene(data))
+
+    result, p0 = run(), float(yaml.safe_load(text)["parameters"][name])
+    h, central = 1e-3 * abs(p0), []
+    for step in (h, h / 2):
+        up, down = run(p0 + step), run(p0 - step)
+        assert [e["kind"] for e in up.summary["events"]] == [e["kind"] for e in result.summary["events"]]
+        central.append({k: (np.asarray(up.probes[k]) - np.asarray(down.probes[k])) / (2 * step) for k in up.probes})
+    worst = 0.0
+    for probe in central[0]:
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        computed = np.asarray(result.sensitivities[(probe, name)])
+        worst = max(worst, float(np.abs(computed - expected).max() / np.abs(computed).max()))
+    return worst
+
+
+def test_a_state_on_a_cable_length_from_a_fixed_base_through_taut_agrees():
+    """The control: the same scene with the base fixed (measured 1.6e-9)."""
+    text = TAUT_STATE.replace("    motion:\n      translation: [0.05*sin(3*t), 0, 0.02*t**2]\n", "    fixed: true\n")
+    assert "fixed: true" in text
+    assert _rows_against_richardson(text, "c1") < 1e-6
+
+
+@pytest.mark.xfail(strict=True, reason="not mended: a state on a cable's length from a prescribed base through the "
+                                       "taut event is 2.4e-5 off (this file's docstring, item 3)")
+def test_a_state_on_a_cable_length_from_a_prescribed_base_through_taut_agrees():
+    assert _rows_against_richardson(TAUT_STATE, "c1") < 1e-6
