@@ -452,6 +452,38 @@ def _cli_interrupted(case: Path, env: dict, fraction: float) -> dict:
     return {"cli_resumed": _digest(out)}
 
 
+def run_worker(script: str, case: Path, env: dict, timeout: float) -> dict:
+    """``script --worker`` on ``case/scene.yaml`` in a process of its own: the record it prints."""
+    try:
+        w = subprocess.run([sys.executable, script, "--worker", str(case / "scene.yaml"), str(case)],
+                           env=env, capture_output=True, text=True, timeout=timeout)
+        line = [x for x in w.stdout.splitlines() if x.startswith("RECORD ")]
+        return json.loads(line[-1][7:]) if line else {"worker_error": w.stderr[-800:]}
+    except subprocess.TimeoutExpired:
+        return {"worker_error": "timeout"}
+
+
+def command_checks(case: Path, env: dict, timeout: float, rng: random.Random) -> dict:
+    """(b) ``latdyn run`` on ``case/scene.yaml`` into ``case/cli`` and (c) through the command (:func:`_cli_interrupted`
+    at a share of the rows drawn from ``rng``): the record's entries."""
+    c = subprocess.run([sys.executable, "-m", "latdyn", "run", str(case / "scene.yaml"), "-o", str(case / "cli"), "-q"],
+                       env=env, capture_output=True, text=True, timeout=timeout)
+    if c.returncode != 0:
+        return {"cli_error": c.stderr[-300:]}
+    return {"cli": _digest(case / "cli"), **_cli_interrupted(case, env, rng.uniform(0.3, 0.9))}
+
+
+def judged(record: dict, judge, case: Path, tally: dict) -> str:
+    """The case's outcome by ``judge``, counted in ``tally``; the record with its problems written to the case."""
+    problems = judge(record)
+    outcome = ("DIFFERS" if problems else "same") if "on" in record else (
+        "worker_error" if "on_error" not in record else "REFUSED ONLY IN LOOP" if problems else "refused/failed")
+    tally[outcome] = tally.get(outcome, 0) + 1
+    record["problems"] = problems
+    (case / "record.json").write_text(json.dumps(record, indent=1))
+    return outcome
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument("--runs", type=int, default=10)
@@ -483,31 +515,13 @@ def main(argv=None) -> int:
         case.mkdir(parents=True, exist_ok=True)
         (case / "scene.yaml").write_text(text)
         start = time.time()
-        try:
-            w = subprocess.run([sys.executable, __file__, "--worker", str(case / "scene.yaml"), str(case)],
-                               env=env, capture_output=True, text=True, timeout=args.timeout)
-            line = [x for x in w.stdout.splitlines() if x.startswith("RECORD ")]
-            record = json.loads(line[-1][7:]) if line else {"worker_error": w.stderr[-800:]}
-        except subprocess.TimeoutExpired:
-            record = {"worker_error": "timeout"}
+        record = run_worker(__file__, case, env, args.timeout)
         if "on" in record:
-            c = subprocess.run([sys.executable, "-m", "latdyn", "run", str(case / "scene.yaml"), "-o",
-                                str(case / "cli"), "-q"], env=env, capture_output=True, text=True,
-                               timeout=args.timeout)
-            if c.returncode == 0:
-                record["cli"] = _digest(case / "cli")
-                record.update(_cli_interrupted(case, env, random.Random(f"{args.seed}-{n}-stop").uniform(0.3, 0.9)))
-            else:
-                record["cli_error"] = c.stderr[-300:]
-        problems = judge(record)
-        outcome = ("DIFFERS" if problems else "same") if "on" in record else (
-            "worker_error" if "on_error" not in record else "REFUSED ONLY IN LOOP" if problems else "refused/failed")
-        tally[outcome] = tally.get(outcome, 0) + 1
-        record["problems"] = problems
-        (case / "record.json").write_text(json.dumps(record, indent=1))
+            record.update(command_checks(case, env, args.timeout, random.Random(f"{args.seed}-{n}-stop")))
+        outcome = judged(record, judge, case, tally)
         on = record.get("on", {})
         print(f"{n}: {outcome} {time.time() - start:.0f}s in_loop {on.get('in_loop')}/{on.get('steps')} "
-              f"events {on.get('events')} {problems or record.get('on_error', '') or record.get('worker_error', '')[-200:]}",
+              f"events {on.get('events')} {record['problems'] or record.get('on_error', '') or record.get('worker_error', '')[-200:]}",
               flush=True)
     print(json.dumps(tally))
     return 0

@@ -1773,6 +1773,7 @@ class ControllerStates:
 
         one = copy.copy(self.terms)
         one.k, one.partials, one.sampled = 1, {}, None
+        one.forces_read = {}   # the sensed forces' ∂F/∂p are the parameters' columns, not the step size's
         one.held = {c.name: self._step[c.name][6][:, None] for c in self.controllers}
         total = np.zeros((self.terms.model.n_total + 1, 1))
         one.add(state, total)

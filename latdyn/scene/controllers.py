@@ -21,7 +21,7 @@ from typing import Any
 
 from latdyn.errors import SceneError, show_value
 from latdyn.records import record
-from latdyn.scene.expressions import parse_named_expression
+from latdyn.scene.expressions import ACTIVE_PARAMETERS, parse_named_expression
 
 __all__ = ["Controller", "CONTROLLER_KEYS", "controller_names", "read_controllers"]
 
@@ -211,6 +211,7 @@ def read_controllers(value, file: str, order: tuple, probes: list, inputs: tuple
         if not isinstance(states_spec, dict):
             _fail(file, f"{key}.states", "expected a mapping of state names to their rates {S: EXPR}", states_spec)
         global_names = set(kinds) | set(inputs) | set(order)
+        parameter_names = set(ACTIVE_PARAMETERS.get().values) if ACTIVE_PARAMETERS.get() is not None else set()
         for s in states_spec:
             skey = f"{key}.states.{s}"
             if not isinstance(s, str) or not _IDENTIFIER.fullmatch(s):
@@ -221,6 +222,10 @@ def read_controllers(value, file: str, order: tuple, probes: list, inputs: tuple
                 _fail(file, skey, "a word of the expression language cannot name a state; expected another name", s)
             if s in global_names:
                 _fail(file, skey, f"{s!r} already names a probe, an input or a controller; expected a state name "
+                                  "of its own", s)
+            if s in parameter_names:   # its name replaced by the value in every text: the state never read
+                _fail(file, skey, f"{s!r} already names a parameter (parameters.{s}), whose value replaces the name "
+                                  "in every expression, so the state would never be read; expected a state name "
                                   "of its own", s)
         states = tuple(states_spec)
         initial_spec = spec.get("initial") or {}
