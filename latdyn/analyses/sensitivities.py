@@ -1712,9 +1712,10 @@ class ControllerStates:
                                       compiled.value(laws[s], arguments))
         return arguments, f_s, f_S, f_p
 
-    def _sensed(self, c, state, dq: np.ndarray) -> np.ndarray:
-        """δs (m, k): the derivatives of ``c``'s sensors along δq (probe derivatives)."""
-        return _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq)
+    def _sensed(self, c, state, dq: np.ndarray, moved: np.ndarray | None = None) -> np.ndarray:
+        """δs (m, k): the derivatives of ``c``'s sensors along δq (probe derivatives), and along the prescribed
+        motions by the step end's δt ``moved`` (None: 0)."""
+        return _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq, moved)
 
     def _accepted(self) -> dict:
         return {"S": self.values[self.slots].copy(), "f": self.rates[self.rate_index].copy()}
@@ -1798,7 +1799,7 @@ class ControllerStates:
                 self.values[self.slots], self.rates[self.rate_index] = kept[1], kept[2]
         return context()
 
-    def after_step(self, state, dq: np.ndarray, dh: np.ndarray | None = None) -> dict:
+    def after_step(self, state, dq: np.ndarray, dh: np.ndarray | None = None, moved: np.ndarray | None = None) -> dict:
         """δS_{n+1}, δf_{n+1} and the accepted (S, f) after the step ending at ``state``, δq its
         configuration's derivative, ``dh`` its size's (class docstring; None: 0)."""
         k = self.terms.k
@@ -1808,7 +1809,7 @@ class ControllerStates:
         for c in self.controllers:   # csrc/controller_states.c latdyn_controller_states_after
             rows, (factor, pivots), f_s, f_S, f_p, hh, by_h = self._step[c.name]
             p, m = len(c.states), len(self.sensors[c.name])
-            ds = np.ascontiguousarray(self._sensed(c, state, dq), float).reshape(m, k)
+            ds = np.ascontiguousarray(self._sensed(c, state, dq, moved), float).reshape(m, k)
             held = np.ascontiguousarray(self.terms.held[c.name], float)
             out_S, out_f, scratch = np.zeros((p, k)), np.zeros((p, k)), np.zeros((p, k))
             library.latdyn_controller_states_after(p, m, k, hh, factor.ctypes.data, pivots.ctypes.data, f_s.ctypes.data,
@@ -1827,10 +1828,16 @@ def _native_library():
     return native_library()
 
 
-def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray) -> np.ndarray:
+def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray,
+                        moved: np.ndarray | None = None) -> np.ndarray:
     """δs (m, k): the derivatives of the sensors ``probes`` (hinge angles, guide slides, point positions
-    and displacements) at ``state`` along δq (n, k) (:meth:`ParameterDerivatives._probe_derivatives`)."""
+    and displacements) at ``state`` along δq (n, k) (:meth:`ParameterDerivatives._probe_derivatives`), and where
+    the state's time moves with p (``moved`` = δt, an event's and the steps after it) along the prescribed motions
+    at fixed free coordinates, ∂s/∂t δt (a cable's length from a moving anchor; the time loop's
+    ``_prescribed_in_time``, as a probe's row)."""
     dx, dpi, dtheta = owner._by_parameter(dq, state)   # rate sensors are refused here (refusal)
+    if moved is not None:
+        owner._prescribed_in_time(state, np.asarray(moved, float), dx, dpi, dtheta, None)
     return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta) for probe in probes],
                     float).reshape(len(probes), dq.shape[1])
 

@@ -127,7 +127,8 @@ names θ, θ̇ or an input and does not compile (every form of the expression la
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
 that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
-its node, in a body's axes, a rate —, rigid links or guides, or whose laws did not compile),
+its node, in a body's axes, a rate —, a prescribed body's position or a prescribed hinge's angle beside events (their
+∂s/∂t δt after an event, ControllerStates._sensed), rigid links or guides, or whose laws did not compile),
 controllers reading a
 section force or a cable's tension whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in
 C) or a joint's torque or force whose compliant stop's or friction's law a parameter moves,
@@ -480,6 +481,7 @@ def _states_refusal(owner) -> str | None:
     rates' partials and (with limits) its output compiled (derivative_laws.ControllerPartials), on a model without
     rigid links or guides (beside sampled controllers too: their held δy are added first, SampledTerms.add, on both
     paths)."""
+    from latdyn.analyses.sensitivities import has_events
     from latdyn.assembly.control import ANGLE, POSITION
 
     terms, states = owner.controllers, owner.controllers.states
@@ -491,6 +493,7 @@ def _states_refusal(owner) -> str | None:
         if stated & set(c.reads):
             return f"controller {c.name} reads a controller with states"
     compiled = terms.compiled
+    moving_in_time = has_events(owner.scene)   # the steps after an event end at t + δt_e
     for c in states.controllers:
         k = next(k for k, d in enumerate(wiring.controllers) if d.name == c.name)
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
@@ -499,11 +502,26 @@ def _states_refusal(owner) -> str | None:
                 or (POSITION in kinds and owner.geometry is not None)):
             return (f"controller {c.name}: states, and it reads other than hinge and guide angles and nodes' positions "
                     "and displacements in global axes (or those beside geometry parameters)")
+        if moving_in_time and any(_on_prescribed(owner.model, int(wiring.sensor_kind[i]), int(wiring.sensor_index[i]))
+                                  for i in sensors):
+            return (f"controller {c.name}: states reading a prescribed body's position or a prescribed hinge's angle "
+                    "beside events (their ∂s/∂t δt after an event: ControllerStates._sensed, the Python path's)")
         if c.name in terms.rate_partials and compiled is None:
             return f"controller {c.name}: its states' rates' parameters' derivatives did not compile"
         if c.limits is not None and (compiled is None or c.name not in compiled.outputs):
             return f"controller {c.name}: states and limits, its output's law did not compile"
     return None
+
+
+def _on_prescribed(model, kind: int, index: int) -> bool:
+    """Whether a controller's sensor (``kind``, ``index`` of the wiring: a joint's angle, or a node's coordinate
+    3 node + component) reads a prescribed hinge's angle or a prescribed body's position."""
+    from latdyn.assembly.control import ANGLE
+    from latdyn.model.model import PRESCRIBED
+
+    if kind == ANGLE:
+        return model.hinges[index].angle is not None
+    return model.nodes[index // 3].kind == PRESCRIBED
 
 
 def _time_refusal(owner) -> str | None:

@@ -524,7 +524,7 @@ class TransientSensitivities(ParameterDerivatives):
         if self.scene.solve.adaptive:   # what the accepted step's error estimate is differentiated from (resized)
             carried["accepted_trial"] = adaptive_sensitivities.accepted_trial(new, a_new - a_old, total, before, dh, h)
         if states is not None:   # δS with the step size's part (an event's δh)
-            carried = {**carried, **states.after_step(new, carried["dq"], dh)}
+            carried = {**carried, **states.after_step(new, carried["dq"], dh, carried["dt"])}
         if np.any(self.held) and (cable is not None or event is not None):
             self._refuse_sticking(new, "another event (a latch, a stop, a cable's change) while a joint is stuck")
         if cable is not None:
@@ -565,10 +565,15 @@ class TransientSensitivities(ParameterDerivatives):
             states.begin_step(carried, new, h)
         with states.condensed(carried, h) if states is not None else nullcontext():
             solve = self._step_system(new, tangent, beta_p, gamma_p)
+            # ∂r/∂t through the prescribed motions with the states condensed as in the step: the coupling blocks'
+            # total dy/ds, S_{n+1} moving with a sensor the motion moves (a cable's length from a prescribed anchor)
+            moved = (self.explicit_time.through_prescribed(new) if states is not None and self.explicit_time is not None
+                     and self.explicit_time.prescribed else None)
         explicit = np.hstack([self.residual_derivatives(new, 1.0, inertia=True), np.zeros((n, 1))])
         if states is not None:   # the states' derivative by the step's size moves the outputs (an event's δh)
             explicit[:, k] += self._on_free_coordinates(new, states.by_step_size(new)[:, None])[:, 0]
-        self._add_time_columns(explicit, new, carried["dt"])
+        self._add_time_columns(explicit, None if self.explicit_time is None else self.explicit_time(new, prescribed=moved),
+                               carried["dt"])
         z = np.asarray(solve(explicit, dq0, dv0)).reshape(n, k + 1)
         return step.update(z, beta_p, gamma_p), states
 
@@ -634,14 +639,13 @@ class TransientSensitivities(ParameterDerivatives):
         J = tangent.matrix if issparse(K) else tangent.matrix.toarray()
         return beta_p * M + gamma_p * C + K @ J, C, K
 
-    def _add_time_columns(self, explicit: np.ndarray, new, started: np.ndarray) -> None:
+    def _add_time_columns(self, explicit: np.ndarray, rate: np.ndarray | None, started: np.ndarray) -> None:
         """Add to the step's ∂r/∂p columns ``explicit`` (n, k + 1) the explicit time dependence at its end
         t_{n+1} = t_n + h (module docstring, "Laws in time"): ∂r/∂t δt_n in the parameters' columns
         (``started`` = δt_n: the step starts where the events before it put it) and ∂r/∂t in the step
         size's, so that the total carries ∂r/∂t δt_{n+1} (δt_{n+1} = δt_n + δh)."""
-        if self.explicit_time is None:
+        if rate is None:   # ``rate``: ∂r/∂t at the step's end (ExplicitTime), None without laws in t
             return
-        rate = self.explicit_time(new)
         explicit[:, :-1] += np.outer(rate, started)
         explicit[:, -1] += rate
 
@@ -1658,16 +1662,18 @@ class ExplicitTime:
             return total
         return self.owner._on_free_coordinates(state, total[:, None])[:, 0]
 
-    def __call__(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:
+    def __call__(self, state, inertia: bool = True, on_all: bool = False,
+                 prescribed: np.ndarray | None = None) -> np.ndarray:
         """∂r/∂t (n,) on the free coordinates at ``state``: of the equations of motion, or without
         ``inertia`` of the static residual (:meth:`TransientSensitivities._stiffness_derivative` differences the
         static ∂r/∂p along w; the laws in t are loads', hinges' and guides', none the elements' gravity load, which
         it leaves out; the prescribed motions' part is of the whole static residual); ``on_all``: on all
         coordinates (n_total + 1,), before the rigid links' and guides' reduction (their geometric term at an
-        event, :meth:`TransientSensitivities._geometric_derivative`, reads it)."""
+        event, :meth:`TransientSensitivities._geometric_derivative`, reads it). ``prescribed``: the prescribed
+        motions' part already evaluated (the step's, with the controllers' states condensed), else evaluated here."""
         out = self.of_laws(state, inertia, on_all=on_all)
         if self.prescribed:
-            out = out + self.through_prescribed(state, inertia, on_all=on_all)
+            out = out + (self.through_prescribed(state, inertia, on_all=on_all) if prescribed is None else prescribed)
         return out
 
     def through_prescribed(self, state, inertia: bool = True, on_all: bool = False) -> np.ndarray:

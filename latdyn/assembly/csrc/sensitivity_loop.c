@@ -496,11 +496,13 @@ static void controller_parameter_forces(const Model *m, const Work *w, const Con
  * (exact_matrices left it in s->body_stiffness at c), the motion laws' rates at grid point `grid` made dense, then
  * latdyn_prescribed_time_rate (csrc/prescribed_rates.c), as the Python path calls them. */
 static void prescribed_time_rate(const Model *m, Work *w, const Configuration *c, const SensitivityLoop *s,
-                                 SensitivityLoop *r, int64_t grid, double t)
+                                 SensitivityLoop *r, int64_t grid, double t, double h)
 {
     const int64_t size = m->n_total + 1, P = r->n_motions;
     EvaluationControl e = {t, 1.0, 1, 1, 1, 0.0};
+    if (s->states != NULL) controller_states_condensed(m, w, s->states, h, 1);   /* as the step: total dy/ds */
     latdyn_evaluate(m, w, c, &e);
+    if (s->states != NULL) controller_states_condensed(m, w, s->states, h, 0);
     memset(r->motion_rates, 0, sizeof(double) * (size_t)(3 * size));
     const double *table = r->motion_values + 3 * P * (grid - r->motions_from);
     for (int part = 0; part < 3; ++part)
@@ -523,7 +525,7 @@ static void prescribed_time_rate(const Model *m, Work *w, const Configuration *c
  * links or guides reduced by Pᵀ as ExplicitTime's _on_free_coordinates reduces it) times the
  * carried δt_n added to the parameters' columns of explicit_, and ∂r/∂t itself to the step size's. */
 static void explicit_time_columns(const Model *m, Work *w, const Configuration *c, SensitivityLoop *s, int64_t grid,
-                                  double t)
+                                  double t, double h)
 {
     SensitivityLoop *r = s->time_rates;
     const int64_t n = m->n_dofs, k = s->k, cols = k + 1;
@@ -533,7 +535,7 @@ static void explicit_time_columns(const Model *m, Work *w, const Configuration *
     load_parameter_forces(m, c, r, grid);
     if (r->cables != NULL) cable_parameter_forces(m, w, c, r->cables, 1, grid, r->total);   /* reels: ExplicitTime.of_laws */
     if (s->linked) latdyn_linked_reduce_columns(m, r->total, 1, r->total);   /* Pᵀ, as the parameters' columns */
-    if (r->n_motions) prescribed_time_rate(m, w, c, s, r, grid, t);   /* ExplicitTime.through_prescribed, added after */
+    if (r->n_motions) prescribed_time_rate(m, w, c, s, r, grid, t, h);   /* ExplicitTime.through_prescribed, added after */
     for (int64_t i = 0; i < n; ++i) {
         const double rate = r->n_motions ? r->total[i] + r->through_prescribed[i] : r->total[i];
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] += rate * s->dt[col];
@@ -623,7 +625,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         if (s->n_load_actuators) controller_states_load_step_size(m, c, s);
         controller_states_step_size_add(m, s->states, cols, s->explicit_);
     }
-    if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t);
+    if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t, h);
     const int64_t size = n * cols;
     const double *da0 = s->predicted, *dq0 = s->predicted + size, *dv0 = s->predicted + 2 * size;
     (void)da0;
