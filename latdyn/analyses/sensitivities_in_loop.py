@@ -480,7 +480,8 @@ def _states_refusal(owner) -> str | None:
     may record its states and output: each row's δS and S are kept, :meth:`SensitivityLoop.record_rows`), its states'
     rates' partials and (with limits) its output compiled (derivative_laws.ControllerPartials), on a model without
     rigid links or guides (beside sampled controllers too: their held δy are added first, SampledTerms.add, on both
-    paths)."""
+    paths); not where, beside events, its states' rates read a prescribed body's position or a prescribed hinge's
+    angle (after an event their ∂s/∂t δt enters δs: ControllerStates._sensed, not in C)."""
     from latdyn.analyses.sensitivities import has_events
     from latdyn.assembly.control import ANGLE, POSITION
 
@@ -502,8 +503,10 @@ def _states_refusal(owner) -> str | None:
                 or (POSITION in kinds and owner.geometry is not None)):
             return (f"controller {c.name}: states, and it reads other than hinge and guide angles and nodes' positions "
                     "and displacements in global axes (or those beside geometry parameters)")
+        rated = {name for name, symbol in zip(c.reads, c.symbols[1:1 + len(c.reads)])
+                 if any(symbol in f.free_symbols for f in c.state_exprs)}   # the sensors its states' rates read
         if moving_in_time and any(_on_prescribed(owner.model, int(wiring.sensor_kind[i]), int(wiring.sensor_index[i]))
-                                  for i in sensors):
+                                  for i, name in zip(sensors, wiring.sensor_names(k)) if name in rated):
             return (f"controller {c.name}: states reading a prescribed body's position or a prescribed hinge's angle "
                     "beside events (their ∂s/∂t δt after an event: ControllerStates._sensed, the Python path's)")
         if c.name in terms.rate_partials and compiled is None:
