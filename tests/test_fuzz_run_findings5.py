@@ -16,12 +16,12 @@
    residual's ∂r/∂t the output's dependence through S_{n+1} (ExplicitTime's coupling blocks are now evaluated with
    the states condensed as in the step, as the loop of steps evaluates them). Now 3.9e-9 (1.9e-6 with the first
    alone). The loop of steps declines a state reading a prescribed body's position or hinge angle beside events.
-3. Not mended (strict xfail below): a continuous controller with states beside a controller reading an element's
-   axial force takes the loop of steps (60 of 60 steps), but its sensitivities differ from the per-step Python path's
-   by round-off (4.4e-13 absolute here; 1.1e-14 and 1.8e-14 relative on the fuzzer's booms s6-68 and s6-98), where the
-   loop's contract is the bit. The reader on an angle instead, or the PI without its state, is bit-equal. Where it is,
-   not measured: the order of the sensed force's terms beside the states' step in csrc/sensitivity_loop.c against
-   ``ControllerTerms.add``.
+3. A continuous controller with states beside a controller reading an element's axial force took the loop of steps
+   (60 of 60 steps), but its sensitivities differed from the per-step Python path's by round-off (4.4e-13 absolute
+   here; 1.1e-14 and 1.8e-14 relative on the fuzzer's booms s6-68 and s6-98), where the loop's contract is the bit:
+   with states, ``ControllerTerms.add`` read the sensed force from the probes' NumPy value, where the loop reads the
+   step's evaluation's (``sensed_in_c``, which it took only without states). It takes ``sensed_in_c`` with states
+   too now: bit-equal.
 4. A controller's state named like a parameter: a parameter's name is replaced by its value in every expression text
 before the text is read (latdyn/scene/expressions.py ``_with_parameters``), so a filter state ``F`` beside a load
 parameter ``F`` was never read: the output and the state's own rate read F = 1.0, the run solved and said nothing
@@ -277,8 +277,6 @@ def test_a_state_beside_a_force_reader_in_the_loop_is_the_python_paths_to_the_bi
     _loop_against_python(text, monkeypatch)
 
 
-@pytest.mark.xfail(strict=True, reason="not mended: a state beside a force reader in the loop differs from the Python "
-                                       "path by round-off (this file's docstring, item 3)")
 def test_a_state_beside_a_force_reader_in_the_loop_is_the_python_paths_to_the_bit(monkeypatch):
     text = (PI_BESIDE_FORCE_READER.replace(", lock_at: 0.2", "").replace("parameters: {EA: 1.0e4,", "parameters: {")
             .replace("EA: EA,", "EA: 1.0e4,").replace("sensitivities: [EA, Ki, Kr]", "sensitivities: [Ki, Kr]"))

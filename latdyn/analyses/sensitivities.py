@@ -1523,7 +1523,7 @@ class ControllerTerms:
         if not (self.partials or self.held or any(self.forces_read.values())) or not len(w.actuator_kind):
             return
         values = self.signal_values(state)
-        if self.compiled is not None and self.states is None:
+        if self.compiled is not None:
             values.update(self.sensed_in_c(state))   # what the loop of steps reads (:meth:`sensed_in_c`)
         outputs, slopes, forces = {}, {}, None
         for c in self.continuous:
