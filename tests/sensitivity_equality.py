@@ -7,6 +7,23 @@ from __future__ import annotations
 import numpy as np
 
 
+def runs_with_the_loop_on_and_off(scene) -> dict:
+    """{True: the run with the loop of steps on, False: off} of ``scene`` (YAML text or its mapping), each through
+    ``latdyn.run(latdyn.load_scene(...))``."""
+    import pytest
+    import yaml
+
+    import latdyn
+
+    data = yaml.safe_load(scene) if isinstance(scene, str) else scene
+    runs = {}
+    with pytest.MonkeyPatch.context() as patch:
+        for in_loop in (True, False):
+            patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
+            runs[in_loop] = latdyn.run(latdyn.load_scene(data))
+    return runs
+
+
 def assert_same_sensitivities(native, python, *, python_path: bool = False, python_steps_in_loop: bool = True,
                               nonzero: str | None = None, in_loop_but: int | None = None,
                               events_may_be_absent: bool = False) -> None:

@@ -13,10 +13,11 @@ import sympy as sp
 import yaml
 
 import latdyn
-from latdyn.analyses.weight_derivative import _hinge_part, configuration_tangent_of_weight, rest_support
+from latdyn.analyses.weight_derivative import _hinge_part, rest_support
 from latdyn.assembly.prepare import prepare
 from latdyn.model.kernels import load_kernels
 from latdyn.scene.expressions import HingeLaw
+from tests.sensitivity_equality import runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import LATCH_3D, _agree
 from tests.test_weight_derivative import _check_model
 
@@ -124,17 +125,13 @@ def test_a_latch_with_nonlinear_laws_through_the_cli_and_the_api_agrees_with_dif
     assert written.size > 0
 
 
-def test_the_loop_of_steps_keeps_the_python_paths_bits_through_the_latch(monkeypatch):
+def test_the_loop_of_steps_keeps_the_python_paths_bits_through_the_latch():
     """The wheel with its nonlinear laws and compliant stop, sensitivities by k and c: the loop of steps on and off
     give the same sensitivities to the bit (the latch's H, exact now, is the Python path's on both), with steps in
     the loop."""
     data = yaml.safe_load(WHEEL_LAWS)
     data["solve"]["sensitivities"] = ["k", "c"]
-    runs = {}
-    for in_loop in (True, False):
-        with monkeypatch.context() as patch:
-            patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
-            runs[in_loop] = latdyn.run(latdyn.load_scene(data))
+    runs = runs_with_the_loop_on_and_off(data)
     native, python = runs[True], runs[False]
     assert native.summary["event_sensitivities"] and native.summary["event_sensitivities"][0]["kind"] == "latch"
     assert native.summary["sensitivity_steps_in_loop"] > 0 == python.summary["sensitivity_steps_in_loop"]

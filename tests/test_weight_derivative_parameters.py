@@ -10,12 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
 
-import latdyn
 from latdyn.analyses.parameter_stiffness import exact_parameters
 from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.sensitivity_equality import runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import _agree
 from tests.test_weight_derivative_rest import BOOM, _boom_state
 
@@ -86,12 +85,7 @@ def test_a_cables_rest_length_keeps_the_difference():
 @pytest.fixture(scope="module")
 def boom_runs():
     """The boom's sensitivities with the loop of steps on and off (API)."""
-    runs = {}
-    with pytest.MonkeyPatch.context() as patch:
-        for in_loop in (True, False):
-            patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
-            runs[in_loop] = latdyn.run(latdyn.load_scene(yaml.safe_load(PARAMETER_BOOM)))
-    return runs
+    return runs_with_the_loop_on_and_off(PARAMETER_BOOM)
 
 
 def test_through_the_latch_the_sensitivities_agree_with_richardson_and_the_loop_keeps_the_bits(boom_runs):

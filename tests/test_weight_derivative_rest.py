@@ -23,6 +23,7 @@ from latdyn.assembly.assembler import unpack_free
 from latdyn.assembly.prepare import prepare
 from latdyn.model.kernels import load_kernels
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.sensitivity_equality import runs_with_the_loop_on_and_off
 from tests.test_sensitivities_controllers import WHEEL as CONTROLLED_WHEEL
 from tests.test_sensitivities_events import WHEEL_3D, _agree
 
@@ -187,12 +188,9 @@ def test_a_load_a_controller_drives_keeps_the_difference_along_its_coordinates()
     assert _check_model(CONTROLLED_WHEEL, 5) < 1e-8
 
 
-def test_h_of_the_boom_is_the_central_difference_of_w_w():
-    """The whole H of the boom (elements, the wheel's mass, the hinge, the loads and the cable: all generated)
-    against Richardson-extrapolated central differences of the evaluation's W w (measured 1.1e-12 with the mass,
-    2.8e-11 without; the same with the old differences: the elements dominate it)."""
-    prepared, state, rng = _boom_state()
-    assembler, n = prepared.assembler, prepared.model.n_dofs
+def _assert_h_is_richardsons(assembler, state, rng, n: int) -> None:
+    """H (W = M + 1e-4 K, and W = K) along a random δq at a random w agrees with Richardson-extrapolated central
+    differences of the evaluation's W w to 1e-9 of their largest."""
     for mass, scale in ((True, 1e-4), (False, 1.0)):
         w, dq = rng.normal(size=n), rng.normal(size=n)
         exact = times(configuration_tangent_of_weight(assembler, state, w, scale, mass, 1e-5), dq)
@@ -206,15 +204,19 @@ def test_h_of_the_boom_is_the_central_difference_of_w_w():
         assert np.abs(exact - numeric).max() <= 1e-9 * np.abs(numeric).max()
 
 
+def test_h_of_the_boom_is_the_central_difference_of_w_w():
+    """The whole H of the boom (elements, the wheel's mass, the hinge, the loads and the cable: all generated)
+    against Richardson-extrapolated central differences of the evaluation's W w (measured 1.1e-12 with the mass,
+    2.8e-11 without; the same with the old differences: the elements dominate it)."""
+    prepared, state, rng = _boom_state()
+    assembler, n = prepared.assembler, prepared.model.n_dofs
+    _assert_h_is_richardsons(assembler, state, rng, n)
+
+
 @pytest.fixture(scope="module")
 def boom_runs():
     """The boom's sensitivities by EA, P and k with the loop of steps on and off (API)."""
-    runs = {}
-    with pytest.MonkeyPatch.context() as patch:
-        for in_loop in (True, False):
-            patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
-            runs[in_loop] = latdyn.run(latdyn.load_scene(yaml.safe_load(BOOM)))
-    return runs
+    return runs_with_the_loop_on_and_off(BOOM)
 
 
 def test_through_the_latch_the_booms_sensitivities_agree_with_richardson(boom_runs):
@@ -276,17 +278,7 @@ def test_a_pd_controllers_coupling_in_h_is_sympys_second_derivative_and_no_diffe
     assert list(rows) == [d] and list(cols) == [d]
     reference = -1e-4 * (0.4 * np.sin(0.35 - 0.3) - 2 * 0.05 * state.theta_dot[0]) * w[d]
     assert abs(values[0] - reference) <= 1e-14 * abs(reference)
-    for mass, scale in ((True, 1e-4), (False, 1.0)):
-        w, dq = rng.normal(size=n), rng.normal(size=n)
-        exact = times(configuration_tangent_of_weight(assembler, state, w, scale, mass, 1e-5), dq)
-
-        def product(eta):
-            ev = assembler.evaluate(assembler.advance(state, eta * dq), matrices=True)
-            return np.asarray(ev.combined(1.0 if mass else 0.0, 0.0, scale) @ w)
-
-        central = [(product(h) - product(-h)) / (2 * h) for h in (1e-4, 5e-5)]
-        numeric = (4 * central[1] - central[0]) / 3
-        assert np.abs(exact - numeric).max() <= 1e-9 * np.abs(numeric).max()
+    _assert_h_is_richardsons(assembler, state, rng, n)
 
 
 def test_a_saturated_controller_adds_nothing_and_a_controller_with_an_input_keeps_the_difference():
