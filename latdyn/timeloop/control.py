@@ -379,7 +379,7 @@ class StepControl:
             run.h, self.resize = self._sized(h, error, 0.2, 2.0)
         elif stopped:
             run.h, self.resize = self.dt, Resize(0.0, 0.0, 0.0)  # after an impact on a stop: the nominal step
-        elif lands and self.proposed is not None and h < self.proposed:
+        elif self._grown_from(h, lands) != h:
             # a step shortened onto a grid point: the steps grow on from the size proposed before the shortening
             # (a sliver before a grid point says nothing of the steps after it; growing from the sliver made
             # the sequence of steps, and the results with it, jump with Newton's last iterates)
@@ -391,15 +391,17 @@ class StepControl:
         else:
             self.resize = Resize(0.0, 0.0, 0.0, 1.0)   # run.h as it was
 
+    def _grown_from(self, h: float, lands: bool) -> float:
+        """The size fixed steps grow back from after the accepted step of size ``h`` (``lands``: it ended on the grid
+        point :meth:`next_step` aimed it at): the size proposed before a step was shortened onto a grid point, else h
+        (:meth:`after_accepted`)."""
+        return self.proposed if lands and self.proposed is not None and h < self.proposed else h
+
     def grows_back_short(self, h: float, lands: bool) -> bool:
         """Whether fixed steps not restarted (:meth:`after_accepted`'s last branches) try a step shorter than dt after
-        the accepted step of size ``h`` (``lands``: onto the grid point :meth:`next_step` aimed it at): 2 h_proposed
-        after a step shortened onto a grid point, else 2h. Called before :meth:`after_accepted`."""
-        if self.adaptive:
-            return False
-        if lands and self.proposed is not None and h < self.proposed:
-            return 2 * self.proposed < self.dt
-        return 2 * h < self.dt
+        the accepted step of size ``h`` (``lands`` as there): twice :meth:`_grown_from` below dt. Called before
+        :meth:`after_accepted`."""
+        return not self.adaptive and 2 * self._grown_from(h, lands) < self.dt
 
     def _watch_crawl(self, run: TransientProgress, h: float, event: bool) -> None:
         """Count the accepted step of size ``h`` (``event``: it ended on a latch or a stop) into the
