@@ -1059,6 +1059,39 @@ def _slide_wrench_kernel() -> KernelSpec:
                       equations="The slide coordinate; the reduction onto minimum coordinates")
 
 
+def _wrench_moved(parent, wrench, delta):
+    """The parent's (x, T) and the wrench's point y moved by δ = (δx_p, δπ_p, δy) (δπ_p a spatial turn, to first
+    order), the force and moment held: the configuration update that ``hinge_wrench_D_q`` differentiates by."""
+    return (list(_vector(parent[0:3]) + delta[0:3, :]) + list(_turned(_matrix(parent[3:12]), delta[3:6, :])),
+            list(_vector(wrench[0:3]) + delta[6:9, :]) + list(wrench[3:9]))
+
+
+def _wrench_second_kernel(slide: bool) -> KernelSpec:
+    """``hinge_wrench_D_q_D_q`` (``slide_wrench_D_q_D_q``): the derivative of hinge_wrench's (slide_wrench's) row of the
+    geometric stiffness, D = ∂/∂δ F(parent ⊕ δ, y + δy) at δ = 0 (9), along a second move δ′ of the same
+    configuration at fixed (f, m): ∂D_i/∂δ′_k (9 × 9), D taken at the parent moved by δ′ and differentiated at
+    δ′ = 0 — the links' second derivatives in the reduction's geometric term (csrc/linked_weight_second.c)."""
+    parent, edge, wrench = WRENCH_PARENT.symbols(), WRENCH_EDGE.symbols(), WRENCH_POINT.symbols()
+    force = slide_wrench if slide else hinge_wrench
+    delta, outer = sp.Matrix(sp.symbols("delta_0:9")), sp.Matrix(sp.symbols("epsilon_0:9"))
+    moved_parent, moved_wrench = _wrench_moved(parent, wrench, delta)
+    first = _jacobian(sp.Matrix([force(moved_parent, edge, moved_wrench)]), delta, {d: 0 for d in delta})
+    outer_parent, outer_wrench = _wrench_moved(parent, wrench, outer)
+    moved_first = first.T.xreplace({**dict(zip(parent, outer_parent)), **dict(zip(wrench[0:3], outer_wrench[0:3]))})
+    second = _jacobian(moved_first, outer, {e: 0 for e in outer})
+    name = "slide_wrench" if slide else "hinge_wrench"
+    outputs = [Output(f"{name}_D_q_D_q", (9, 9), _rows(second),
+                      f"∂({name}_D_q)_i/∂δ′_k, δ′ = (δx_p, δπ_p, δy) at fixed f, m: the row of the geometric "
+                      "stiffness moved with the configuration")]
+    return KernelSpec(name=f"{name}_D_q_D_q", doc=f"The derivative of {name}'s row of the geometric stiffness by the "
+                      "configuration (the links' second derivatives: an event's impulse weight with sensitivities on "
+                      "a model with rigid links or guides)", inputs=[WRENCH_PARENT, WRENCH_EDGE, WRENCH_POINT],
+                      outputs=outputs, variant="joints",
+                      equations="Eqs. 4, 9 (the hinge coordinate); the reduction onto minimum coordinates, "
+                      "differentiated twice" if not slide else "The slide coordinate; the reduction onto minimum "
+                      "coordinates, differentiated twice")
+
+
 ROOT_WRENCH = Argument("wrench", 12, "x_r[3] y[3] f[3] m[3]: the root's reference point, the point the wrench acts "
                        "at, its force and moment")
 
@@ -1163,6 +1196,21 @@ def _closure_wrench_kernel(rod: bool) -> KernelSpec:
                       equations="The closure of a slider-crank's loop; the reduction onto minimum coordinates")
 
 
+def _closure_wrench_second_kernel(rod: bool) -> KernelSpec:
+    """``{slider,rod}_closure_wrench_D_q_D_q``: ∂D_ab/∂p_c (9 × 3, row a b) of the closure's geometric stiffness
+    D = ∂g/∂p at fixed (f, m): its move with the pin's position (the links' second derivatives)."""
+    pin, edge, wrench = CLOSURE_PIN.symbols(), CLOSURE_EDGE.symbols(), CLOSURE_WRENCH.symbols()
+    first = closure_wrench(pin, edge, wrench, rod).jacobian(_vector(pin))
+    name = "rod_closure_wrench" if rod else "slider_closure_wrench"
+    outputs = [Output(f"{name}_D_q_D_q", (9, 3), _rows(sp.Matrix(list(first)).jacobian(_vector(pin))),
+                      "∂(∂g_a/∂p_b)/∂p_c, row 3a + b: the closure's geometric stiffness moved with the pin")]
+    return KernelSpec(name=f"{name}_D_q_D_q", doc="The derivative by the pin's position of the closure's geometric "
+                      f"stiffness on a slider-crank's {'rod' if rod else 'slider'} node (the links' second "
+                      "derivatives)", inputs=[CLOSURE_PIN, CLOSURE_EDGE, CLOSURE_WRENCH], outputs=outputs,
+                      variant="joints", equations="The closure of a slider-crank's loop; the reduction onto minimum "
+                      "coordinates, differentiated twice")
+
+
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
     return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(),
@@ -1177,4 +1225,6 @@ def build_kernels() -> list[KernelSpec]:
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),
             *(_rates_D_q_kernel(kind) for kind in ("rigid_link_edge", "prismatic_link_edge", "slider_closure_edge",
-                                                   "rod_closure_edge"))]
+                                                   "rod_closure_edge")),
+            _wrench_second_kernel(slide=False), _wrench_second_kernel(slide=True),
+            _closure_wrench_second_kernel(rod=False), _closure_wrench_second_kernel(rod=True)]

@@ -141,7 +141,7 @@ def test_the_geometric_terms_derivative_is_the_richardson_difference_along_confi
     unpack_free(model, a, state.a, state.alpha, state.theta_ddot)
     assembler.complete_links(state)
     w, dq, dv, dvdot = (rng.normal(size=(n, 1)) for _ in range(4))
-    exact = linked_geometric_derivative(assembler, state, w[:, 0], dq, 1.0, (dv, dvdot), 1.0)[:, 0]
+    exact = linked_geometric_derivative(assembler, state, w[:, 0], dq, 1.0, (dv, dvdot))[:, 0]
 
     def term(h):
         moved = assembler.advance(state, h * dq[:, 0])

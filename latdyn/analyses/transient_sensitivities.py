@@ -984,13 +984,13 @@ class TransientSensitivities(ParameterDerivatives):
         """∂(W w)/∂q δq (n, k) of :meth:`_weight_derivative` with guides or rigid links (the reduction's W w,
         latdyn/analyses/weight_derivative.py "Rigid links and guides"): the generated blocks' part Pᵀ W_gen P w exactly
         (:func:`latdyn.analyses.weight_derivative.linked_configuration_tangent`), the reduction's geometric term
-        s ∂(Pᵀ r_all)/∂q[w] exactly but for the links' second derivatives, a difference of the links alone
+        s ∂(Pᵀ r_all)/∂q[w] exactly, the links' second derivatives generated
         (:func:`latdyn.analyses.weight_derivative.linked_geometric_derivative`), and the blocks not generated,
         Pᵀ W_rest P w where the model has them (:func:`latdyn.analyses.weight_derivative.linked_has_rest`), a central
         difference along each column's move (:meth:`_linked_move`)."""
         assembler = self.assembler
         out = linked_configuration_tangent(assembler, state, w, dq, scale, mass)
-        out += linked_geometric_derivative(assembler, state, w, dq, scale, rates, self.length or 1.0)
+        out += linked_geometric_derivative(assembler, state, w, dq, scale, rates)
         if not linked_has_rest(assembler):
             return out
         for c in range(dq.shape[1]):
@@ -1063,8 +1063,8 @@ class TransientSensitivities(ParameterDerivatives):
         assembler, n_asm = self.assembler, model.n_assembled
         inertia_forces = (np.asarray(assembler.evaluate_assembled(state, False, 1.0, True).residual)
                           - np.asarray(assembler.evaluate_assembled(state, False, 1.0, False).residual))[:n_asm]
-        motion_rates = self.explicit_time.motions.values(float(state.t))[0]
-        rate = linked_geometric_rate_in_time(assembler, state, inertia_forces, w, motion_rates, self.length or 1.0)
+        motion_rates = self.explicit_time.motions.rates(float(state.t))[0]
+        rate = linked_geometric_rate_in_time(assembler, state, inertia_forces, w, motion_rates)
         return np.outer(rate, self.time_shift)
 
     def after_events(self, carried: dict, new) -> dict:

@@ -76,11 +76,14 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
 * the geometric term's own derivative, :func:`linked_geometric_derivative`: along (δq, δv, δv̇),
   s ∂(Pᵀ δr_all)/∂q[w] exactly (δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction
   with the inertia tangent, the dependent rates following the links through their compiled buffers), plus
-  s ∂/∂q(∂(Pᵀ r)/∂q[w]) δq at fixed r = r_all — the links' second derivatives, which no generated kernel holds: a
-  Richardson-extrapolated central difference of the links alone (:data:`LINKS_STEP`; their kinematics completed at
-  the moved configurations, the geometric term of the fixed r_all, no evaluation of the model); at an event moved
-  in time (δt_e) with prescribed motions, P moves with the prescribed coordinates too: the geometric term of the
-  inertia forces moved in time, ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, a difference of the links alone in t
+  s ∂/∂q(∂(Pᵀ r)/∂q[w]) δq at fixed r = r_all — the links' second derivatives, exactly
+  (:func:`geometric_second_product`: csrc/links.c ``geometric_term`` differentiated along the tree by the product
+  rule in csrc/linked_weight_second.c, whose header has the equations — the slots' maps moved,
+  δJ_c = δ(transfer) J_p + transfer δJ_p, from the generated edge kernels' ``*_rates_D_q``, the wrench kernels'
+  rows moved with the generated second derivatives :data:`SECOND_KERNELS`, a closure's g = ∂x_cᵀ r moving the pin's
+  wrench by D δx_p; no evaluation of the model, no difference); at an event moved in time (δt_e) with prescribed
+  motions, P moves with the prescribed coordinates too: the geometric term of the inertia forces moved in time,
+  ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, the same composition along the prescribed coordinates' rates q̇_p
   (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
 * differenced, the blocks not generated (as H_rest: loads, cables, couplings, hinges outside :func:`exact_hinges`),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
@@ -109,7 +112,7 @@ from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
 __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads",
-           "geometric_product", "linked_configuration_tangent", "linked_geometric_derivative",
+           "geometric_product", "geometric_second_product", "linked_configuration_tangent", "linked_geometric_derivative",
            "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
            "needs_the_kernel",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
@@ -700,28 +703,60 @@ def geometric_product(assembler, state, y: np.ndarray, w: np.ndarray) -> np.ndar
     return out[:n]
 
 
-#: the configuration step of the links' own difference in :func:`linked_geometric_derivative` (its second
-#: derivatives: no generated kernel), relative to the length scale over the move's size, and Richardson-extrapolated
-#: from it and its half: the links' kinematics alone, no evaluation, so a step far above round-off
-LINKS_STEP = 1e-3
+#: the generated second derivatives of the links' wrench kernels (codegen/joints.py) that
+#: csrc/linked_weight_second.c composes, in the order of its ``second`` argument
+SECOND_KERNELS = ("hinge_wrench_D_q_D_q", "slide_wrench_D_q_D_q", "slider_closure_wrench_D_q_D_q",
+                  "rod_closure_wrench_D_q_D_q")
 
 
-def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray, scale: float, rates,
-                                length: float) -> np.ndarray:
+def geometric_second_product(assembler, state, y: np.ndarray, w: np.ndarray, along: np.ndarray) -> np.ndarray:
+    """The move of :func:`geometric_product`'s ∂(Pᵀ y)/∂q · w at fixed y and w along ``along`` (n_total + 1: a move of
+    the free coordinates δq, or of the prescribed ones q̇_p, the move in time), exactly (n,):
+
+        d/dε [∂(Pᵀ y)/∂q (q ⊕ ε along) · w] at ε = 0
+
+    — the links' second derivatives, at ``state`` (its dependent nodes completed: J of it in the links' buffers):
+    csrc/links.c ``geometric_term`` differentiated along the tree by the product rule (csrc/linked_weight_second.c,
+    whose header has the equations), from the generated edge kernels' ``*_rates_D_q`` (the slots' maps J moved,
+    δJ_c = δ(transfer) J_p + transfer δJ_p) and the wrench kernels' second derivatives :data:`SECOND_KERNELS`."""
+    import ctypes
+
+    from latdyn.assembly.native_model import _kernel_address
+
+    model = assembler.model
+    n, size = model.n_dofs, model.n_total + 1
+    full, vector, marked, moved, out = (np.zeros(size), np.zeros(size), np.zeros(size, np.int64),
+                                        np.zeros(size), np.zeros(size))
+    full[:len(y)] = y
+    vector[:n] = w
+    marked[:n] = 1
+    moved[:len(along)] = along
+    second = (ctypes.c_void_p * 4)(*(_kernel_address(assembler.kernels, name) for name in SECOND_KERNELS))
+    native = assembler.native()
+    links = native.links.data
+    scratch = np.zeros((6 * links.width + 12) * links.n_slots)
+    native.library.latdyn_linked_geometric_second(native.model_ref, ctypes.byref(native.configuration(state)),
+                                                  full.ctypes.data, marked.ctypes.data, vector.ctypes.data,
+                                                  moved.ctypes.data, ctypes.addressof(second), scratch.ctypes.data,
+                                                  out.ctypes.data)
+    return out[:n]
+
+
+def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray, scale: float, rates) -> np.ndarray:
     """The derivative of the reduction's geometric term in W w, s ∂(Pᵀ r_all)/∂q[w] (module docstring, "Rigid links
     and guides"), along each column's move (δq, the free rates along ``rates`` = (δv, δv̇), the dependent ones
-    following; None: none moved, the dependent ones still following the configuration) (n, k):
+    following; None: none moved, the dependent ones still following the configuration) (n, k), exactly:
 
         s ∂(Pᵀ δr_all)/∂q[w] + s ∂/∂q (∂(Pᵀ r)/∂q[w]) δq at fixed r = r_all
 
-    the first exact — δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction with the
+    the first with δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction with the
     inertia tangent (the exact ∂r_all/∂q), δq_all = P δq, δv_all = P δv + ∂(J v)/∂q δq,
     δa_all = P δv̇ + ∂(J a + c)/∂q δq + ∂c/∂v δv (the compiled links' buffers, as csrc/linked_prescribed_rates.c
-    moves the dependent nodes), through the geometric term of δr_all (:func:`_geometric_product`) — the second the
-    links' second derivatives, which no kernel holds: a Richardson-extrapolated central difference of the geometric
-    term at fixed r along δq (:data:`LINKS_STEP`), the links completed at each configuration, no evaluation."""
+    moves the dependent nodes), through the geometric term of δr_all (:func:`geometric_product`); the second the
+    links' second derivatives, the geometric term of the fixed r_all moved along δq (:func:`geometric_second_product`,
+    generated kernels composed in C)."""
     model = assembler.model
-    n, n_asm = model.n_dofs, model.n_assembled
+    n = model.n_dofs
     ev = assembler.evaluate(state, matrices=True, inertia_tangent=True)
     P, r_all = ev.projection, ev.assembled_residual
     K_all, C_all, M_all = ev._assembled(0.0, 0.0, 1.0, True), ev._assembled(0.0, 1.0, 0.0, True), \
@@ -729,7 +764,6 @@ def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray,
     by_velocity, by_acceleration = ev.rates_tangent   # dense, or sparse on a sparse storage: applied, not converted
     convective = ev.velocity_derivative
     dependent = ev.dependent_rows
-    native = assembler.native()
     out = np.zeros((n, dq.shape[1]))
     for c in range(dq.shape[1]):
         along = dq[:, c]
@@ -742,47 +776,23 @@ def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray,
         da_all[dependent] += np.asarray(by_acceleration @ along + convective @ dv).reshape(-1)
         moved_residual = K_all @ dq_all + C_all @ dv_all + M_all @ da_all
         out[:, c] = geometric_product(assembler, state, moved_residual, w)
-
-    def links_term(along, eta):   # the geometric term at fixed r_all, the links completed at the moved configuration
-        moved = assembler.advance(state, eta * along)
-        native.complete_links(moved)
-        return geometric_product(assembler, moved, r_all, w)
-
-    for c in range(dq.shape[1]):   # after every exact column: this moves the links' buffers off the state
-        along = dq[:, c]
-        size = float(np.max(np.abs(along), initial=0.0))
-        if size == 0.0:
-            continue
-        h = LINKS_STEP * length / size
-        central = [(links_term(along, step) - links_term(along, -step)) / (2 * step) for step in (h, h / 2)]
-        out[:, c] += (4 * central[1] - central[0]) / 3
-    native.complete_links(state)
+        if np.any(along):
+            out[:, c] += geometric_second_product(assembler, state, r_all, w, along)
     return scale * out
 
 
-def linked_geometric_rate_in_time(assembler, state, y: np.ndarray, w: np.ndarray, motion_rates: np.ndarray,
-                                  length: float) -> np.ndarray:
+def linked_geometric_rate_in_time(assembler, state, y: np.ndarray, w: np.ndarray,
+                                  motion_rates: np.ndarray) -> np.ndarray:
     """∂/∂t (∂(Pᵀ y)/∂q[w]) at fixed y and fixed free coordinates (n,): the reduction's geometric term of y moved in
     time by the prescribed motions (P hangs the dependent nodes from the prescribed coordinates too) — the links'
-    second derivatives ∂²(Pᵀ y)/∂q[w]∂q_p q̇_p, which no kernel holds: a Richardson-extrapolated central difference
-    in t of the geometric term (:func:`geometric_product`) at the prescribed coordinates moved to their laws at
-    t ± η (the dependent nodes completed, no evaluation), η = :data:`LINKS_STEP` ℓ over the motions' largest rate
-    ``motion_rates`` (their q̇_p at t; all 0: the term is 0). An event's weight at t_e + δt_e takes it with y the
-    inertia forces' part of r_all (module docstring, "Rigid links and guides";
+    second derivatives ∂²(Pᵀ y)/∂q[w]∂q_p q̇_p, exactly: :func:`geometric_second_product` along the prescribed
+    coordinates' rates ``motion_rates`` (n_total + 1: q̇_p at t on the prescribed coordinates, 0 elsewhere,
+    :meth:`latdyn.analyses.prescribed_rates.PrescribedRates.rates`; all 0: the term is 0). An event's weight at
+    t_e + δt_e takes it with y the inertia forces' part of r_all (module docstring, "Rigid links and guides";
     ``TransientSensitivities._geometric_derivative``)."""
-    size = float(np.max(np.abs(motion_rates), initial=0.0))
-    if size == 0.0 or not np.any(y):
+    if not np.any(motion_rates) or not np.any(y):
         return np.zeros(assembler.model.n_dofs)
-
-    def at(shift):   # the prescribed coordinates at their laws at t + shift, the free ones held
-        moved = state.copy()
-        assembler.apply_prescribed(moved, state.t + shift)
-        return geometric_product(assembler, moved, y, w)
-
-    h = LINKS_STEP * length / size
-    central = [(at(step) - at(-step)) / (2 * step) for step in (h, h / 2)]
-    assembler.complete_links(state)   # the links' buffers at the state again
-    return (4 * central[1] - central[0]) / 3
+    return geometric_second_product(assembler, state, y, w, motion_rates)
 
 
 def _rates_jacobian_derivative(assembler, state, w: np.ndarray) -> np.ndarray:

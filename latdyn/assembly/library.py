@@ -469,6 +469,8 @@ def native_library() -> ctypes.CDLL:
                                                                P, P]
         library.latdyn_linked_geometric_product.restype = None
         library.latdyn_linked_geometric_product.argtypes = [model, configuration, P, P, P, P]
+        library.latdyn_linked_geometric_second.restype = None
+        library.latdyn_linked_geometric_second.argtypes = [model, configuration, P, P, P, P, P, P, P]
         library.latdyn_exact_matrix_values.restype = None
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None

@@ -301,6 +301,20 @@ static inline void geometric_entry(const Links *L, double *matrix, int64_t posit
     if (row < product->n && product->columns[column]) product->out[row] += value * product->rate[column];
 }
 
+/* The inputs of edge k's hinge_wrench or slide_wrench at c for the wrench r (6) of dependent node `node`: the edge
+ * parent's position and frame (12), the edge's axis, point and sign (7), the node's position and r (9). */
+static void hinge_wrench_inputs(const Links *L, const Configuration *c, int64_t k, int64_t node, const double *r,
+                                double *parent, double *data, double *wrench)
+{
+    const int64_t p = L->edge_parent[k];
+    memcpy(parent, c->x + 3 * p, 3 * sizeof(double));
+    memcpy(parent + 3, c->T + 9 * p, 9 * sizeof(double));
+    memcpy(data, L->edge_data + 13 * k, 6 * sizeof(double));
+    data[6] = L->edge_data[13 * k + 9];
+    memcpy(wrench, c->x + 3 * node, 3 * sizeof(double));
+    memcpy(wrench + 3, r, 6 * sizeof(double));
+}
+
 /* ∂(Pᵀ)/∂q · r_all, the geometric stiffness, from the dependent nodes' residual rows in L->wrench (which the closures
  * change: set them anew before each call) at c, into `matrix` (the matrix storage) or, with matrix NULL, times the
  * vector of `g_sink` (geometric_entry). */
@@ -361,15 +375,10 @@ static void geometric_term(const Model *m, const Configuration *c, double *matri
         for (int64_t t = s; L->slot_edge[t] >= 0; t = L->edge_parent_slot[L->slot_edge[t]]) {
             const int64_t k = L->slot_edge[t];
             if (L->edge_hinge[k] < 0) continue;
-            const int64_t p = L->edge_parent[k], sp = L->edge_parent_slot[k], column = L->slot_count[t] - 1;
+            const int64_t sp = L->edge_parent_slot[k], column = L->slot_count[t] - 1;
             const double *Jp = L->jacobian + 6 * W * sp;
             double parent[12], data[7], wrench[9], force, Dh[9];
-            memcpy(parent, c->x + 3 * p, 3 * sizeof(double));
-            memcpy(parent + 3, c->T + 9 * p, 9 * sizeof(double));
-            memcpy(data, L->edge_data + 13 * k, 6 * sizeof(double));
-            data[6] = L->edge_data[13 * k + 9];
-            memcpy(wrench, c->x + 3 * node, 3 * sizeof(double));
-            memcpy(wrench + 3, r, 6 * sizeof(double));
+            hinge_wrench_inputs(L, c, k, node, r, parent, data, wrench);
             (L->edge_kind[k] == 1 ? L->slide_wrench : L->hinge_wrench)(1, parent, data, wrench, &force, Dh);
             for (int64_t j = 0; j < count; ++j) {
                 double g = 0.0;

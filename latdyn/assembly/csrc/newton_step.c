@@ -34,6 +34,7 @@
 #include "prescribed_rates.c" /* ∂r/∂t through the prescribed motions, exactly, for the sensitivities */
 #include "linked_prescribed_rates.c" /* the same with rigid links or guides: the dependent nodes moved too */
 #include "linked_weight.c" /* the reduction's geometric term times vectors: an event weight's derivative with links */
+#include "linked_weight_second.c" /* its move along the configuration or in time: the links' second derivatives */
 #include "sensitivity_loop.c" /* the transient sensitivities' smooth step in the loop of steps */
 #include "adjoint_trajectory.c" /* the discrete adjoint's forward pass: the accepted steps stored */
 #include "adjoint_reverse.c" /* the discrete adjoint's reverse pass: a smooth step in one call */
