@@ -76,6 +76,11 @@ GIMBAL_MIXED = (GIMBAL_LOADS.replace("parameters: {k1: 6.0,", "parameters: {Kp: 
                 .replace('damping: "c2", lock_at', 'damping: "c2", torque: "pd", lock_at')
                 .replace("solve: {", 'controllers:\n  pd: {output: "Kp*(0.3 - a2) - Kd*r2*(1 + a2)"}\nsolve: {'))
 
+#: the gimbal with loads, its outer hinge damped by 0.05 (1 + 4θ²): the hinge's K_jj = ∂f/∂θ holds c′(θ) θ̇, which
+#: moves with the rate the reduction's move carries (∂K_jj/∂θ̇ not generated: its entry stays in the difference)
+GIMBAL_DAMPED = GIMBAL_LOADS.replace('stiffness: "k1", rest_angle: "rest"}}}',
+                                     'stiffness: "k1", rest_angle: "rest", damping: "0.05*(1 + 4*theta**2)"}}}')
+
 SCENES = {"the gimbal's loads in the rings' frames": (GIMBAL_LOADS, ["latch"], 5e-11),
           "the slider-crank's cables": (CRANK_CABLES, ["stop", "stop"], 1e-9),
           "the guided mass's follower load": (BEAD_FOLLOWER, ["stop"], 5e-11),
@@ -207,3 +212,16 @@ def test_the_slider_cranks_cables_through_the_cli_loop_on_and_off(tmp_path, monk
     result, _, differences = _at_events(CRANK_CABLES, monkeypatch)
     assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
     assert differences == 0
+
+
+def test_a_hinge_whose_stiffness_moves_with_its_rate_keeps_the_difference(monkeypatch):
+    """The gimbal with loads and its outer hinge damped by 0.05 (1 + 4θ²) (K_jj holds c′(θ) θ̇): that hinge's entry
+    is differenced along the move (its rate moves with it), the latch's ∂(W w)/∂q δq against the Richardson
+    reference 9.8e-12, where 10be92c, whose generated hinges' part left the rate's move out, was 1.7e-4 off."""
+    result, errors, differences = _at_events(GIMBAL_DAMPED, monkeypatch)
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"] and differences > 0
+    assert errors and max(errors) < 5e-11, errors
+    from latdyn.analyses.weight_derivative import linked_exact_hinges
+
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL_DAMPED)))
+    assert linked_exact_hinges(prepared.assembler).tolist() == [False, True]

@@ -63,16 +63,25 @@ the blocks on the assembled coordinates, free and dependent, P = [I; J] the proj
 reduction, with the inertia forces at the state's rates). :func:`configuration_tangent_of_weight` does not take them
 (its free coordinates are the assembled ones); ``TransientSensitivities._linked_weight_derivative`` splits W_red w:
 
-* exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`exact_hinges`) through the
-  reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
+* exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point loads of
+  :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings`:
+  :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
-  on every assembled coordinate (the dependent nodes' elements and bodies too), ∂(Pᵀ y)/∂q at fixed y the forward
+  on every assembled coordinate (the dependent nodes' elements and bodies too; a load on a node that follows the
+  links on its dependent turns and its frame body's, a global load's zero frame half skipped; a cable element on
+  both ends' coordinates, dependent ones too, taut at the state, a slack one's zero), y holding the loads', cables'
+  and couplings' W w, ∂(Pᵀ y)/∂q at fixed y the forward
   step's geometric term of y (csrc/links.c ``geometric_term`` from the generated wrench kernels, times δq:
   csrc/linked_weight.c), ∂(J w)/∂q the compiled links' rates' derivative at rates w (csrc/links.c
   ``dependent_rates_tangent``, the generated edge kernels' ``*_rates_D_q``): the derivative of P along δq applied
   to w, exact for every edge kind (hinges, slides, closures), where a polarisation of the links' quadratic term
   would hold for their positions' rows alone (on the 3D gimbal of skew hinges ∂(J w)/∂q δq and ∂(J δq)/∂q w differ
-  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations');
+  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations'); of those blocks only the damped taut
+  cables' K_c moves with the rates (the loads' with the configuration and t alone, the couplings' of
+  :func:`linked_exact_couplings` not: no mixed second derivative by an angle and a rate), and the move carries the
+  rates, the dependent ones following the configuration too: Pᵀ s ∂(K_c u)/∂v_all δv_all with
+  δv_all = P δv + ∂(J v)/∂q δq, exactly (K_c affine in the rates: ``cable_stiffness_D_q`` at the move less at none,
+  :func:`linked_cable_rates_product`);
 * the geometric term's own derivative, :func:`linked_geometric_derivative`: along (δq, δv, δv̇),
   s ∂(Pᵀ δr_all)/∂q[w] exactly (δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction
   with the inertia tangent, the dependent rates following the links through their compiled buffers), plus
@@ -82,11 +91,17 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   in time (δt_e) with prescribed motions, P moves with the prescribed coordinates too: the geometric term of the
   inertia forces moved in time, ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, a difference of the links alone in t
   (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
-* differenced, the blocks not generated (as H_rest: loads, cables, couplings, hinges outside :func:`exact_hinges`),
+* differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
+  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings whose output mixes an
+  angle and a rate and the hinges whose K_jj moves with their rate (:func:`linked_exact_hinges`: their entries move
+  with the rates the move carries; ∂(K w)/∂v of them is not generated),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
   part's round-off, 1e-8 of H δq over the step on the slider-crank), centrally along each column's move (δq, the free
   rates along δv, δv̇, the dependent ones completed) as before, two evaluations a parameter — none where the model
-  has no such block (:func:`linked_has_rest`).
+  has no such block (:func:`linked_has_rest`: the gimbal latching with loads in the rings' frames, a slider-crank
+  with damped cables, a guided mass with follower loads, a chain of rigid bays with a PD of its hinges' angles and
+  rate take none; 10be92c took 2k there, docs/performance.md "The linked weight's loads, cables and couplings
+  generated (issue 34)").
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
 evaluations a parameter; its transpose in the adjoint, two a free rate; generated where the damped taut cables' block
@@ -112,7 +127,7 @@ from latdyn.numerics.linalg import RCM_IN_PYTHON
 
 __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads",
            "geometric_product", "linked_configuration_tangent", "linked_geometric_derivative",
-           "linked_cable_rates_product", "linked_exact_couplings", "linked_generated_loads",
+           "linked_cable_rates_product", "linked_exact_couplings", "linked_exact_hinges", "linked_generated_loads",
            "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
            "needs_the_kernel",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
@@ -542,18 +557,20 @@ def exact_hinges(assembler) -> np.ndarray:
     return out
 
 
-def _hinge_part(assembler, state, w: np.ndarray, scale: float):
+def _hinge_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None):
     """(rows, values) of the hinges' part of H, on its diagonal: s (∂K_jj/∂θ_j) w_j for each free hinge j with
     w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated ``hinge_stiffness_by_angle``,
     codegen/joints.py, from the laws' values, first and second derivatives in θ at the state; a hinge driven by a
-    continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces)."""
+    continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces). ``exact`` (free hinges,)
+    bool: the hinges taken (default :func:`exact_hinges`; :func:`linked_exact_hinges`)."""
     from latdyn.assembly.native_model import joint_contact_rows
 
     model = assembler.model
     n = model.n_dofs
     free = np.asarray(model.free_hinges, np.int64)
     dofs = np.asarray(model.hinge_dofs, np.int64)[free] if len(free) else np.zeros(0, np.int64)
-    on = [(j, d) for j, d, exact in zip(free, dofs, exact_hinges(assembler)) if exact and d < n and w[d] != 0.0]
+    exact = exact_hinges(assembler) if exact is None else exact
+    on = [(j, d) for j, d, taken in zip(free, dofs, exact) if taken and d < n and w[d] != 0.0]
     if not on:
         return np.zeros(0, np.int64), np.zeros(0)
     kernels, scene = assembler.kernels, model.scene
@@ -665,6 +682,27 @@ def stiffness_moving_with_rates(assembler, state) -> tuple:
     return tuple(name for name, a, b in zip(STIFFNESS_BLOCKS, here, there) if not np.array_equal(a, b))
 
 
+def linked_exact_hinges(assembler) -> np.ndarray:
+    """(free hinges,) bool: the free hinges (guides) whose diagonal entry of H a model with rigid links or guides takes
+    generated (:func:`_hinge_part`, :func:`linked_configuration_tangent`): those of :func:`exact_hinges` whose
+    K_jj = ∂f/∂θ does not move with the hinge's rate, which the reduction's move carries
+    (``TransientSensitivities._linked_move``; ∂K_jj/∂θ̇ is not generated): no stiffness law of θ̇, no damping law of θ
+    (c(θ) θ̇ has ∂/∂θ = c′(θ) θ̇), no torque law of θ and θ̇ both, no compliant stop with damping (n δⁿ⁻¹ c δ̇ in
+    contact). The others keep the difference (:func:`linked_rest_product`): before, their entries' move with the rates
+    was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch)."""
+    model = assembler.model
+    out = exact_hinges(assembler).copy()
+    for i, j in enumerate(model.free_hinges):
+        if not out[i]:
+            continue
+        laws = {key: (law.depends_on if law is not None else ()) for key, law in _hinge_laws(assembler, int(j))}
+        contact = model.hinges[j].contact
+        out[i] = not ("theta_dot" in laws["stiffness"] or "theta" in laws["damping"]
+                      or {"theta", "theta_dot"} <= set(laws["torque"])
+                      or (contact is not None and contact.damping != 0.0))
+    return out
+
+
 def linked_generated_loads(assembler) -> np.ndarray:
     """(loads,) bool: the point loads whose part of H a model with rigid links or guides takes generated
     (:func:`_load_part` on the assembled coordinates, :func:`linked_configuration_tangent`): those of
@@ -679,15 +717,15 @@ def linked_generated_loads(assembler) -> np.ndarray:
 
 def _mixed_curvature_vanishes(controller, angles: tuple, rates: tuple) -> bool:
     """Whether SymPy's ∂²f/∂s_i∂ṡ_j of a continuous controller's output f by its angle reads ``angles`` and rate
-    reads ``rates`` (positions in its reads) is 0 identically: its couplings' entries −a ∂f/∂θ then do not move
-    with the rates. Made once per output's text, reads and positions in a process (:data:`_CURVATURES`)."""
+    reads ``rates`` (positions in its reads) is 0 as SymPy writes it (not simplified: an output whose mixed
+    derivative is 0 only after simplification keeps the difference): its couplings' entries −a ∂f/∂θ then do not
+    move with the rates. Made once per output's text, reads and positions in a process (:data:`_CURVATURES`)."""
     reads = controller.symbols[1:1 + len(controller.reads)]
     key = ("mixed", str(controller.output_expr), tuple(str(x) for x in controller.symbols), angles, rates)
     if key not in _CURVATURES:
         import sympy as sp
 
-        _CURVATURES[key] = all(sp.simplify(sp.diff(controller.output_expr, reads[i], reads[j])) == 0
-                               for i in angles for j in rates)
+        _CURVATURES[key] = all(sp.diff(controller.output_expr, reads[i], reads[j]) == 0 for i in angles for j in rates)
     return _CURVATURES[key]
 
 
@@ -737,7 +775,7 @@ def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, g
     """W_gen (``generated``) or W_rest on the assembled coordinates (n_assembled², free and dependent; dense or CSR as
     :meth:`latdyn.assembly.assembler.Assembler.assemble`) of a model with rigid links or guides, from the blocks of
     ``ev`` before the reduction (latdyn/assembly/linked.py ``LinkedEvaluation.blocks``): W_gen c_m M + s K of the
-    elements, the joint bodies, the free hinges whose part of H is generated (``exact``: :func:`exact_hinges`), the
+    elements, the joint bodies, the free hinges whose part of H is generated (``exact``: :func:`linked_exact_hinges`), the
     point loads of :func:`linked_generated_loads`, the cable elements and the couplings of
     :func:`linked_exact_couplings` (:func:`_linked_split`); W_rest the other blocks' (the other hinges', the loads a
     controller drives, the other couplings); W_gen + W_rest = c_m M + s K before the reduction (the mass has no
@@ -758,10 +796,10 @@ def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, g
 def linked_has_rest(assembler) -> bool:
     """Whether a model with rigid links or guides has blocks whose part of H is not generated (W_rest of
     :func:`_linked_weight`): a point load a continuous controller drives (not :func:`linked_generated_loads`), a
-    coupling not in :func:`linked_exact_couplings`, or a free hinge not in :func:`exact_hinges`. Without them W_rest
+    coupling not in :func:`linked_exact_couplings`, or a free hinge not in :func:`linked_exact_hinges`. Without them W_rest
     is 0 and its difference takes no evaluation."""
     return bool(not np.all(linked_generated_loads(assembler)) or not np.all(linked_exact_couplings(assembler))
-                or not np.all(exact_hinges(assembler)))
+                or not np.all(linked_exact_hinges(assembler)))
 
 
 def linked_rest_product(assembler, ev, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
@@ -770,7 +808,7 @@ def linked_rest_product(assembler, ev, w: np.ndarray, scale: float, mass: bool) 
     (the reduced W w less the exact part carried that part's round-off, 1e-8 of H δq over the step on the
     slider-crank)."""
     P = ev.projection
-    W_rest = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=False)
+    W_rest = _linked_weight(assembler, ev, scale, mass, linked_exact_hinges(assembler), generated=False)
     return np.asarray(P.T @ (W_rest @ np.asarray(P @ w))).reshape(-1)
 
 
@@ -950,7 +988,8 @@ def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray
     n, n_asm, size = model.n_dofs, model.n_assembled, model.n_total + 1
     ev = assembler.evaluate(state, matrices=True)
     P = ev.projection
-    W_gen = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=True)
+    hinges = linked_exact_hinges(assembler)
+    W_gen = _linked_weight(assembler, ev, scale, mass, hinges, generated=True)
     u = np.zeros(size)
     u[:n_asm] = np.asarray(P @ w).reshape(-1)
     y = np.zeros(size)
@@ -962,7 +1001,7 @@ def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray
     rows, cols, values = (np.concatenate([part[i] for part in parts]) for i in range(3))
     keep = (rows < n_asm) & (cols < n_asm)
     H_gen = csr.CSR.from_coo(values[keep], rows[keep], cols[keep], (n_asm, n_asm))
-    hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale)
+    hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale, exact=hinges)
     by_rates = _rates_jacobian_derivative(assembler, state, w)
     dependent_rows = model.node_dofs[model.links.dependent].ravel()
     native = assembler.native()
