@@ -24,14 +24,13 @@ import yaml
 
 import latdyn
 from latdyn.analyses import weight_derivative
-from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.assembly.assembler import free_acceleration, free_velocity, unpack_free
 from latdyn.assembly.prepare import prepare
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_guides import GUIDE_3D
 from tests.test_sensitivities_in_loop_sparse import LONG_CHAIN
 from tests.test_sensitivities_rigid_links import LATCH, SLIDER_CRANK
-from tests.test_weight_derivative_linked import _reference
+from tests.test_weight_derivative_linked import checked_against_the_reference, turned_state
 
 #: the gimbal latching, its tip load in the inner ring's frame, a follower force and moment on the outer ring (a
 #: dependent node: its turns follow the links) and a global force on the inner ring (its block zero)
@@ -105,18 +104,13 @@ def test_the_loads_cables_and_couplings_are_generated_through_the_reduction(name
     differences of Pᵀ W_gen P w along (δq, δv, δv̇) (steps 4e-5, 2e-5, 1e-5: the chain's elements of 0.021 m leave
     6e-8 of truncation at 4e-4), W = M + 1e-4 K and W = K (measured 5.5e-13 – 9.8e-12). On 10be92c
     W_rest held the loads', cables' and couplings' blocks."""
-    from latdyn.analyses.weight_derivative import _linked_weight, exact_hinges, linked_configuration_tangent, linked_has_rest
+    from latdyn.analyses.weight_derivative import _linked_weight, linked_configuration_tangent, linked_has_rest
 
-    prepared = prepare(latdyn.load_scene(yaml.safe_load(SCENES[name][0])))
-    assembler, model = prepared.assembler, prepared.model
-    rng = np.random.default_rng(7)
-    n = model.n_dofs
-    state = assembler.advance(prepared.state, 0.01 * rng.normal(size=n))
-    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
-    unpack_free(model, rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
-    assembler.complete_links(state)
+    assembler, state, rng = turned_state(SCENES[name][0], 7, 0.01)
+    n = assembler.model.n_dofs
+    hinges = np.ones(len(assembler.model.free_hinges), bool)   # every hinge's part generated on these scenes
     ev = assembler.evaluate(state, matrices=True)
-    W_rest = _linked_weight(assembler, ev, 1.0, True, exact_hinges(assembler), generated=False)
+    W_rest = _linked_weight(assembler, ev, 1.0, True, hinges, generated=False)
     assert not linked_has_rest(assembler) and not np.any(np.asarray(W_rest.todense() if hasattr(W_rest, "todense")
                                                                     else W_rest))
     from latdyn.analyses.weight_derivative import linked_cable_rates_product
@@ -132,7 +126,7 @@ def test_the_loads_cables_and_couplings_are_generated_through_the_reduction(name
         def product(h):
             moved = _moved(assembler, state, h, dq[:, 0], dv[:, 0], dvdot[:, 0])
             ev = assembler.evaluate(moved, matrices=True)
-            W_gen = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=True)
+            W_gen = _linked_weight(assembler, ev, scale, mass, hinges, generated=True)
             return np.asarray(ev.projection.T @ (W_gen @ np.asarray(ev.projection @ w))).reshape(-1)
 
         d1, d2, d3 = ((product(h) - product(-h)) / (2 * h) for h in (4e-5, 2e-5, 1e-5))
@@ -144,22 +138,13 @@ def test_the_loads_cables_and_couplings_are_generated_through_the_reduction(name
 def _at_events(text, monkeypatch):
     """The scene run through the API, each event's ∂(W w)/∂q δq's error against tests/test_weight_derivative_linked's
     Richardson reference (relative to its largest) and the count of the differences of W_rest taken."""
-    method, rest = TransientSensitivities._linked_weight_derivative, weight_derivative.linked_rest_product
-    errors, differences = [], []
-
-    def checked(self, state, w, dq, scale, mass, rates):
-        out = method(self, state, w, dq, scale, mass, rates)
-        reference = _reference(self, state, w, dq, scale, mass, rates)
-        size = float(np.max(np.abs(reference)))
-        if size > 0.0:
-            errors.append(float(np.max(np.abs(out - reference))) / size)
-        return out
+    rest = weight_derivative.linked_rest_product
+    errors, differences = checked_against_the_reference(monkeypatch), []
 
     def counted(*args, **kwargs):
         differences.append(1)
         return rest(*args, **kwargs)
 
-    monkeypatch.setattr(TransientSensitivities, "_linked_weight_derivative", checked)
     monkeypatch.setattr("latdyn.analyses.transient_sensitivities.linked_rest_product", counted)
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     return result, errors, len(differences)
