@@ -63,8 +63,8 @@ the blocks on the assembled coordinates, free and dependent, P = [I; J] the proj
 reduction, with the inertia forces at the state's rates). :func:`configuration_tangent_of_weight` does not take them
 (its free coordinates are the assembled ones); ``TransientSensitivities._linked_weight_derivative`` splits W_red w:
 
-* exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point loads of
-  :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings`:
+* exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point
+  loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings`:
   :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
   on every assembled coordinate (the dependent nodes' elements and bodies too; a load on a node that follows the
@@ -145,7 +145,7 @@ _SLOPES: dict = {}
 _CURVATURES: dict = {}
 #: id(the assembler's controllers' wiring) -> (a weak reference to the wiring, its :func:`linked_exact_couplings`):
 #: found once per wiring (a latch's renumbering wires them again), not at each of an event's evaluations (the outputs'
-#: text from SymPy, 10 ms an event on the gimbal with a controller)
+#: text from SymPy: 18 ms an event on the gimbal with a mixed PD before, 9 ms after)
 _LINKED_COUPLINGS: dict = {}
 
 
@@ -707,7 +707,9 @@ def linked_generated_loads(assembler) -> np.ndarray:
     """(loads,) bool: the point loads whose part of H a model with rigid links or guides takes generated
     (:func:`_load_part` on the assembled coordinates, :func:`linked_configuration_tangent`): those of
     :func:`exact_loads` with no component a continuous controller drives (K_l then depends on the configuration and
-    the state's time alone, not on the rates the reduction's move carries)."""
+    the state's time alone, not on the rates the reduction's move carries; the same loads as :func:`exact_loads`
+    today, kept apart so that a driven load that function may come to take, whose values move with its controller's
+    sensors and their rates, stays differenced here)."""
     control = assembler.control
     out = exact_loads(assembler).copy()
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
@@ -733,10 +735,10 @@ def linked_exact_couplings(assembler) -> np.ndarray:
     """(couplings,) bool: the continuous controllers' coupling entries of K whose part of H a model with rigid links
     or guides takes generated (:func:`_coupling_part`, :func:`linked_configuration_tangent`): those of
     :func:`exact_couplings` whose controller reads joints' angles and rates alone (a joint's coordinate and rate are
-    free ones, or none where it is locked or prescribed: P does not move their rows) with an output whose mixed second derivatives by an angle and a rate
-    vanish (:func:`_mixed_curvature_vanishes`; the entries then do not move with the rates that the reduction's move
-    carries, ``TransientSensitivities._linked_move``). The others keep the difference
-    (:func:`linked_rest_product`)."""
+    free ones, or none where it is locked or prescribed: P does not move their rows) with an output whose mixed
+    second derivatives by an angle and a rate vanish (:func:`_mixed_curvature_vanishes`; the entries then do not move
+    with the rates that the reduction's move carries, ``TransientSensitivities._linked_move``). The others keep the
+    difference (:func:`linked_rest_product`)."""
     control = assembler.control
     held = _LINKED_COUPLINGS.get(id(control))
     if held is not None and held[0]() is control:
@@ -762,7 +764,7 @@ def _linked_split(assembler, exact: np.ndarray):
     """(hinges (free hinges,), loads and cables (the flat entries of K's block 3), couplings (the flat entries of
     block 4)) bool: whether each entry of the evaluation's blocks (:meth:`latdyn.assembly.evaluation.Evaluation.
     flat_blocks`) is in W_gen on a model with rigid links or guides (:func:`_linked_weight`): the hinges of
-    ``exact`` (:func:`exact_hinges`), the loads of :func:`linked_generated_loads`, every cable element (taut or
+    ``exact`` (:func:`linked_exact_hinges`), the loads of :func:`linked_generated_loads`, every cable element (taut or
     slack: :func:`_cable_part` takes the taut ones, a slack one's block is the runtime's zero), the couplings of
     :func:`linked_exact_couplings`."""
     loads = np.broadcast_to(linked_generated_loads(assembler)[:, None, None], (len(assembler.loads), 6, 6))
@@ -775,9 +777,9 @@ def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, g
     """W_gen (``generated``) or W_rest on the assembled coordinates (n_assembled², free and dependent; dense or CSR as
     :meth:`latdyn.assembly.assembler.Assembler.assemble`) of a model with rigid links or guides, from the blocks of
     ``ev`` before the reduction (latdyn/assembly/linked.py ``LinkedEvaluation.blocks``): W_gen c_m M + s K of the
-    elements, the joint bodies, the free hinges whose part of H is generated (``exact``: :func:`linked_exact_hinges`), the
-    point loads of :func:`linked_generated_loads`, the cable elements and the couplings of
-    :func:`linked_exact_couplings` (:func:`_linked_split`); W_rest the other blocks' (the other hinges', the loads a
+    elements, the joint bodies, the free hinges whose part of H is generated (``exact``:
+    :func:`linked_exact_hinges`), the point loads of :func:`linked_generated_loads`, the cable elements and the
+    couplings of :func:`linked_exact_couplings` (:func:`_linked_split`); W_rest the other blocks' (the other hinges', the loads a
     controller drives, the other couplings); W_gen + W_rest = c_m M + s K before the reduction (the mass has no
     entry in the hinges', loads' and couplings' blocks: latdyn.assembly.assembler.Assembler.evaluation_in)."""
     from latdyn.assembly.evaluation import Evaluation
@@ -796,8 +798,8 @@ def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, g
 def linked_has_rest(assembler) -> bool:
     """Whether a model with rigid links or guides has blocks whose part of H is not generated (W_rest of
     :func:`_linked_weight`): a point load a continuous controller drives (not :func:`linked_generated_loads`), a
-    coupling not in :func:`linked_exact_couplings`, or a free hinge not in :func:`linked_exact_hinges`. Without them W_rest
-    is 0 and its difference takes no evaluation."""
+    coupling not in :func:`linked_exact_couplings`, or a free hinge not in :func:`linked_exact_hinges`. Without them
+    W_rest is 0 and its difference takes no evaluation."""
     return bool(not np.all(linked_generated_loads(assembler)) or not np.all(linked_exact_couplings(assembler))
                 or not np.all(linked_exact_hinges(assembler)))
 
@@ -978,9 +980,9 @@ def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray
     (:func:`_generated`), the point loads' (:func:`_load_part` of :func:`linked_generated_loads`: a load on a
     dependent node on its dependent turns, a global load's zero frame half skipped), the taut cable elements'
     (:func:`_cable_part`, between dependent nodes too; a slack one's zero), the couplings' of
-    :func:`linked_exact_couplings` (:func:`_coupling_part`) and the generated hinges' diagonal (:func:`_hinge_part`;
-    a hinge's coordinate is free, so P does not move its row), ∂(Pᵀ y)/∂q at fixed y the reduction's geometric term of y (the forward step's,
-    csrc/links.c ``geometric_term``, times δq: ``latdyn_linked_geometric_product``, csrc/linked_weight.c), and
+    :func:`linked_exact_couplings` (:func:`_coupling_part`) and the generated hinges' diagonal (:func:`_hinge_part`
+    of :func:`linked_exact_hinges`; a hinge's coordinate is free, so P does not move its row), ∂(Pᵀ y)/∂q at fixed y
+    the reduction's geometric term of y (the forward step's, csrc/links.c ``geometric_term``, times δq: ``latdyn_linked_geometric_product``, csrc/linked_weight.c), and
     ∂(J w)/∂q the compiled links' rates' derivative at rates w (:func:`_rates_jacobian_derivative`)."""
     import ctypes
 
