@@ -35,6 +35,20 @@ def _generated_product(assembler, state, w, scale, mass):
     return np.asarray(P.T @ (W_gen @ np.asarray(P @ w))).reshape(-1)
 
 
+def turned_state(text: str, seed: int, size: float) -> tuple:
+    """(assembler, state, the random generator after its draws): the scene's initial state turned and deformed by
+    ``size`` times a normal draw on every free coordinate, with normal rates and accelerations, the links completed."""
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
+    assembler, model = prepared.assembler, prepared.model
+    rng = np.random.default_rng(seed)
+    n = model.n_dofs
+    state = assembler.advance(prepared.state, size * rng.normal(size=n))
+    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
+    unpack_free(model, rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
+    assembler.complete_links(state)
+    return assembler, state, rng
+
+
 @pytest.mark.parametrize("text", [GIMBAL, SLIDER_CRANK, CLOSED_SLIDER_CRANK],
                          ids=["3D gimbal of skew hinges", "slider-crank on a guide", "slider-crank closed by a rod"])
 def test_the_exact_part_is_the_richardson_difference_of_the_generated_product(text):
@@ -43,14 +57,8 @@ def test_the_exact_part_is_the_richardson_difference_of_the_generated_product(te
     (measured 2e-13 – 5e-11; 6e-12 – 1.4e-11 at the events of the gimbal and the slider-crank)."""
     from latdyn.analyses.weight_derivative import linked_configuration_tangent
 
-    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
-    assembler, model = prepared.assembler, prepared.model
-    rng = np.random.default_rng(3)
-    n = model.n_dofs
-    state = assembler.advance(prepared.state, 0.05 * rng.normal(size=n))
-    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
-    unpack_free(model, rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
-    assembler.complete_links(state)
+    assembler, state, rng = turned_state(text, 3, 0.05)
+    n = assembler.model.n_dofs
     compared = []
     for mass, scale in ((True, 1e-4), (False, 1.0)):
         w, dq = rng.normal(size=n), rng.normal(size=(n, 1))
@@ -89,6 +97,25 @@ def _reference(owner, state, w, dq, scale, mass, rates):
     return out
 
 
+def checked_against_the_reference(monkeypatch) -> list:
+    """``TransientSensitivities._linked_weight_derivative`` patched to compare each call's result with
+    :func:`_reference` at the same arguments (its result unchanged): the list each call's error goes into (relative
+    to the reference's largest; none where the reference is 0)."""
+    method = TransientSensitivities._linked_weight_derivative
+    errors = []
+
+    def checked(self, state, w, dq, scale, mass, rates):
+        out = method(self, state, w, dq, scale, mass, rates)
+        reference = _reference(self, state, w, dq, scale, mass, rates)
+        size = float(np.max(np.abs(reference)))
+        if size > 0.0:
+            errors.append(float(np.max(np.abs(out - reference))) / size)
+        return out
+
+    monkeypatch.setattr(TransientSensitivities, "_linked_weight_derivative", checked)
+    return errors
+
+
 #: scene, the events, and the largest error of ∂(W w)/∂q δq at its events relative to the largest |∂(W w)/∂q δq|
 #: asserted: measured 1.3e-12, 1.3e-11, 6.4e-10, 2.0e-8 (the last at a restart after a stop, δq = 0: the rates' move
 #: alone; the reference's own error there, 2.0e-8 against steps 100 × the package's, 8.6e-9 against 300 ×); the single
@@ -105,18 +132,7 @@ def test_the_weight_derivative_at_linked_events_agrees_with_richardson_closer_th
     Richardson-extrapolated differences of the reduced W w: within the tolerance of :data:`EVENTS`, which the
     single central difference of W w (6cda559) exceeded."""
     text, events, tolerance = EVENTS[name]
-    method = TransientSensitivities._linked_weight_derivative
-    errors = []
-
-    def checked(self, state, w, dq, scale, mass, rates):
-        out = method(self, state, w, dq, scale, mass, rates)
-        reference = _reference(self, state, w, dq, scale, mass, rates)
-        size = float(np.max(np.abs(reference)))
-        if size > 0.0:
-            errors.append(float(np.max(np.abs(out - reference))) / size)
-        return out
-
-    monkeypatch.setattr(TransientSensitivities, "_linked_weight_derivative", checked)
+    errors = checked_against_the_reference(monkeypatch)
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     assert [e["kind"] for e in result.summary["events"]] == events
     assert errors and max(errors) < tolerance, errors

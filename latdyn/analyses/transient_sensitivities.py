@@ -139,6 +139,7 @@ from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configu
                                                geometric_product, linked_configuration_tangent,
                                                linked_geometric_rate_in_time,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
+                                               linked_cable_rates_product,
                                                needs_the_kernel, refuse_without_kernel, stiffness_moving_with_rates,
                                                times)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
@@ -983,7 +984,9 @@ class TransientSensitivities(ParameterDerivatives):
                                   rates) -> np.ndarray:
         """∂(W w)/∂q δq (n, k) of :meth:`_weight_derivative` with guides or rigid links (the reduction's W w,
         latdyn/analyses/weight_derivative.py "Rigid links and guides"): the generated blocks' part Pᵀ W_gen P w exactly
-        (:func:`latdyn.analyses.weight_derivative.linked_configuration_tangent`), the reduction's geometric term
+        (:func:`latdyn.analyses.weight_derivative.linked_configuration_tangent`: the elements', joint bodies', generated
+        hinges', loads', cables' and couplings' blocks; the damped taut cables' move with the rates,
+        :func:`latdyn.analyses.weight_derivative.linked_cable_rates_product`), the reduction's geometric term
         s ∂(Pᵀ r_all)/∂q[w] exactly, the links' second derivatives generated
         (:func:`latdyn.analyses.weight_derivative.linked_geometric_derivative`), and the blocks not generated,
         Pᵀ W_rest P w where the model has them (:func:`latdyn.analyses.weight_derivative.linked_has_rest`), a central
@@ -991,6 +994,9 @@ class TransientSensitivities(ParameterDerivatives):
         assembler = self.assembler
         out = linked_configuration_tangent(assembler, state, w, dq, scale, mass)
         out += linked_geometric_derivative(assembler, state, w, dq, scale, rates)
+        by_rates = linked_cable_rates_product(assembler, state, w, dq, scale, rates)
+        if by_rates is not None:   # the damped taut cables' c ℓ̇ moving with the rates, the dependent ones' too
+            out += by_rates
         if not linked_has_rest(assembler):
             return out
         for c in range(dq.shape[1]):

@@ -63,16 +63,25 @@ the blocks on the assembled coordinates, free and dependent, P = [I; J] the proj
 reduction, with the inertia forces at the state's rates). :func:`configuration_tangent_of_weight` does not take them
 (its free coordinates are the assembled ones); ``TransientSensitivities._linked_weight_derivative`` splits W_red w:
 
-* exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`exact_hinges`) through the
-  reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
+* exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point
+  loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings`:
+  :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
-  on every assembled coordinate (the dependent nodes' elements and bodies too), ∂(Pᵀ y)/∂q at fixed y the forward
+  on every assembled coordinate (the dependent nodes' elements and bodies too; a load on a node that follows the
+  links on its dependent turns and its frame body's, a global load's zero frame half skipped; a cable element on
+  both ends' coordinates, dependent ones too, taut at the state, a slack one's zero), y holding the loads', cables'
+  and couplings' W w, ∂(Pᵀ y)/∂q at fixed y the forward
   step's geometric term of y (csrc/links.c ``geometric_term`` from the generated wrench kernels, times δq:
   csrc/linked_weight.c), ∂(J w)/∂q the compiled links' rates' derivative at rates w (csrc/links.c
   ``dependent_rates_tangent``, the generated edge kernels' ``*_rates_D_q``): the derivative of P along δq applied
   to w, exact for every edge kind (hinges, slides, closures), where a polarisation of the links' quadratic term
   would hold for their positions' rows alone (on the 3D gimbal of skew hinges ∂(J w)/∂q δq and ∂(J δq)/∂q w differ
-  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations');
+  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations'); of those blocks only the damped taut
+  cables' K_c moves with the rates (the loads' with the configuration and t alone, the couplings' of
+  :func:`linked_exact_couplings` not: no mixed second derivative by an angle and a rate), and the move carries the
+  rates, the dependent ones following the configuration too: Pᵀ s ∂(K_c u)/∂v_all δv_all with
+  δv_all = P δv + ∂(J v)/∂q δq, exactly (K_c affine in the rates: ``cable_stiffness_D_q`` at the move less at none,
+  :func:`linked_cable_rates_product`);
 * the geometric term's own derivative, :func:`linked_geometric_derivative`: along (δq, δv, δv̇),
   s ∂(Pᵀ δr_all)/∂q[w] exactly (δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction
   with the inertia tangent, the dependent rates following the links through their compiled buffers), plus
@@ -85,11 +94,17 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   motions, P moves with the prescribed coordinates too: the geometric term of the inertia forces moved in time,
   ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, the same composition along the prescribed coordinates' rates q̇_p
   (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
-* differenced, the blocks not generated (as H_rest: loads, cables, couplings, hinges outside :func:`exact_hinges`),
+* differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
+  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings whose output mixes an
+  angle and a rate and the hinges whose K_jj moves with their rate (:func:`linked_exact_hinges`: their entries move
+  with the rates the move carries; ∂(K w)/∂v of them is not generated),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
   part's round-off, 1e-8 of H δq over the step on the slider-crank), centrally along each column's move (δq, the free
   rates along δv, δv̇, the dependent ones completed) as before, two evaluations a parameter — none where the model
-  has no such block (:func:`linked_has_rest`).
+  has no such block (:func:`linked_has_rest`: the gimbal latching with loads in the rings' frames, a slider-crank
+  with damped cables, a guided mass with follower loads, a chain of rigid bays with a PD of its hinges' angles and
+  rate take none; 10be92c took 2k there, docs/performance.md "The linked weight's loads, cables and couplings
+  generated (issue 34)").
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
 evaluations a parameter; its transpose in the adjoint, two a free rate; generated where the damped taut cables' block
@@ -105,6 +120,8 @@ rate alone), nor a stop out of contact, an undamped one, an undamped cable or a 
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from latdyn.numerics import csr
@@ -113,6 +130,7 @@ from latdyn.numerics.linalg import RCM_IN_PYTHON
 
 __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads",
            "geometric_product", "geometric_second_product", "linked_configuration_tangent", "linked_geometric_derivative",
+           "linked_cable_rates_product", "linked_exact_couplings", "linked_exact_hinges", "linked_generated_loads",
            "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
            "needs_the_kernel",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
@@ -128,6 +146,10 @@ RATES_MOVE = 1e-3
 _SLOPES: dict = {}
 #: (output's text, symbols, angle reads) -> its :func:`_output_curvature`, made once per process
 _CURVATURES: dict = {}
+#: id(the assembler's controllers' wiring) -> (a weak reference to the wiring, its :func:`linked_exact_couplings`):
+#: found once per wiring (a latch's renumbering wires them again), not at each of an event's evaluations (the outputs'
+#: text from SymPy: 18 ms an event on the gimbal with a mixed PD before, 9 ms after)
+_LINKED_COUPLINGS: dict = {}
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -273,18 +295,24 @@ def _law_value(component, t: float) -> float:
     return float(component.value(t)) if hasattr(component, "value") else float(component)
 
 
-def _load_part(assembler, state, w: np.ndarray, scale: float):
+def _load_part(assembler, state, w: np.ndarray, scale: float, full: np.ndarray | None = None,
+               exact: np.ndarray | None = None):
     """(rows, cols, values) of the point loads' part of H: s ∂(K_l w_l)/∂[π_node, π_frame] for each load of
     :func:`exact_loads` with w on its block's columns, from the generated ``point_load_stiffness_D_q``
-    (codegen/joints.py) at the load's values at the state's time (its laws of t; the evaluation's load factor 1)."""
+    (codegen/joints.py) at the load's values at the state's time (its laws of t; the evaluation's load factor 1).
+    ``full`` (n_total + 1; default w on the free coordinates, 0 elsewhere): the direction on every coordinate, a
+    dependent node's turns too (a model with rigid links or guides: P w, :func:`linked_configuration_tangent`);
+    ``exact`` (loads,) bool: the loads taken (default :func:`exact_loads`)."""
     model, loads = assembler.model, assembler.loads
-    full = np.zeros(model.n_total + 1)
-    full[:model.n_dofs] = w
+    if full is None:
+        full = np.zeros(model.n_total + 1)
+        full[:model.n_dofs] = w
     follower = np.array([load.frame != "global" for load in loads], bool)
     columns = _scattered(assembler._load_columns(), model.n_total)
     along = full[columns]
     along[~follower, 3:] = 0.0   # a global load has no frame: its block's frame half is zero (csrc/evaluate.c)
-    on = np.flatnonzero(exact_loads(assembler) & np.any(along != 0.0, axis=1))
+    exact = exact_loads(assembler) if exact is None else exact
+    on = np.flatnonzero(exact & np.any(along != 0.0, axis=1))
     if not len(on):
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     t = float(state.t)
@@ -315,9 +343,18 @@ def cable_stiffness_by_rates(assembler, state, w: np.ndarray, dv: np.ndarray) ->
     taut = _taut_cables(assembler, state)
     if taut is None or not k:
         return np.zeros((n, k))
-    dofs, geometry, _, section = taut
     full, moves = np.zeros(model.n_total + 1), np.zeros((model.n_total + 1, k))
     full[:n], moves[:n] = w, dv
+    return _cable_rates_product(assembler, taut, full, moves)[:n]
+
+
+def _cable_rates_product(assembler, taut, full: np.ndarray, moves: np.ndarray) -> np.ndarray:
+    """K_c(δv) w − K_c(0) w (n_total + 1, k) of the taut cable elements ``taut`` (:func:`_taut_cables`) along
+    ``full`` (n_total + 1), each column of ``moves`` (n_total + 1, k) a move of the rates on every coordinate: the
+    generated ``cable_stiffness_D_q``'s ``cable_stiffness_along`` at the move less at none (K_c affine in the
+    rates)."""
+    dofs, geometry, _, section = taut
+    k = moves.shape[1]
     along = full[dofs]                                          # (e, 12)
     m = len(dofs)
     rows = lambda a: np.ascontiguousarray(np.reshape(a, (m * k, -1)), dtype=float)  # noqa: E731
@@ -327,9 +364,9 @@ def cable_stiffness_by_rates(assembler, state, w: np.ndarray, dv: np.ndarray) ->
     at = (rows(repeated(geometry)), rows(repeated(section)), rows(repeated(along)))
     moved = np.asarray(kernel(at[0], rows(velocity), at[1], at[2])[0]).reshape(m, k, 12)
     still = np.asarray(kernel(at[0], rows(np.zeros_like(velocity)), at[1], at[2])[0]).reshape(m, k, 12)
-    grown = np.zeros((model.n_total + 1, k))
+    grown = np.zeros((len(full), k))
     np.add.at(grown, dofs, np.transpose(moved - still, (0, 2, 1)))
-    return grown[:n]
+    return grown
 
 
 def _taut_cables(assembler, state):
@@ -362,18 +399,19 @@ def _taut_cables(assembler, state):
     return dofs[taut], geometry[taut], velocity[taut], section[taut]
 
 
-def _cable_part(assembler, state, w: np.ndarray, scale: float):
+def _cable_part(assembler, state, w: np.ndarray, scale: float, full: np.ndarray | None = None):
     """(rows, cols, values) of the cable elements' part of H: s ∂(K_e w_e)/∂[d1, π1, d2, π2] for each element taut
     at the state (:func:`_taut_cables`; a slack one's K is zero, its derivative too) with w on its coordinates, from
     the generated ``cable_stiffness_D_q`` (codegen/joints.py: the taut law, the damper's c ℓ̇ at the state's rates
-    included)."""
+    included). ``full``: the direction on every coordinate, as :func:`_load_part`'s (a dependent node's too)."""
     model = assembler.model
     taut = _taut_cables(assembler, state)
     if taut is None:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     dofs, geometry, velocity, section = taut
-    full = np.zeros(model.n_total + 1)
-    full[:model.n_dofs] = w
+    if full is None:
+        full = np.zeros(model.n_total + 1)
+        full[:model.n_dofs] = w
     along = full[dofs]
     on = np.flatnonzero(np.any(along != 0.0, axis=1))
     if not len(on):
@@ -431,15 +469,16 @@ def exact_couplings(assembler) -> np.ndarray:
     return out
 
 
-def _coupling_part(assembler, state, w: np.ndarray, scale: float):
+def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None):
     """(rows, cols, values) of the couplings' part of H for the entries of :func:`exact_couplings`: K's entry
     K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while the output
     is saturated, csrc/evaluate.c controller_outputs) along w: s Σ_j ∂K_rj/∂θ_i w_j = −s a Σ_j ∂²f/∂θ_j∂θ_i w_j
-    in column i, for the angle sensors i, j of the actuator's controller (rates held: W has no C)."""
+    in column i, for the angle sensors i, j of the actuator's controller (rates held: W has no C). ``exact``
+    (couplings,) bool: the entries taken (default :func:`exact_couplings`; :func:`linked_exact_couplings`)."""
     from latdyn.assembly.control import ANGLE
 
     control, model = assembler.control, assembler.model
-    exact = exact_couplings(assembler)
+    exact = exact_couplings(assembler) if exact is None else exact
     n = model.n_dofs
     out_rows, out_cols, out_values = [], [], []
     done = set()
@@ -521,18 +560,20 @@ def exact_hinges(assembler) -> np.ndarray:
     return out
 
 
-def _hinge_part(assembler, state, w: np.ndarray, scale: float):
+def _hinge_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None):
     """(rows, values) of the hinges' part of H, on its diagonal: s (∂K_jj/∂θ_j) w_j for each free hinge j with
     w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated ``hinge_stiffness_by_angle``,
     codegen/joints.py, from the laws' values, first and second derivatives in θ at the state; a hinge driven by a
-    continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces)."""
+    continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces). ``exact`` (free hinges,)
+    bool: the hinges taken (default :func:`exact_hinges`; :func:`linked_exact_hinges`)."""
     from latdyn.assembly.native_model import joint_contact_rows
 
     model = assembler.model
     n = model.n_dofs
     free = np.asarray(model.free_hinges, np.int64)
     dofs = np.asarray(model.hinge_dofs, np.int64)[free] if len(free) else np.zeros(0, np.int64)
-    on = [(j, d) for j, d, exact in zip(free, dofs, exact_hinges(assembler)) if exact and d < n and w[d] != 0.0]
+    exact = exact_hinges(assembler) if exact is None else exact
+    on = [(j, d) for j, d, taken in zip(free, dofs, exact) if taken and d < n and w[d] != 0.0]
     if not on:
         return np.zeros(0, np.int64), np.zeros(0)
     kernels, scene = assembler.kernels, model.scene
@@ -644,34 +685,126 @@ def stiffness_moving_with_rates(assembler, state) -> tuple:
     return tuple(name for name, a, b in zip(STIFFNESS_BLOCKS, here, there) if not np.array_equal(a, b))
 
 
+def linked_exact_hinges(assembler) -> np.ndarray:
+    """(free hinges,) bool: the free hinges (guides) whose diagonal entry of H a model with rigid links or guides takes
+    generated (:func:`_hinge_part`, :func:`linked_configuration_tangent`): those of :func:`exact_hinges` whose
+    K_jj = ∂f/∂θ does not move with the hinge's rate, which the reduction's move carries
+    (``TransientSensitivities._linked_move``; ∂K_jj/∂θ̇ is not generated): no stiffness law of θ̇, no damping law of θ
+    (c(θ) θ̇ has ∂/∂θ = c′(θ) θ̇), no torque law of θ and θ̇ both, no compliant stop with damping (n δⁿ⁻¹ c δ̇ in
+    contact). The others keep the difference (:func:`linked_rest_product`): before, their entries' move with the rates
+    was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch)."""
+    model = assembler.model
+    out = exact_hinges(assembler).copy()
+    for i, j in enumerate(model.free_hinges):
+        if not out[i]:
+            continue
+        laws = {key: (law.depends_on if law is not None else ()) for key, law in _hinge_laws(assembler, int(j))}
+        contact = model.hinges[j].contact
+        out[i] = not ("theta_dot" in laws["stiffness"] or "theta" in laws["damping"]
+                      or {"theta", "theta_dot"} <= set(laws["torque"])
+                      or (contact is not None and contact.damping != 0.0))
+    return out
+
+
+def linked_generated_loads(assembler) -> np.ndarray:
+    """(loads,) bool: the point loads whose part of H a model with rigid links or guides takes generated
+    (:func:`_load_part` on the assembled coordinates, :func:`linked_configuration_tangent`): those of
+    :func:`exact_loads` with no component a continuous controller drives (K_l then depends on the configuration and
+    the state's time alone, not on the rates the reduction's move carries; the same loads as :func:`exact_loads`
+    today, kept apart so that a driven load that function may come to take, whose values move with its controller's
+    sensors and their rates, stays differenced here)."""
+    control = assembler.control
+    out = exact_loads(assembler).copy()
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    out[np.asarray(getattr(control, "actuator_index", np.zeros(0, np.int64)))[kinds == 1]] = False
+    return out
+
+
+def _mixed_curvature_vanishes(controller, angles: tuple, rates: tuple) -> bool:
+    """Whether SymPy's ∂²f/∂s_i∂ṡ_j of a continuous controller's output f by its angle reads ``angles`` and rate
+    reads ``rates`` (positions in its reads) is 0 as SymPy writes it (not simplified: an output whose mixed
+    derivative is 0 only after simplification keeps the difference): its couplings' entries −a ∂f/∂θ then do not
+    move with the rates. Made once per output's text, reads and positions in a process (:data:`_CURVATURES`)."""
+    reads = controller.symbols[1:1 + len(controller.reads)]
+    key = ("mixed", str(controller.output_expr), tuple(str(x) for x in controller.symbols), angles, rates)
+    if key not in _CURVATURES:
+        import sympy as sp
+
+        _CURVATURES[key] = all(sp.diff(controller.output_expr, reads[i], reads[j]) == 0 for i in angles for j in rates)
+    return _CURVATURES[key]
+
+
+def linked_exact_couplings(assembler) -> np.ndarray:
+    """(couplings,) bool: the continuous controllers' coupling entries of K whose part of H a model with rigid links
+    or guides takes generated (:func:`_coupling_part`, :func:`linked_configuration_tangent`): those of
+    :func:`exact_couplings` whose controller reads joints' angles and rates alone (a joint's coordinate and rate are
+    free ones, or none where it is locked or prescribed: P does not move their rows) with an output whose mixed
+    second derivatives by an angle and a rate vanish (:func:`_mixed_curvature_vanishes`; the entries then do not move
+    with the rates that the reduction's move carries, ``TransientSensitivities._linked_move``). The others keep the
+    difference (:func:`linked_rest_product`)."""
+    control = assembler.control
+    held = _LINKED_COUPLINGS.get(id(control))
+    if held is not None and held[0]() is control:
+        return held[1]
+    from latdyn.assembly.control import ANGLE, RATE
+
+    out = exact_couplings(assembler).copy()
+    _LINKED_COUPLINGS[id(control)] = (weakref.ref(control), out)
+    if not np.any(out):
+        return out
+    plain = []
+    for k, controller in enumerate(control.controllers):
+        kinds = control.sensor_kind[control.sensor_start[k]:control.sensor_start[k + 1]]
+        joints = bool(np.all((kinds == ANGLE) | (kinds == RATE))) and len(kinds) == len(controller.reads)
+        plain.append(joints and _mixed_curvature_vanishes(controller, tuple(np.flatnonzero(kinds == ANGLE)),
+                                                          tuple(np.flatnonzero(kinds == RATE))))
+    for e, a in enumerate(np.asarray(control.coupling_actuator)):
+        out[e] &= plain[control.actuator_controller[a]]
+    return out
+
+
+def _linked_split(assembler, exact: np.ndarray):
+    """(hinges (free hinges,), loads and cables (the flat entries of K's block 3), couplings (the flat entries of
+    block 4)) bool: whether each entry of the evaluation's blocks (:meth:`latdyn.assembly.evaluation.Evaluation.
+    flat_blocks`) is in W_gen on a model with rigid links or guides (:func:`_linked_weight`): the hinges of
+    ``exact`` (:func:`linked_exact_hinges`), the loads of :func:`linked_generated_loads`, every cable element (taut or
+    slack: :func:`_cable_part` takes the taut ones, a slack one's block is the runtime's zero), the couplings of
+    :func:`linked_exact_couplings`."""
+    loads = np.broadcast_to(linked_generated_loads(assembler)[:, None, None], (len(assembler.loads), 6, 6))
+    cables = np.ones(int(np.count_nonzero(assembler._cable_mask)), bool)
+    return (np.asarray(exact, bool), np.concatenate([loads[assembler._load_mask], cables]),
+            linked_exact_couplings(assembler)[assembler._coupling_mask])
+
+
 def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, generated: bool):
     """W_gen (``generated``) or W_rest on the assembled coordinates (n_assembled², free and dependent; dense or CSR as
     :meth:`latdyn.assembly.assembler.Assembler.assemble`) of a model with rigid links or guides, from the blocks of
     ``ev`` before the reduction (latdyn/assembly/linked.py ``LinkedEvaluation.blocks``): W_gen c_m M + s K of the
-    elements, the joint bodies and the free hinges whose part of H is generated (``exact``: :func:`exact_hinges`),
-    W_rest the other blocks' (the other hinges', the loads' and cables', the controllers' couplings', as
-    :func:`_rest_product`'s); W_gen + W_rest = c_m M + s K before the reduction."""
+    elements, the joint bodies, the free hinges whose part of H is generated (``exact``:
+    :func:`linked_exact_hinges`), the point loads of :func:`linked_generated_loads`, the cable elements and the
+    couplings of :func:`linked_exact_couplings` (:func:`_linked_split`); W_rest the other blocks' (the other hinges', the loads a
+    controller drives, the other couplings); W_gen + W_rest = c_m M + s K before the reduction (the mass has no
+    entry in the hinges', loads' and couplings' blocks: latdyn.assembly.assembler.Assembler.evaluation_in)."""
     from latdyn.assembly.evaluation import Evaluation
 
     raw = Evaluation(residual=None, reaction=None, blocks=ev.blocks, assembler=assembler)
     stiffness, inertia = raw.flat_blocks("stiffness"), raw.flat_blocks("mass")
     cm = 1.0 if mass else 0.0
+    split = _linked_split(assembler, exact)
     if generated:
-        return assembler.assemble([cm * inertia[0] + scale * stiffness[0], cm * inertia[1] + scale * stiffness[1],
-                                   np.where(exact, scale * stiffness[2], 0.0), 0.0 * stiffness[3], 0.0 * stiffness[4]])
-    rest = [0.0 * stiffness[0], 0.0 * stiffness[1], np.where(exact, 0.0, scale * stiffness[2])] + \
-        [scale * b for b in stiffness[3:]]
-    if mass:
-        rest = rest[:2] + [p + m for p, m in zip(rest[2:], inertia[2:])]
-    return assembler.assemble(rest)
+        return assembler.assemble([cm * inertia[0] + scale * stiffness[0], cm * inertia[1] + scale * stiffness[1]]
+                                  + [np.where(taken, scale * b, 0.0) for taken, b in zip(split, stiffness[2:])])
+    return assembler.assemble([0.0 * stiffness[0], 0.0 * stiffness[1]]
+                              + [np.where(taken, 0.0, scale * b) for taken, b in zip(split, stiffness[2:])])
 
 
 def linked_has_rest(assembler) -> bool:
     """Whether a model with rigid links or guides has blocks whose part of H is not generated (W_rest of
-    :func:`_linked_weight`): point loads, cable elements, continuous controllers' couplings, or a free hinge not in
-    :func:`exact_hinges`. Without them W_rest is 0 and its difference takes no evaluation."""
-    return bool(len(assembler.loads) or len(assembler.cable_dofs()) or len(assembler.control.coupling_rows)
-                or not np.all(exact_hinges(assembler)))
+    :func:`_linked_weight`): a point load a continuous controller drives (not :func:`linked_generated_loads`), a
+    coupling not in :func:`linked_exact_couplings`, or a free hinge not in :func:`linked_exact_hinges`. Without them
+    W_rest is 0 and its difference takes no evaluation."""
+    return bool(not np.all(linked_generated_loads(assembler)) or not np.all(linked_exact_couplings(assembler))
+                or not np.all(linked_exact_hinges(assembler)))
 
 
 def linked_rest_product(assembler, ev, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
@@ -680,8 +813,35 @@ def linked_rest_product(assembler, ev, w: np.ndarray, scale: float, mass: bool) 
     (the reduced W w less the exact part carried that part's round-off, 1e-8 of H δq over the step on the
     slider-crank)."""
     P = ev.projection
-    W_rest = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=False)
+    W_rest = _linked_weight(assembler, ev, scale, mass, linked_exact_hinges(assembler), generated=False)
     return np.asarray(P.T @ (W_rest @ np.asarray(P @ w))).reshape(-1)
+
+
+def linked_cable_rates_product(assembler, state, w: np.ndarray, dq: np.ndarray, scale: float, rates) -> np.ndarray:
+    """Pᵀ s ∂(K_c u)/∂v_all δv_all (n, k) of the damped cable elements taut at ``state`` on a model with rigid links or
+    guides, u = P w: W_gen's part that moves with the rates along each column's move (δq, the free rates along
+    ``rates`` = (δv, δv̇); None: none moved), the dependent nodes' rates following, δv_all = P δv + ∂(J v)/∂q δq
+    (the compiled links' buffers, as :func:`linked_geometric_derivative` moves them). K_c is affine in the rates
+    (the damper's c ℓ̇): K_c(δv_all) u − K_c(0) u from the generated ``cable_stiffness_D_q``'s
+    ``cable_stiffness_along``, exactly (:func:`cable_stiffness_by_rates`'s construction on the assembled
+    coordinates). None where no taut cable element is damped (one evaluation otherwise, for ∂(J v)/∂q)."""
+    model, cables = assembler.model, assembler.model.cables
+    if cables is None or not np.any(np.asarray(cables.damping) != 0.0):
+        return None
+    taut = _taut_cables(assembler, state)
+    if taut is None or not np.any(taut[3][:, 3] != 0.0):
+        return None
+    n, n_asm, k = model.n_dofs, model.n_assembled, dq.shape[1]
+    ev = assembler.evaluate(state, matrices=True, inertia_tangent=True)
+    P, (by_velocity, _), dependent = ev.projection, ev.rates_tangent, ev.dependent_rows
+    u = np.zeros(model.n_total + 1)
+    u[:n_asm] = np.asarray(P @ w).reshape(-1)
+    moves = np.zeros((model.n_total + 1, k))
+    for c in range(k):
+        moves[:n_asm, c] = np.asarray(P @ (rates[0][:, c] if rates is not None else np.zeros(n))).reshape(-1)
+        moves[dependent, c] += np.asarray(by_velocity @ dq[:, c]).reshape(-1)
+    grown = _cable_rates_product(assembler, taut, u, moves)
+    return scale * np.column_stack([np.asarray(P.T @ grown[:n_asm, c]).reshape(-1) for c in range(k)])
 
 
 def geometric_product(assembler, state, y: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -827,9 +987,12 @@ def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray
         Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq)
 
     with H_gen = ∂(W_gen u)/∂q_all the generated elements' and joint bodies' parts at u on every assembled coordinate
-    (:func:`_generated`) and the generated hinges' diagonal (:func:`_hinge_part`; a hinge's coordinate is free, so P
-    does not move its row), ∂(Pᵀ y)/∂q at fixed y the reduction's geometric term of y (the forward step's,
-    csrc/links.c ``geometric_term``, times δq: ``latdyn_linked_geometric_product``, csrc/linked_weight.c), and
+    (:func:`_generated`), the point loads' (:func:`_load_part` of :func:`linked_generated_loads`: a load on a
+    dependent node on its dependent turns, a global load's zero frame half skipped), the taut cable elements'
+    (:func:`_cable_part`, between dependent nodes too; a slack one's zero), the couplings' of
+    :func:`linked_exact_couplings` (:func:`_coupling_part`) and the generated hinges' diagonal (:func:`_hinge_part`
+    of :func:`linked_exact_hinges`; a hinge's coordinate is free, so P does not move its row), ∂(Pᵀ y)/∂q at fixed y
+    the reduction's geometric term of y (the forward step's, csrc/links.c ``geometric_term``, times δq: ``latdyn_linked_geometric_product``, csrc/linked_weight.c), and
     ∂(J w)/∂q the compiled links' rates' derivative at rates w (:func:`_rates_jacobian_derivative`)."""
     import ctypes
 
@@ -837,15 +1000,20 @@ def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray
     n, n_asm, size = model.n_dofs, model.n_assembled, model.n_total + 1
     ev = assembler.evaluate(state, matrices=True)
     P = ev.projection
-    W_gen = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=True)
+    hinges = linked_exact_hinges(assembler)
+    W_gen = _linked_weight(assembler, ev, scale, mass, hinges, generated=True)
     u = np.zeros(size)
     u[:n_asm] = np.asarray(P @ w).reshape(-1)
     y = np.zeros(size)
     y[:n_asm] = np.asarray(W_gen @ u[:n_asm]).reshape(-1)
-    rows, cols, values = _generated(assembler, state, w, scale, mass, full=u)
+    parts = [_generated(assembler, state, w, scale, mass, full=u),
+             _load_part(assembler, state, w, scale, full=u, exact=linked_generated_loads(assembler)),
+             _cable_part(assembler, state, w, scale, full=u),
+             _coupling_part(assembler, state, w, scale, exact=linked_exact_couplings(assembler))]
+    rows, cols, values = (np.concatenate([part[i] for part in parts]) for i in range(3))
     keep = (rows < n_asm) & (cols < n_asm)
     H_gen = csr.CSR.from_coo(values[keep], rows[keep], cols[keep], (n_asm, n_asm))
-    hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale)
+    hinge_rows, hinge_values = _hinge_part(assembler, state, w, scale, exact=hinges)
     by_rates = _rates_jacobian_derivative(assembler, state, w)
     dependent_rows = model.node_dofs[model.links.dependent].ravel()
     native = assembler.native()
