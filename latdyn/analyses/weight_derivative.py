@@ -248,14 +248,20 @@ def rest_support(assembler) -> np.ndarray:
 
 
 def exact_loads(assembler) -> np.ndarray:
-    """(loads,) bool: whether the point load's part of H is generated (:func:`_load_part`): none of its components
-    is driven by a continuous controller (alone or through a law a y + b; latdyn.assembly.control: its values then
-    move with the controller's sensors, the couplings' columns, and its block stays in :func:`rest_support`'s
-    difference)."""
+    """(loads,) bool: whether the point load's part of H is generated (:func:`_load_part`): each of its components
+    a continuous controller drives (alone or through a law a y + b; latdyn.assembly.control: its values then move
+    with the controller's sensors, the couplings' columns) is driven by one of :func:`_exact_controllers` (its
+    values' and couplings' derivatives along q then generated, :func:`_driven_load_part`); otherwise its block
+    stays in :func:`rest_support`'s difference."""
     control = assembler.control
     out = np.ones(len(assembler.loads), bool)
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
-    out[np.asarray(getattr(control, "actuator_index", np.zeros(0, np.int64)))[kinds == 1]] = False
+    if not np.any(kinds == 1):
+        return out
+    plain = _exact_controllers(assembler)
+    for a in np.flatnonzero(kinds == 1):
+        if not plain[int(control.actuator_controller[a])]:
+            out[int(control.actuator_index[a])] = False
     return out
 
 
@@ -273,7 +279,9 @@ def _law_value(component, t: float) -> float:
 def _load_part(assembler, state, w: np.ndarray, scale: float):
     """(rows, cols, values) of the point loads' part of H: s ∂(K_l w_l)/∂[π_node, π_frame] for each load of
     :func:`exact_loads` with w on its block's columns, from the generated ``point_load_stiffness_D_q``
-    (codegen/joints.py) at the load's values at the state's time (its laws of t; the evaluation's load factor 1)."""
+    (codegen/joints.py) at the load's values at the state (its laws of t, the components a controller drives at its
+    output there: :func:`_load_values`; the evaluation's load factor 1). The driven values' own move along q is
+    :func:`_driven_load_part`'s."""
     model, loads = assembler.model, assembler.loads
     full = np.zeros(model.n_total + 1)
     full[:model.n_dofs] = w
@@ -284,9 +292,7 @@ def _load_part(assembler, state, w: np.ndarray, scale: float):
     on = np.flatnonzero(exact_loads(assembler) & np.any(along != 0.0, axis=1))
     if not len(on):
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    t = float(state.t)
-    values = np.array([[_law_value(c, t) for c in (loads[l].force or [0.0] * 3)]
-                       + [_law_value(c, t) for c in (loads[l].moment or [0.0] * 3)] for l in on], float)
+    values = _load_values(assembler, state, on)
     nodes, frames = assembler._load_nodes[on], assembler._load_frames[on]
     frame_turns = np.where(follower[on][:, None, None], state.T[frames], np.eye(3))
     rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(on), -1)), dtype=float)  # noqa: E731
@@ -299,6 +305,97 @@ def _load_part(assembler, state, w: np.ndarray, scale: float):
     c = columns[on]
     return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(c[:, None, :], blocks.shape).ravel(),
             blocks.ravel())
+
+
+def _driving(assembler, state):
+    """[(load, component, gain a, controller k)] of the load components continuous controllers drive (a = ∂τ/∂y
+    of a law a y + b, 1 for the name alone) and the controllers' outputs at ``state`` with their curvatures
+    (:func:`_controller_curvatures`, for the controllers of :func:`_exact_controllers`; their gradients too):
+    (actuators, outputs, gradients, columns, curvatures)."""
+    control = assembler.control
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    actuators = [(int(control.actuator_index[a]), int(control.actuator_component[a]),
+                  float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0,
+                  int(control.actuator_controller[a])) for a in np.flatnonzero(kinds == 1)]
+    if not actuators:
+        return actuators, {}, {}, np.zeros(0, np.int64), {}
+    columns, curvatures, outputs, gradients = _controller_curvatures(assembler, state, _exact_controllers(assembler),
+                                                                     with_outputs=True)
+    return actuators, outputs, gradients, columns, curvatures
+
+
+def _load_values(assembler, state, on: np.ndarray) -> np.ndarray:
+    """(len(on), 6) the values [force; moment] of the loads ``on`` at ``state``: their laws of t at its time, and a
+    component a continuous controller drives at the controller's output there (:func:`_controller_curvatures`;
+    a law a y + b as a y + b(t), b(t) its value less a times the output it read)."""
+    loads = assembler.loads
+    t = float(state.t)
+    values = np.array([[_law_value(c, t) for c in (loads[l].force or [0.0] * 3)]
+                       + [_law_value(c, t) for c in (loads[l].moment or [0.0] * 3)] for l in on], float)
+    actuators, outputs, _, _, _ = _driving(assembler, state)
+    if not actuators:
+        return values
+    held = assembler.model.scene.controller_outputs
+    row = {int(l): i for i, l in enumerate(on)}
+    for l, p, gain, k in actuators:
+        if l not in row or k not in outputs:
+            continue
+        law = (loads[l].force if p < 3 else loads[l].moment)[p % 3]
+        alone = assembler.control.load_controller[l, p] == k
+        before = 0.0 if alone else values[row[l], p] - gain * float(held[assembler.control.controllers[k].name])
+        values[row[l], p] = gain * outputs[k] + before
+    return values
+
+
+def _driven_load_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the part of H that the load components driven by controllers of
+    :func:`_exact_controllers` add beyond :func:`_load_part`'s turns (at the driven values): with e_p a unit
+    component times the gain a, F(e_p) its generalized force on the node's six rows (``point_load``'s, as
+    csrc/evaluate.c controller_couplings takes it) and K_l(e_p) its block on the load's columns (by the node's and
+    the frame's turns), y the controller's output, g = ∂y/∂q and G = ∂²y/∂q∂q over the angle coordinates it reaches
+    (:func:`_controller_curvatures`):
+
+        the load's block, its values moving:         s (K_l(e_p) w_l) gᵀ              (node rows × angle columns)
+        the couplings F(e_p) gᵀ, F turning:          s K_l(e_p) (gᵀ w)                (node rows × load columns)
+        the couplings, g moving:                     s F(e_p) (G w)ᵀ                  (node rows × angle columns)
+
+    0 for a saturated controller (g, G = 0)."""
+    actuators, _, gradients, columns, curvatures = _driving(assembler, state)
+    model = assembler.model
+    n = model.n_dofs
+    exact = exact_loads(assembler)
+    actuators = [(l, p, gain, k) for l, p, gain, k in actuators if exact[l] and np.any(gradients.get(k, 0.0))]
+    if not actuators:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
+    loads = assembler.loads
+    load_columns = _scattered(assembler._load_columns(), model.n_total)
+    rows = lambda a: np.ascontiguousarray(np.reshape(a, (1, -1)), dtype=float)  # noqa: E731
+    out_rows, out_cols, out_values = [], [], []
+    for l, p, gain, k in actuators:
+        follower = loads[l].frame != "global"
+        node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
+        unit = np.zeros(6)
+        unit[p] = gain
+        force, _, by_node, by_frame = (np.asarray(x) for x in assembler.kernels.point_load(
+            rows(state.T[node]), rows(assembler._load_offsets[l]), rows(unit),
+            rows(state.T[frame] if follower else np.eye(3)), rows(np.zeros(6))))
+        block = np.concatenate([by_node.reshape(6, 3), by_frame.reshape(6, 3) if follower else np.zeros((6, 3))],
+                               axis=1)
+        force = force.reshape(6)
+        c = load_columns[l]
+        w_l = full[c]
+        d = _scattered(model.node_dofs[node], model.n_total)
+        g, G = gradients[k], curvatures[k]
+        for r_, c_, v_ in ((d[:, None] + 0 * columns[None], columns[None] + 0 * d[:, None],
+                            np.outer(block @ w_l, g) + np.outer(force, G.T @ along)),
+                           (d[:, None] + 0 * c[None], c[None] + 0 * d[:, None], block * float(g @ along))):
+            out_rows.append(r_.ravel())
+            out_cols.append(c_.ravel())
+            out_values.append(scale * v_.ravel())
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
 
 
 def cable_stiffness_by_rates(assembler, state, w: np.ndarray, dv: np.ndarray) -> np.ndarray:
@@ -383,89 +480,257 @@ def _cable_part(assembler, state, w: np.ndarray, scale: float):
             blocks.ravel())
 
 
-def _output_curvature(controller, angles: tuple):
-    """SymPy's ∂²f/∂s_i∂s_j of a continuous controller's output f before saturation by its reads at the positions
-    ``angles`` (its angle sensors; the rates' never enter W), lambdified once per output's text, reads and angles in a
-    process (:data:`_CURVATURES`: a scene loaded again reuses it), a function of ``(t, *reads values)`` giving the
-    (angles, angles) matrix; None where a second derivative is not a function (DiracDelta of a kink, an unevaluated
-    derivative)."""
+def _output_curvature(controller, moving: tuple):
+    """SymPy's ∂²f/∂a_i∂a_j of a continuous controller's output f before saturation by its reads at the positions
+    ``moving`` of ``controller.reads`` (those that move with the configuration: its angle sensors and the earlier
+    controllers it reads; a rate, an input and a state are held along q), lambdified once per output's text, symbols
+    and positions in a process (:data:`_CURVATURES`: a scene loaded again reuses it), a function of
+    ``(t, *reads values, *state values)`` giving the (moving, moving) matrix; None where a second derivative is not a
+    function (DiracDelta of a kink, an unevaluated derivative)."""
     reads = controller.symbols[1:1 + len(controller.reads)]
-    key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(angles))
+    key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(moving))
     if key not in _CURVATURES:
         import sympy as sp
 
-        first = [sp.diff(controller.output_expr, reads[i]) for i in angles]
-        second = [[sp.diff(first[a], reads[j]) if b >= a else None for b, j in enumerate(angles)]
-                  for a in range(len(angles))]
-        second = [[second[a][b] if b >= a else second[b][a] for b in range(len(angles))] for a in range(len(angles))]
+        first = [sp.diff(controller.output_expr, reads[i]) for i in moving]
+        second = [[sp.diff(first[a], reads[j]) if b >= a else None for b, j in enumerate(moving)]
+                  for a in range(len(moving))]
+        second = [[second[a][b] if b >= a else second[b][a] for b in range(len(moving))] for a in range(len(moving))]
         singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in second for e in row)
-        _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols[:1 + len(reads)], second,
-                                                             modules=["math", "numpy"])
+        _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols, second, modules=["math", "numpy"])
     return _CURVATURES[key]
+
+
+def _controller_reads(control, k: int) -> list:
+    """For each name controller ``k`` reads (``controller.reads``, its law's arguments after t, before its
+    states): ``(kind, index, sensor)`` of the sensor that gives it (latdyn.assembly.control: kinds ANGLE, RATE,
+    CONTROLLER, …, in the order of the wiring's sensors), or ``(None, name, -1)`` for a name no sensor gives: an
+    input or a sampled controller's held output, read from the scene's arrays (as the compiled laws read them)."""
+    controller = control.controllers[k]
+    sensed = set(control.sensor_names(k))
+    m = int(control.sensor_start[k])
+    out = []
+    for name in controller.reads:
+        if name in sensed:
+            out.append((int(control.sensor_kind[m]), int(control.sensor_index[m]), m))
+            m += 1
+        else:
+            out.append((None, name, -1))
+    return out
+
+
+#: the sensor kinds whose values move along q with a second derivative :func:`_sensor_kinematics` gives
+#: (latdyn.assembly.control: a joint's angle, a point's global position component at its node or at an offset, a
+#: point's position component in a body's axes), and those held along q (a joint's rate, a node's velocity)
+_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 7), (1, 3)
+
+
+def _exact_controllers(assembler) -> list:
+    """(controllers,) bool: whether a continuous controller's output has its second derivatives along q generated
+    (:func:`_controller_curvatures`): it reads joints' angles and rates, points' positions and displacements
+    (global, at an offset, in a body's axes), nodes' velocities, inputs, its own states (held across the impulse)
+    and earlier controllers of this kind alone, with an output whose second derivatives by the sensors that move
+    and the controllers it reads are functions (:func:`_output_curvature`)."""
+    from latdyn.assembly.control import CONTROLLER
+
+    control = assembler.control
+    out = []
+    for k, controller in enumerate(control.controllers):
+        reads = _controller_reads(control, k)
+        plain = all(kind is None or kind in _MOVING_SENSORS + _HELD_SENSORS or (kind == CONTROLLER and out[index])
+                    for kind, index, _ in reads)
+        moving = tuple(p for p, (kind, _, _) in enumerate(reads) if kind in _MOVING_SENSORS + (CONTROLLER,))
+        out.append(plain and _output_curvature(controller, moving) is not None)
+    return out
+
+
+def _sensor_dofs(assembler, kind: int, index: int, sensor: int) -> np.ndarray:
+    """The coordinates a sensor of :data:`_MOVING_SENSORS` moves with (latdyn.assembly.control ``_sensor``'s
+    columns; a slot that is no coordinate on n_total)."""
+    model = assembler.model
+    if kind == 0:
+        dofs = [model.hinge_dofs[index]]
+    elif kind == 2:
+        dofs = [model.node_dofs[index // 3, index % 3]]
+    elif kind == 5:
+        dofs = model.node_dofs[index // 3]
+    else:
+        dofs = np.concatenate([model.node_dofs[index // 3], model.node_dofs[assembler.control.sensor_frame_node[sensor]]])
+    return _scattered(np.asarray(dofs, np.int64), model.n_total)
+
+
+def _point_load(assembler, T, r, values, R):
+    """The generated ``point_load``'s (force (b, 6), ∂force/∂π_node (b, 6, 3), ∂force/∂π_frame (b, 6, 3)) for rows
+    of node frames T, offsets r, values [F; Mo] and frames R (no velocity) — the kinematics of a point x + T r under
+    the configuration's update (csrc/evaluate.c ``sensor`` takes a point sensor's gradient from it)."""
+    values = np.atleast_2d(np.asarray(values, float))
+    b = len(values)
+    rows = lambda a: np.ascontiguousarray(np.broadcast_to(np.reshape(a, (1, -1)), (b, np.size(a))), dtype=float)  # noqa: E731
+    out = assembler.kernels.point_load(rows(T), rows(r), np.ascontiguousarray(values), rows(R), np.zeros((b, 6)))
+    return (np.asarray(out[0]).reshape(b, 6), np.asarray(out[2]).reshape(b, 6, 3), np.asarray(out[3]).reshape(b, 6, 3))
+
+
+def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
+    """(∂s/∂q on :func:`_sensor_dofs` (d,), ∂(∂s/∂q_c)/∂q_i (d, d): row c the gradient's column, column i the move,
+    or None where 0) of a sensor of :data:`_MOVING_SENSORS` at ``state``, under the configuration's update
+    (x += d, T ← exp(skew π) T): an angle and a global component x_c are linear in q; a point x + T r at an offset,
+    component c, has the gradient Jᵀ e_c = ``point_load``'s force for the values −e_c and its move by the node's turn
+    that force's ∂/∂π_node; a point's component in a body's axes s = b·(x + T r − x_b), b = T_b e_c, has the
+    gradient [b; T r × b] on the point's node (``point_load`` at the frame T_b, values −e_c: its ∂/∂π_node and
+    ∂/∂π_frame move it), −b on the body's translation (moved by the body's turn as that force's first rows), and
+    b × u on the body's turn, u = x + T r − x_b (``point_load`` at the body's node with offset e_c and values −u:
+    its ∂/∂π_node moves it at fixed u; u moves with the point's Jacobian J and −I on the body's translation,
+    b × δu the same kernel's moment rows for the values −δu)."""
+    if kind in (0, 2):
+        return np.ones(1), None
+    control = assembler.control
+    node, c = index // 3, index % 3
+    T, r = state.T[node], control.sensor_offset[sensor]
+    unit = -np.eye(6)[c]
+    if kind == 5:
+        force, by_node, _ = _point_load(assembler, T, r, unit, np.eye(3))
+        second = np.zeros((6, 6))
+        second[:, 3:] = by_node[0]
+        return force[0], second
+    body = int(control.sensor_frame_node[sensor])
+    Tb = state.T[body]
+    gradient, second = np.zeros(12), np.zeros((12, 12))
+    point, by_node, by_frame = _point_load(assembler, T, r, unit, Tb)
+    gradient[:6], second[:6, 3:6], second[:6, 9:] = point[0], by_node[0], by_frame[0]
+    gradient[6:9], second[6:9, 9:] = -point[0, :3], -by_frame[0, :3]
+    u = state.x[node] + T @ r - state.x[body]
+    lever, turned, _ = _point_load(assembler, Tb, np.eye(3)[c], np.concatenate([-u, np.zeros(3)]), np.eye(3))
+    gradient[9:], second[9:, 9:] = lever[0, 3:], turned[0, 3:]
+    crossed = _point_load(assembler, Tb, np.eye(3)[c], -np.eye(3, 6), np.eye(3))[0][:, 3:].T    # δu ↦ b × δu
+    jacobian = _point_load(assembler, T, r, -np.eye(3, 6), np.eye(3))[0]                       # J (3, 6)
+    second[9:, :6], second[9:, 6:9] = crossed @ jacobian, -crossed
+    return gradient, second
 
 
 def exact_couplings(assembler) -> np.ndarray:
     """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of H generated
-    (:func:`_coupling_part`): its actuator is a hinge's or guide's force, and its controller reads joints' angles
-    and rates alone (no input, no other controller, no state) with an output whose second derivatives by them are
-    functions (:func:`_output_curvature`). Its entry −a ∂y/∂s (sensor s an angle: the sensor's own second
-    derivative is 0) then moves along q with ∂²y/∂s² alone; the others keep the difference (:func:`rest_support`)."""
-    from latdyn.assembly.control import ANGLE, RATE
-
+    (:func:`_coupling_part` for a hinge's or guide's force, :func:`_driven_load_part` for a load component): its
+    controller is one of :func:`_exact_controllers` (joints' angles and rates, inputs, its states, earlier such
+    controllers). A hinge's entry −a ∂y/∂q_c (the total derivative through the controllers read; an angle sensor's
+    own second derivative is 0) then moves along q with ∂²y/∂q_c∂q_i alone, a load's F(e_p) ∂y/∂q_c with its node's
+    and frame's turns too; the others keep the difference (:func:`rest_support`)."""
     control = assembler.control
     rows = np.asarray(control.coupling_rows)
     out = np.zeros(len(rows), bool)
     if not len(rows):
         return out
-    plain = []
-    for k, controller in enumerate(control.controllers):
-        kinds = control.sensor_kind[control.sensor_start[k]:control.sensor_start[k + 1]]
-        plain.append(not controller.states and len(kinds) == len(controller.reads)
-                     and bool(np.all((kinds == ANGLE) | (kinds == RATE)))
-                     and _output_curvature(controller, tuple(np.flatnonzero(kinds == ANGLE))) is not None)
+    plain = _exact_controllers(assembler)
     for e, a in enumerate(np.asarray(control.coupling_actuator)):
-        out[e] = control.actuator_kind[a] == 0 and plain[control.actuator_controller[a]]
+        out[e] = plain[control.actuator_controller[a]]
     return out
+
+
+def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = False):
+    """(the coordinates the controllers reach (m,), {k: ∂²y_k/∂q∂q (m, m)}) at ``state`` for the controllers of
+    ``exact`` (:func:`_exact_controllers`), in their order: with a_p the arguments of f_k that move along q (a sensor
+    s − s_0 of :data:`_MOVING_SENSORS`: its gradient ∂s/∂q and ∂(∂s/∂q_c)/∂q_i, :func:`_sensor_kinematics`; an
+    earlier controller's output y_j: its total gradient g_j and second derivative),
+
+        g_k = Σ_p ∂f_k/∂a_p ∂a_p/∂q,
+        ∂(∂y_k/∂q_c)/∂q_i = Σ_pr ∂²f_k/∂a_p∂a_r (∂a_p/∂q_c)(∂a_r/∂q_i) + Σ_p ∂f_k/∂a_p ∂(∂a_p/∂q_c)/∂q_i
+
+    (the chain rule of csrc/evaluate.c controller_total, once more; row c the coupling's column, column i the move),
+    SymPy's first (``Controller.output_gradient``) and second (:func:`_output_curvature`) derivatives at the
+    arguments the evaluation reads: the sensors' values as csrc/evaluate.c computes them
+    (``NativeModel.controller_outputs_at``; the controllers' array put back), the inputs' and sampled controllers'
+    values from the scene's arrays, the states' held values; 0 (both) where the output is saturated
+    (csrc/evaluate.c controller_outputs). ``with_outputs``: (columns, curvatures, the outputs y_k after saturation,
+    the gradients g_k (m,))."""
+    from latdyn.assembly.control import CONTROLLER
+
+    control, model, scene = assembler.control, assembler.model, assembler.model.scene
+    reads = {k: _controller_reads(control, k) for k, on in enumerate(exact) if on}
+    dofs = {sensor: _sensor_dofs(assembler, kind, index, sensor) for entries in reads.values()
+            for kind, index, sensor in entries if kind in _MOVING_SENSORS}
+    columns = sorted({int(d) for found in dofs.values() for d in found})
+    local = {c: i for i, c in enumerate(columns)}
+    m = len(columns)
+    inputs, held = getattr(scene, "inputs", None), getattr(scene, "controller_outputs", None)
+    states = control.states.values if control.states is not None else np.zeros(0)
+    sensed = None
+    if any(kind not in (0, 1, CONTROLLER) for entries in reads.values() for kind, _, _ in entries if kind is not None):
+        native = assembler.native()
+        kept = held.values.copy()
+        native.controller_outputs_at(state)
+        held.values[:] = kept
+        sensed = np.array(native.buffers["sensor_values"], float)
+    t = float(state.t)
+    outputs, gradients, curvatures = {}, {}, {}
+    for k, entries in reads.items():
+        controller = control.controllers[k]
+        values, rows, seconds, moving = [], [], [], []
+        for p, (kind, index, sensor) in enumerate(entries):
+            if kind is None:
+                values.append(float(inputs[index] if inputs is not None and index in inputs else held[index]))
+                continue
+            if kind == CONTROLLER:
+                values.append(outputs[index])
+                rows.append(gradients[index])
+                seconds.append(curvatures[index])
+                moving.append(p)
+                continue
+            values.append(float(state.theta[index] - control.sensor_origin[sensor]) if kind == 0 else
+                          float(state.theta_dot[index] - control.sensor_origin[sensor]) if kind == 1 else
+                          float(sensed[sensor]))
+            if kind in _MOVING_SENSORS:
+                gradient, second = _sensor_kinematics(assembler, state, kind, index, sensor)
+                at = np.array([local[int(d)] for d in dofs[sensor]], np.int64)
+                row = np.zeros(m)
+                np.add.at(row, at, gradient)
+                rows.append(row)
+                full = np.zeros((m, m))
+                if second is not None:
+                    np.add.at(full, (at[:, None], at[None, :]), second)
+                seconds.append(full)
+                moving.append(p)
+        arguments = (t, *values, *states[control.state_slot[control.state_start[k]:control.state_start[k + 1]]])
+        y = float(controller.functions()[0](*arguments))
+        lo, hi = control.limits[k]
+        outputs[k] = float(min(max(y, lo), hi))
+        if y < lo or y > hi or not moving:   # saturated: ∂y/∂s = 0 about the state, its derivative too
+            gradients[k], curvatures[k] = np.zeros(m), np.zeros((m, m))
+            continue
+        slope = controller.output_gradient(*arguments)[moving]
+        D = np.array(rows).reshape(len(moving), m)
+        second = np.asarray(_output_curvature(controller, tuple(moving))(*arguments), float).reshape(len(moving),
+                                                                                                     len(moving))
+        curvature = D.T @ second @ D
+        for a, own in zip(slope, seconds):
+            curvature = curvature + a * own
+        gradients[k], curvatures[k] = slope @ D, curvature
+    if with_outputs:
+        return np.asarray(columns, np.int64), curvatures, outputs, gradients
+    return np.asarray(columns, np.int64), curvatures
 
 
 def _coupling_part(assembler, state, w: np.ndarray, scale: float):
     """(rows, cols, values) of the couplings' part of H for the entries of :func:`exact_couplings`: K's entry
-    K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while the output
-    is saturated, csrc/evaluate.c controller_outputs) along w: s Σ_j ∂K_rj/∂θ_i w_j = −s a Σ_j ∂²f/∂θ_j∂θ_i w_j
-    in column i, for the angle sensors i, j of the actuator's controller (rates held: W has no C)."""
-    from latdyn.assembly.control import ANGLE
-
+    K_rc = −a ∂y/∂q_c (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; y's total derivative
+    through the controllers it reads; 0 while the output is saturated, csrc/evaluate.c controller_outputs) along w:
+    s Σ_c ∂K_rc/∂q_i w_c = −s a Σ_c ∂²y/∂q_c∂q_i w_c in column i, over the angle coordinates the actuator's
+    controller reaches (:func:`_controller_curvatures`; rates held: W has no C)."""
     control, model = assembler.control, assembler.model
     exact = exact_couplings(assembler)
     n = model.n_dofs
+    actuators = sorted({int(control.coupling_actuator[e]) for e in np.flatnonzero(exact)
+                        if control.actuator_kind[control.coupling_actuator[e]] == 0})
+    if not actuators:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    columns, curvatures = _controller_curvatures(assembler, state, _exact_controllers(assembler))
+    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
     out_rows, out_cols, out_values = [], [], []
-    done = set()
-    for e in np.flatnonzero(exact):
-        a = int(control.coupling_actuator[e])
-        if a in done:
+    for a in actuators:
+        curvature = curvatures[int(control.actuator_controller[a])]
+        if not np.any(along) or not np.any(curvature):
             continue
-        done.add(a)
-        k = int(control.actuator_controller[a])
-        controller = control.controllers[k]
-        first, last = int(control.sensor_start[k]), int(control.sensor_start[k + 1])
-        kinds, indices = control.sensor_kind[first:last], control.sensor_index[first:last]
-        values = [float(state.theta[i] if kind == ANGLE else state.theta_dot[i])
-                  - float(control.sensor_origin[first + m]) for m, (kind, i) in enumerate(zip(kinds, indices))]
-        t = float(state.t)
-        y = float(controller.functions()[0](t, *values))
-        lo, hi = control.limits[k]
-        if y < lo or y > hi:   # saturated: ∂y/∂s = 0 about the state, its derivative too
-            continue
-        angles = np.flatnonzero(kinds == ANGLE)
-        columns = np.asarray(model.hinge_dofs, np.int64)[indices[angles]]
-        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
-        if not np.any(along):
-            continue
-        second = _output_curvature(controller, tuple(angles))
-        curvature = np.asarray(second(t, *values), float).reshape(len(angles), len(angles))
         gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
         row = int(model.hinge_dofs[control.actuator_index[a]])
-        out_rows.append(np.full(len(angles), row, np.int64))
+        out_rows.append(np.full(len(columns), row, np.int64))
         out_cols.append(columns)
         out_values.append(-scale * gain * (curvature.T @ along))
     if not out_rows:
@@ -503,17 +768,19 @@ def _hinge_laws(assembler, j: int) -> tuple:
 
 def exact_hinges(assembler) -> np.ndarray:
     """(free hinges,) bool: whether the free hinge's part of H is generated (:func:`_hinge_part`): each of its laws
-    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`) and naming no input or
-    controller (their values are the runtime's, read by the compiled laws); otherwise its angle stays in
+    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`) and naming no controller
+    (a continuous one's output moves with its sensors; an input it names is a number at the event, the value the
+    law and its slope read from the scene's inputs as the compiled laws do); otherwise its angle stays in
     :func:`rest_support`, differenced as before."""
     model = assembler.model
+    inputs = set(getattr(getattr(model.scene, "inputs", None), "names", ()))
     out = np.ones(len(model.free_hinges), bool)
     for i, j in enumerate(model.free_hinges):
         for key, law in _hinge_laws(assembler, int(j)):
             if law is None or "theta" not in law.depends_on:
                 continue
-            if getattr(law, "input_names", ()) or _slope_law(law, model.scene,
-                                                             f"joints.{model.hinges[j].name}.{key}") is None:
+            if set(getattr(law, "input_names", ())) - inputs or _slope_law(
+                    law, model.scene, f"joints.{model.hinges[j].name}.{key}") is None:
                 out[i] = False
     return out
 
@@ -596,9 +863,11 @@ def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: floa
     load_rows, load_cols, load_values = _load_part(assembler, state, w, scale)
     cable_rows, cable_cols, cable_values = _cable_part(assembler, state, w, scale)
     coupling_rows, coupling_cols, coupling_values = _coupling_part(assembler, state, w, scale)
-    rows, cols, values = (np.concatenate([rows, hinge_rows, load_rows, cable_rows, coupling_rows]),
-                          np.concatenate([cols, hinge_rows, load_cols, cable_cols, coupling_cols]),
-                          np.concatenate([values, hinge_values, load_values, cable_values, coupling_values]))
+    driven_rows, driven_cols, driven_values = _driven_load_part(assembler, state, w, scale)
+    rows, cols, values = (np.concatenate([rows, hinge_rows, load_rows, cable_rows, coupling_rows, driven_rows]),
+                          np.concatenate([cols, hinge_rows, load_cols, cable_cols, coupling_cols, driven_cols]),
+                          np.concatenate([values, hinge_values, load_values, cable_values, coupling_values,
+                                          driven_values]))
     support = rest_support(assembler)
     if len(support):
         columns = []
