@@ -123,8 +123,12 @@ RATES_MOVE = 1e-3
 #: id(law) -> (the law, its :func:`_angle_slope_law`): parsed once per law in a process (the law kept, so that its id
 #: is not reused)
 _SLOPES: dict = {}
-#: (output's text, symbols, angle reads) -> its :func:`_output_curvature`, made once per process
+#: (output's text, symbols, moving reads) -> its :func:`_output_curvature`, made once per process (a scene loaded
+#: again reuses it); (id(controller), moving reads) -> (the controller, the same), so that a controller's output is
+#: not printed again at each event
 _CURVATURES: dict = {}
+#: id(wiring) -> (the wiring, its :func:`_exact_controllers`): found once per numbering of a model in a process
+_EXACT: dict = {}
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -487,6 +491,9 @@ def _output_curvature(controller, moving: tuple):
     and positions in a process (:data:`_CURVATURES`: a scene loaded again reuses it), a function of
     ``(t, *reads values, *state values)`` giving the (moving, moving) matrix; None where a second derivative is not a
     function (DiracDelta of a kink, an unevaluated derivative)."""
+    known = _CURVATURES.get((id(controller), tuple(moving)))
+    if known is not None and known[0] is controller:   # this controller's, without printing its output again
+        return known[1]
     reads = controller.symbols[1:1 + len(controller.reads)]
     key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(moving))
     if key not in _CURVATURES:
@@ -498,6 +505,7 @@ def _output_curvature(controller, moving: tuple):
         second = [[second[a][b] if b >= a else second[b][a] for b in range(len(moving))] for a in range(len(moving))]
         singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in second for e in row)
         _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols, second, modules=["math", "numpy"])
+    _CURVATURES[(id(controller), tuple(moving))] = (controller, _CURVATURES[key])
     return _CURVATURES[key]
 
 
@@ -534,6 +542,9 @@ def _exact_controllers(assembler) -> list:
     from latdyn.assembly.control import CONTROLLER
 
     control = assembler.control
+    known = _EXACT.get(id(control))
+    if known is not None and known[0] is control:
+        return known[1]
     out = []
     for k, controller in enumerate(control.controllers):
         reads = _controller_reads(control, k)
@@ -541,6 +552,9 @@ def _exact_controllers(assembler) -> list:
                     for kind, index, _ in reads)
         moving = tuple(p for p, (kind, _, _) in enumerate(reads) if kind in _MOVING_SENSORS + (CONTROLLER,))
         out.append(plain and _output_curvature(controller, moving) is not None)
+    if len(_EXACT) >= 64:   # one entry a numbering: a process running many scenes keeps the last ones
+        _EXACT.clear()
+    _EXACT[id(control)] = (control, out)
     return out
 
 
