@@ -1,11 +1,12 @@
 """The continuous controllers' couplings in an event's impulse weight derivative H = ∂(W w)/∂q generated beyond the
 controllers of joint angles and rates alone (latdyn/analyses/weight_derivative.py, docs/parameters.md "The impulse
-weight's derivative"): a controller reading an input, another controller, its own state or points' positions (global,
-at an offset, in a body's axes: their second derivatives through the kinematics from the generated ``point_load``),
-a hinge law naming an input, and the loads such a controller drives take no central difference any more; on the genuinely 3D latching
-boom of tests/test_weight_derivative_rest.py their blocks of H agree with Richardson-extrapolated differences of
-their K w, and through the latch the sensitivities agree with Richardson differences of whole runs, through the API
-and ``latdyn run``, with the loop of steps on and off giving the same bits."""
+weight's derivative"): a controller reading an input, another controller, its own state, points' positions (global,
+at an offset, in a body's axes), a cable's length or a free joint's force (their second derivatives composed of the
+generated ``point_load`` and hinge kernels), a hinge law naming an input, and the loads such a controller drives
+take no central difference any more; on the genuinely 3D latching boom of tests/test_weight_derivative_rest.py their
+blocks of H agree with Richardson-extrapolated differences of their K w, and through the latch the sensitivities
+agree with Richardson differences of whole runs, through the API and ``latdyn run``, with the loop of steps on and
+off giving the same bits."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,7 +16,7 @@ from latdyn.analyses.weight_derivative import (_cable_part, _coupling_part, _dri
                                                _load_part, _sensor_dofs, _sensor_kinematics, _sparse,
                                                exact_couplings, exact_hinges, exact_loads, rest_support, times)
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
-from tests.sensitivity_equality import runs_with_the_loop_on_and_off
+from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import _agree
 from tests.test_weight_derivative_rest import BOOM, CONTROLLED_BOOM, _boom_state
 
@@ -61,6 +62,22 @@ POINTS = (CONTROLLED_BOOM.replace('  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rat
                    "    angle: {", 1)
           .replace("sensitivities: [Kp, k]", "sensitivities: [Kp]"))
 
+#: the controlled boom's PD reading the spar's hinge torque (the spar on a hinge of its own at the wheel, its spring a
+#: law of its angle): a free joint's force
+FORCE = (CONTROLLED_BOOM.replace("section: s, elements: 1}",
+                                 'section: s, elements: 1,\n         start: {hinge: {axis: [0, 1, 1], '
+                                 'stiffness: "3.0*(1 + 4*theta**2)", damping: 0.2}}}', 1)
+         .replace('  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2)"}',
+                  '  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2) + 0.5*spar_torque*angle '
+                  '+ 0.2*spar_torque**2"}', 1)
+         .replace("    angle: {", "    spar_torque: {hinge: spar.start, quantity: torque}\n    angle: {", 1))
+#: the controlled boom's PD reading the stay's length, the stay of three elements (its inner nodes translations only)
+LENGTH = (CONTROLLED_BOOM.replace('  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2)"}',
+                                  '  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2) '
+                                  '+ 2*(stay_length - 0.95)**2*angle"}', 1)
+          .replace("    angle: {", "    stay_length: {cable: stay, quantity: length}\n    angle: {", 1)
+          .replace("rest_length: 0.9, damping: 0.4}", "rest_length: 0.9, damping: 0.4, elements: 3, rhoA: 0.05}", 1))
+
 
 def _blocks_product(assembler, state, w: np.ndarray) -> np.ndarray:
     """The evaluation's hinges', loads' and cables', and couplings' blocks of K (no elements, no joint bodies),
@@ -104,12 +121,15 @@ def test_a_controller_reading_an_input_another_controller_or_its_state_is_genera
     _assert_blocks_are_richardsons(text)
 
 
-def test_a_point_sensors_second_derivative_is_the_central_difference_of_its_gradient():
-    """The points the PD of ``POINTS`` reads (at an offset from its node: kind 5; in a body's axes: kind 7) at a
-    moved state: their gradient is the one csrc/evaluate.c computes (``sensor_jacobian``), and its derivative along
-    each of their coordinates (the configuration's update: turns on SO(3)) the central difference of that gradient
-    (measured 4.6e-11 and 3.8e-11 of its largest)."""
-    prepared, state, _ = _boom_state(POINTS)
+@pytest.mark.parametrize("text, kinds", [(POINTS, [5, 7]), (LENGTH, [8]), (FORCE, [14])],
+                         ids=["points", "cable_length", "joint_force"])
+def test_a_sensors_second_derivative_is_the_central_difference_of_its_gradient(text, kinds):
+    """The sensors the PDs read whose second derivatives are composed of generated kernels (a point at an offset
+    from its node: kind 5; in a body's axes: 7; a cable of three elements' length: 8; a free joint's force: 14) at a
+    moved state: their gradient is the one csrc/evaluate.c computes (``sensor_jacobian``, to the bit), and its
+    derivative along each of their coordinates (the configuration's update: turns on SO(3)) the central difference
+    of that gradient (measured 4.6e-11, 3.8e-11, 8.4e-11, 4.8e-10 of its largest)."""
+    prepared, state, _ = _boom_state(text)
     assembler = prepared.assembler
     control, n = assembler.control, prepared.model.n_dofs
     native = assembler.native()
@@ -119,47 +139,34 @@ def test_a_point_sensors_second_derivative_is_the_central_difference_of_its_grad
     jacobian = np.array(native.buffers["sensor_jacobian"])
     checked = []
     for sensor, (kind, index) in enumerate(zip(control.sensor_kind, control.sensor_index)):
-        if kind not in (5, 7):
+        if kind not in kinds:
             continue
         gradient, second = _sensor_kinematics(assembler, state, int(kind), int(index), sensor)
         first = int(control.sensor_column_start[sensor])
-        np.testing.assert_allclose(gradient, jacobian[first:first + len(gradient)], rtol=0, atol=1e-14)
+        np.testing.assert_array_equal(gradient, jacobian[first:first + len(gradient)])
         dofs = _sensor_dofs(assembler, int(kind), int(index), sensor)
-        for i, d in enumerate(dofs):
-            if d >= n:
-                continue
+        for d in np.unique(dofs[dofs < n]):   # a node two elements share: both its columns
             unit = np.zeros(n)
             unit[d] = 1e-6
             ahead = _sensor_kinematics(assembler, assembler.advance(state, unit), int(kind), int(index), sensor)[0]
             behind = _sensor_kinematics(assembler, assembler.advance(state, -unit), int(kind), int(index), sensor)[0]
-            assert np.abs(second[:, i] - (ahead - behind) / 2e-6).max() <= 2e-9 * np.abs(second).max()
+            moved = second[:, dofs == d].sum(axis=1)
+            assert np.abs(moved - (ahead - behind) / 2e-6).max() <= 2e-9 * np.abs(second).max()
         checked.append(int(kind))
-    assert sorted(checked) == [5, 7]
+    assert sorted(checked) == kinds
 
 
-def test_a_controller_reading_points_is_generated():
-    """The PD reading the wheel's position, the spar's start at an offset and the arm's middle in the wheel's axes:
-    no coordinate left to difference (10be92c differenced 13) and H's blocks agree with Richardson differences
-    (measured 1.4e-12; the difference 3.0e-11)."""
-    prepared, _, _ = _boom_state(POINTS)
+@pytest.mark.parametrize("text, kinds", [(POINTS, [0, 1, 2, 5, 7]), (LENGTH, [0, 1, 8]), (FORCE, [0, 1, 14])],
+                         ids=["points", "cable_length", "joint_force"])
+def test_a_controller_reading_points_a_cables_length_or_a_joints_force_is_generated(text, kinds):
+    """The PD reading the wheel's position, the spar's start at an offset and the arm's middle in the wheel's axes;
+    the stay's length (three elements); the spar's hinge torque: no coordinate left to difference (10be92c
+    differenced 13, 13 and 2) and H's blocks agree with Richardson differences (measured 1.4e-12, 1.5e-12, 3.1e-12;
+    the difference 3.0e-11, 2.5e-10, 1.6e-9)."""
+    prepared, _, _ = _boom_state(text)
     assert exact_couplings(prepared.assembler).all()
-    assert sorted(set(prepared.assembler.control.sensor_kind)) == [0, 1, 2, 5, 7]
-    _assert_blocks_are_richardsons(POINTS)
-
-
-def test_through_the_latch_the_points_pds_sensitivities_agree_and_the_loop_keeps_the_bits():
-    """The boom with the PD of points through its latch, no difference left in H: the sensitivities by Kp agree
-    with Richardson differences of whole runs (measured 2.1e-7, as at 10be92c), and the loop of steps on and off
-    give the same bits."""
-    prepared, _, _ = _boom_state(POINTS)
-    assert len(rest_support(prepared.assembler)) == 0
-    runs = runs_with_the_loop_on_and_off(POINTS)
-    native, python = runs[True], runs[False]
-    assert [e["kind"] for e in native.summary["events"]] == ["latch"]
-    for key, values in python.sensitivities.items():
-        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
-    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
-    assert _agree(native, POINTS, "Kp", 1e-6) < 1e-6
+    assert sorted(set(prepared.assembler.control.sensor_kind)) == kinds
+    _assert_blocks_are_richardsons(text)
 
 
 def test_a_hinge_law_naming_an_input_is_generated():
@@ -197,25 +204,21 @@ def test_a_saturated_inner_controller_adds_no_chain_term():
     _assert_blocks_are_richardsons(clipped)
 
 
-@pytest.fixture(scope="module")
-def chain_runs():
-    """The chain's sensitivities by Kp with the loop of steps on and off (API)."""
-    return runs_with_the_loop_on_and_off(CHAIN.replace("sensitivities: [Kp, k]", "sensitivities: [Kp]"))
-
-
-def test_through_the_latch_the_chains_sensitivities_agree_and_the_loop_keeps_the_bits(chain_runs):
-    """The chain through its latch, no difference left in H: the sensitivities by Kp agree with Richardson
-    differences of whole runs (measured 2.0e-7, as with the difference at 10be92c: its error lies far below the
-    reference's), and the loop of steps on and off give the same bits, with steps in the loop."""
-    prepared, _, _ = _boom_state(CHAIN)
+@pytest.mark.parametrize("text", [CHAIN, POINTS], ids=["chain", "points"])
+def test_through_the_latch_the_sensitivities_agree_and_the_loop_keeps_the_bits(text):
+    """The chain and the PD of points through their latch, no difference left in H: the sensitivities by Kp agree
+    with Richardson differences of whole runs (measured 2.0e-7 and 2.1e-7, as with the difference at 10be92c: its
+    error lies far below the reference's), and the loop of steps on and off give the same bits, with steps in the
+    loop."""
+    prepared, _, _ = _boom_state(text)
     assert len(rest_support(prepared.assembler)) == 0
-    native, python = chain_runs[True], chain_runs[False]
+    text = text.replace("sensitivities: [Kp, k]", "sensitivities: [Kp]")
+    runs = runs_with_the_loop_on_and_off(text)
+    native, python = runs[True], runs[False]
     assert [e["kind"] for e in native.summary["events"]] == ["latch"]
-    assert native.summary["sensitivity_steps_in_loop"] > 0 == python.summary["sensitivity_steps_in_loop"]
-    for key, values in python.sensitivities.items():
-        np.testing.assert_array_equal(native.sensitivities[key], values, err_msg=str(key))
-    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
-    assert _agree(native, CHAIN, "Kp", 1e-6) < 1e-6
+    assert native.summary["sensitivity_steps_in_loop"] > 0
+    assert_same_sensitivities(native, python)
+    assert _agree(native, text, "Kp", 1e-6) < 1e-6
 
 
 def test_latdyn_run_of_the_driven_load_agrees_with_richardson_and_the_loop_off_writes_the_same(tmp_path):

@@ -31,27 +31,41 @@ and exact:
   of the law's ∂f/∂θ parsed as a law of the state (:func:`_angle_slope_law`, as the laws' rates in t are), evaluated
   with NumPy at the event (the events take the Python path; nothing is compiled for them: a scene without events,
   or without laws of θ, makes nothing new). A hinge that a continuous controller alone drives has no torque law
-  there (csrc/evaluate.c ``hinge_forces``). A hinge with a law of θ that names an input or a controller, or whose
-  ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along its angle;
+  there (csrc/evaluate.c ``hinge_forces``). A law naming an input is taken at the input's value at the event (the
+  law and its slope read the scene's inputs, as the compiled laws do). A hinge with a law of θ that names a
+  controller, or whose ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along
+  its angle;
 * the point loads' blocks K_l (the node's rows × the turns of the node and of the body the load turns with; a
   global load's frame half zero), along w_l on those columns: ``point_load_stiffness_D_q`` (codegen/joints.py: K_l w
   as the derivative of the load's force along the turns τ w at τ = 0, differentiated once more by the turns the
-  node and the frame start from) at the load's values at the state's time (:func:`_load_part`). A load a
-  continuous controller drives (alone or through a law a y + b) has values that move with the controller's
-  sensors: its block keeps the difference below (:func:`exact_loads`);
+  node and the frame start from) at the load's values at the state (:func:`_load_part`). A load a continuous
+  controller of :func:`_exact_controllers` drives (alone or through a law a y + b) is taken at the controller's
+  output there, and its values' move with the controller's sensors and the couplings' two terms (their force
+  turning with the node and the frame, the controller's gradient moving) are :func:`_driven_load_part`'s, from the
+  same ``point_load`` at a unit component; a load another controller drives keeps the difference below
+  (:func:`exact_loads`);
 * the cable elements' blocks K_c (both end nodes' [d, π], the damper's c ℓ̇ at the state's rates included), along
   w_c: ``cable_stiffness_D_q`` (the same construction on the taut law of ``cable_force``), for the elements taut at
   the state as csrc/evaluate.c ``cables`` decides (held taut, or on no side a positive gap min(N_el, N)); a slack
   element's K is the runtime's zero, its derivative too (:func:`_cable_part`);
-* the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
-  alone (:func:`exact_couplings`): K's entry −a ∂y/∂θ_j moves along q with −a ∂²y/∂θ_j∂θ_i (an angle sensor's own
-  second derivative is 0; the rates are held), SymPy's second derivatives of the output's expression by its angles
-  lambdified once per output in a process (:func:`_output_curvature`) and evaluated with NumPy at the event's sensor values; 0 while
-  the output is saturated (:func:`_coupling_part`).
+* the continuous controllers' couplings (:func:`exact_couplings`) from a controller that reads joints' angles and
+  rates, points' positions and displacements (global at their node or at an offset, or in a body's axes), nodes'
+  velocities, cables' lengths, free joints' forces whose laws are generated, inputs, its own states and earlier
+  such controllers (:func:`_exact_controllers`): K's entry −a ∂y/∂q_c (a joint's force) or F(e_p) ∂y/∂q_c (a load
+  component) moves along q with y's second derivative through the chain rule (:func:`_controller_curvatures`):
+  SymPy's first and second derivatives of each output's expression by its reads that move (lambdified once per
+  controller in a process, :func:`_output_curvature`) at the sensors' values the evaluation computes, the rates
+  held (W has no C), an input and a sampled controller's output at their values at the event, a state at its
+  held value, an earlier controller's output through its own gradient and second derivative; each sensor's own
+  second derivative through the kinematics under the configuration update (:func:`_sensor_kinematics`: 0 for an
+  angle and a global component; a point x + T r, a point in a body's axes and a cable's length composed of the
+  generated ``point_load``'s force and turn tangents, as csrc/evaluate.c composes their gradients from it; a free
+  joint's force from ``hinge_force`` and ``hinge_stiffness_by_angle``); 0 while an output is saturated
+  (:func:`_coupling_part`, :func:`_driven_load_part`).
 
-Not generated, H_rest: the other continuous controllers' couplings (a sensor of a point, a body, a cable, an
-element or a joint's force, whose own second derivative through the kinematics is not generated; an input, a state
-or another controller read; a load component driven) and the blocks of the loads they drive. Their product (W
+Not generated, H_rest: the couplings of a controller reading a cable's tension, an element's section force, a
+point's velocity at an offset or relative to a body (whose value moves with q), a free joint's force whose law is
+not generated, or a controller of those, and the blocks of the loads such controllers drive. Their product (W
 without the generated blocks) w is differenced centrally along each coordinate those blocks are on
 (:func:`rest_support`: those couplings' rows and columns, the driven loads' nodes and frame bodies, a hinge not in
 :func:`exact_hinges`), two evaluations per coordinate, step
@@ -123,9 +137,9 @@ RATES_MOVE = 1e-3
 #: id(law) -> (the law, its :func:`_angle_slope_law`): parsed once per law in a process (the law kept, so that its id
 #: is not reused)
 _SLOPES: dict = {}
-#: (output's text, symbols, moving reads) -> its :func:`_output_curvature`, made once per process (a scene loaded
-#: again reuses it); (id(controller), moving reads) -> (the controller, the same), so that a controller's output is
-#: not printed again at each event
+#: (output's expression, symbols, moving reads) -> its :func:`_output_curvature`, made once per process (a scene
+#: loaded again reuses it; the expression's hash, not its printed text: printing it at each event cost the boom's H
+#: 2.7 ms)
 _CURVATURES: dict = {}
 #: id(wiring) -> (the wiring, its :func:`_exact_controllers`): found once per numbering of a model in a process
 _EXACT: dict = {}
@@ -485,27 +499,29 @@ def _cable_part(assembler, state, w: np.ndarray, scale: float):
 
 
 def _output_curvature(controller, moving: tuple):
-    """SymPy's ∂²f/∂a_i∂a_j of a continuous controller's output f before saturation by its reads at the positions
-    ``moving`` of ``controller.reads`` (those that move with the configuration: its angle sensors and the earlier
-    controllers it reads; a rate, an input and a state are held along q), lambdified once per output's text, symbols
-    and positions in a process (:data:`_CURVATURES`: a scene loaded again reuses it), a function of
-    ``(t, *reads values, *state values)`` giving the (moving, moving) matrix; None where a second derivative is not a
-    function (DiracDelta of a kink, an unevaluated derivative)."""
-    known = _CURVATURES.get((id(controller), tuple(moving)))
-    if known is not None and known[0] is controller:   # this controller's, without printing its output again
-        return known[1]
-    reads = controller.symbols[1:1 + len(controller.reads)]
-    key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(moving))
+    """SymPy's f, ∂f/∂a_i and ∂²f/∂a_i∂a_j of a continuous controller's output f before saturation by its reads at the
+    positions ``moving`` of ``controller.reads`` (those that move with the configuration: its sensors of
+    :data:`_MOVING_SENSORS` and the earlier controllers it reads; a rate, an input and a state are held along q; Dirac
+    deltas dropped from the first, as the compiled law's), lambdified once per output's expression, symbols and
+    positions in a process (:data:`_CURVATURES`: a scene loaded again, its parameters the same, reuses it), a
+    function of ``(t, *reads values, *state values)`` giving f, its m first derivatives and the (m, m) second ones,
+    flat; None where a second derivative is not a function (DiracDelta of a kink, an unevaluated derivative)."""
+    key = (controller.output_expr, tuple(controller.symbols), tuple(moving))
     if key not in _CURVATURES:
         import sympy as sp
 
+        from latdyn.scene.expressions import _drop_deltas
+
+        reads = controller.symbols[1:1 + len(controller.reads)]
         first = [sp.diff(controller.output_expr, reads[i]) for i in moving]
         second = [[sp.diff(first[a], reads[j]) if b >= a else None for b, j in enumerate(moving)]
                   for a in range(len(moving))]
-        second = [[second[a][b] if b >= a else second[b][a] for b in range(len(moving))] for a in range(len(moving))]
-        singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in second for e in row)
-        _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols, second, modules=["math", "numpy"])
-    _CURVATURES[(id(controller), tuple(moving))] = (controller, _CURVATURES[key])
+        second = [second[a][b] if b >= a else second[b][a] for a in range(len(moving)) for b in range(len(moving))]
+        singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for e in second)
+        _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols,
+                                                             [controller.output_expr]
+                                                             + [_drop_deltas(e) for e in first] + second,
+                                                             modules=["math", "numpy"])
     return _CURVATURES[key]
 
 
@@ -529,15 +545,17 @@ def _controller_reads(control, k: int) -> list:
 
 #: the sensor kinds whose values move along q with a second derivative :func:`_sensor_kinematics` gives
 #: (latdyn.assembly.control: a joint's angle, a point's global position component at its node or at an offset, a
-#: point's position component in a body's axes), and those held along q (a joint's rate, a node's velocity)
-_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 7), (1, 3)
+#: point's position component in a body's axes, a cable's length, a free joint's force), and those held along q (a
+#: joint's rate, a node's velocity)
+_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 7, 8, 14), (1, 3)
 
 
 def _exact_controllers(assembler) -> list:
     """(controllers,) bool: whether a continuous controller's output has its second derivatives along q generated
     (:func:`_controller_curvatures`): it reads joints' angles and rates, points' positions and displacements
-    (global, at an offset, in a body's axes), nodes' velocities, inputs, its own states (held across the impulse)
-    and earlier controllers of this kind alone, with an output whose second derivatives by the sensors that move
+    (global, at an offset, in a body's axes), nodes' velocities, free joints' forces whose laws are generated
+    (:func:`exact_hinges`), inputs, its own states (held across the impulse) and earlier controllers of this kind
+    alone, with an output whose second derivatives by the sensors that move
     and the controllers it reads are functions (:func:`_output_curvature`)."""
     from latdyn.assembly.control import CONTROLLER
 
@@ -545,11 +563,13 @@ def _exact_controllers(assembler) -> list:
     known = _EXACT.get(id(control))
     if known is not None and known[0] is control:
         return known[1]
+    model = assembler.model
+    generated = dict(zip((int(j) for j in model.free_hinges), exact_hinges(assembler)))
     out = []
     for k, controller in enumerate(control.controllers):
         reads = _controller_reads(control, k)
-        plain = all(kind is None or kind in _MOVING_SENSORS + _HELD_SENSORS or (kind == CONTROLLER and out[index])
-                    for kind, index, _ in reads)
+        plain = all(kind is None or (kind in _MOVING_SENSORS + _HELD_SENSORS and (kind != 14 or generated.get(index)))
+                    or (kind == CONTROLLER and out[index]) for kind, index, _ in reads)
         moving = tuple(p for p, (kind, _, _) in enumerate(reads) if kind in _MOVING_SENSORS + (CONTROLLER,))
         out.append(plain and _output_curvature(controller, moving) is not None)
     if len(_EXACT) >= 64:   # one entry a numbering: a process running many scenes keeps the last ones
@@ -562,12 +582,14 @@ def _sensor_dofs(assembler, kind: int, index: int, sensor: int) -> np.ndarray:
     """The coordinates a sensor of :data:`_MOVING_SENSORS` moves with (latdyn.assembly.control ``_sensor``'s
     columns; a slot that is no coordinate on n_total)."""
     model = assembler.model
-    if kind == 0:
+    if kind in (0, 14):
         dofs = [model.hinge_dofs[index]]
     elif kind == 2:
         dofs = [model.node_dofs[index // 3, index % 3]]
     elif kind == 5:
         dofs = model.node_dofs[index // 3]
+    elif kind == 8:   # each element's end nodes, as csrc/evaluate.c's gradient (12 columns an element)
+        dofs = model.node_dofs[model.cables.nodes[_cable_elements(assembler, index, sensor)]].reshape(-1)
     else:
         dofs = np.concatenate([model.node_dofs[index // 3], model.node_dofs[assembler.control.sensor_frame_node[sensor]]])
     return _scattered(np.asarray(dofs, np.int64), model.n_total)
@@ -587,7 +609,9 @@ def _point_load(assembler, T, r, values, R):
 def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
     """(∂s/∂q on :func:`_sensor_dofs` (d,), ∂(∂s/∂q_c)/∂q_i (d, d): row c the gradient's column, column i the move,
     or None where 0) of a sensor of :data:`_MOVING_SENSORS` at ``state``, under the configuration's update
-    (x += d, T ← exp(skew π) T): an angle and a global component x_c are linear in q; a point x + T r at an offset,
+    (x += d, T ← exp(skew π) T): an angle and a global component x_c are linear in q; a free joint's force −f of its
+    laws has −K_jj (``hinge_force``'s ∂f/∂θ) moving with −∂K_jj/∂θ (``hinge_stiffness_by_angle``, as
+    :func:`_hinge_part`); a point x + T r at an offset,
     component c, has the gradient Jᵀ e_c = ``point_load``'s force for the values −e_c and its move by the node's turn
     that force's ∂/∂π_node; a point's component in a body's axes s = b·(x + T r − x_b), b = T_b e_c, has the
     gradient [b; T r × b] on the point's node (``point_load`` at the frame T_b, values −e_c: its ∂/∂π_node and
@@ -597,6 +621,14 @@ def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
     b × δu the same kernel's moment rows for the values −δu)."""
     if kind in (0, 2):
         return np.ones(1), None
+    if kind == 8:
+        return _cable_length_kinematics(assembler, state, index, sensor)
+    if kind == 14:   # s = −f of the joint's laws (csrc/evaluate.c): −∂f/∂θ = −K_jj, moving with −∂K_jj/∂θ
+        states, laws, curvatures, contacts = _hinge_rows(assembler, state, [index])
+        kernels = assembler.kernels
+        stiffness = np.asarray(kernels.hinge_force(states, laws, contacts)[1]).reshape(1)
+        slope = np.asarray(kernels.hinge_stiffness_by_angle(states, laws, curvatures, contacts)[0]).reshape(1, 1)
+        return -stiffness, -slope
     control = assembler.control
     node, c = index // 3, index % 3
     T, r = state.T[node], control.sensor_offset[sensor]
@@ -639,6 +671,44 @@ def exact_couplings(assembler) -> np.ndarray:
     return out
 
 
+def _cable_elements(assembler, first: int, sensor: int) -> np.ndarray:
+    """The elements of the cable whose length sensor ``sensor`` reads, from its first ``first`` (their gradient's
+    columns, 12 an element: latdyn.assembly.control)."""
+    control = assembler.control
+    width = int(control.sensor_column_start[sensor + 1] - control.sensor_column_start[sensor])
+    return first + np.arange(width // 12)
+
+
+def _cable_length_kinematics(assembler, state, first: int, sensor: int):
+    """:func:`_sensor_kinematics` of a cable's length ℓ = Σ_e |d_e|, d = p_b − p_a the span between its element's
+    end points p = x + T r: with e = d/|d| and J_a, J_b the end points' Jacobians (``point_load``'s force for the
+    values −e_j), the gradient [−J_aᵀ e; J_bᵀ e] (``point_load`` at the values ±e, as csrc/evaluate.c) moves with
+    the ends' turns at fixed e (that call's ∂/∂π_node) and with e, δe = (I − e eᵀ) δd/|d|: Jᵀ (I − e eᵀ) J/|d|,
+    J = [−J_a, J_b]."""
+    cables = assembler.model.cables
+    elements = _cable_elements(assembler, first, sensor)
+    gradient, second = np.zeros(12 * len(elements)), np.zeros((12 * len(elements), 12 * len(elements)))
+    for k, element in enumerate(elements):
+        a, b = cables.nodes[element]
+        ra, rb = cables.offsets[element, 0], cables.offsets[element, 1]
+        span = state.x[b] + state.T[b] @ rb - state.x[a] - state.T[a] @ ra
+        length = float(np.linalg.norm(span))
+        if length == 0.0:
+            continue
+        e = span / length
+        at = slice(12 * k, 12 * k + 12)
+        toward_a, turned_a, _ = _point_load(assembler, state.T[a], ra, np.concatenate([e, np.zeros(3)]), np.eye(3))
+        toward_b, turned_b, _ = _point_load(assembler, state.T[b], rb, np.concatenate([-e, np.zeros(3)]), np.eye(3))
+        gradient[at] = np.concatenate([toward_a[0], toward_b[0]])
+        jacobian = np.concatenate([-_point_load(assembler, state.T[a], ra, -np.eye(3, 6), np.eye(3))[0],
+                                   _point_load(assembler, state.T[b], rb, -np.eye(3, 6), np.eye(3))[0]], axis=1)
+        block = jacobian.T @ (np.eye(3) - np.outer(e, e)) @ jacobian / length
+        block[0:6, 3:6] += turned_a[0]
+        block[6:12, 9:12] += turned_b[0]
+        second[at, at] = block
+    return gradient, second
+
+
 def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = False):
     """(the coordinates the controllers reach (m,), {k: ∂²y_k/∂q∂q (m, m)}) at ``state`` for the controllers of
     ``exact`` (:func:`_exact_controllers`), in their order: with a_p the arguments of f_k that move along q (a sensor
@@ -649,7 +719,7 @@ def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = F
         ∂(∂y_k/∂q_c)/∂q_i = Σ_pr ∂²f_k/∂a_p∂a_r (∂a_p/∂q_c)(∂a_r/∂q_i) + Σ_p ∂f_k/∂a_p ∂(∂a_p/∂q_c)/∂q_i
 
     (the chain rule of csrc/evaluate.c controller_total, once more; row c the coupling's column, column i the move),
-    SymPy's first (``Controller.output_gradient``) and second (:func:`_output_curvature`) derivatives at the
+    SymPy's first and second derivatives (:func:`_output_curvature`) at the
     arguments the evaluation reads: the sensors' values as csrc/evaluate.c computes them
     (``NativeModel.controller_outputs_at``; the controllers' array put back), the inputs' and sampled controllers'
     values from the scene's arrays, the states' held values; 0 (both) where the output is saturated
@@ -703,16 +773,16 @@ def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = F
                 seconds.append(full)
                 moving.append(p)
         arguments = (t, *values, *states[control.state_slot[control.state_start[k]:control.state_start[k + 1]]])
-        y = float(controller.functions()[0](*arguments))
+        derivatives = np.asarray(_output_curvature(controller, tuple(moving))(*arguments), float).reshape(-1)
+        y = float(derivatives[0])
         lo, hi = control.limits[k]
         outputs[k] = float(min(max(y, lo), hi))
         if y < lo or y > hi or not moving:   # saturated: ∂y/∂s = 0 about the state, its derivative too
             gradients[k], curvatures[k] = np.zeros(m), np.zeros((m, m))
             continue
-        slope = controller.output_gradient(*arguments)[moving]
+        slope = derivatives[1:1 + len(moving)]
+        second = derivatives[1 + len(moving):].reshape(len(moving), len(moving))
         D = np.array(rows).reshape(len(moving), m)
-        second = np.asarray(_output_curvature(controller, tuple(moving))(*arguments), float).reshape(len(moving),
-                                                                                                     len(moving))
         curvature = D.T @ second @ D
         for a, own in zip(slope, seconds):
             curvature = curvature + a * own
@@ -801,11 +871,7 @@ def exact_hinges(assembler) -> np.ndarray:
 
 def _hinge_part(assembler, state, w: np.ndarray, scale: float):
     """(rows, values) of the hinges' part of H, on its diagonal: s (∂K_jj/∂θ_j) w_j for each free hinge j with
-    w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated ``hinge_stiffness_by_angle``,
-    codegen/joints.py, from the laws' values, first and second derivatives in θ at the state; a hinge driven by a
-    continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces)."""
-    from latdyn.assembly.native_model import joint_contact_rows
-
+    w_j ≠ 0 (:func:`_stiffness_slopes`)."""
     model = assembler.model
     n = model.n_dofs
     free = np.asarray(model.free_hinges, np.int64)
@@ -813,10 +879,29 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float):
     on = [(j, d) for j, d, exact in zip(free, dofs, exact_hinges(assembler)) if exact and d < n and w[d] != 0.0]
     if not on:
         return np.zeros(0, np.int64), np.zeros(0)
-    kernels, scene = assembler.kernels, model.scene
+    by_angle = _stiffness_slopes(assembler, state, [j for j, _ in on])
+    hinge_rows = np.array([d for _, d in on], np.int64)
+    return hinge_rows, scale * by_angle * w[hinge_rows]
+
+
+def _stiffness_slopes(assembler, state, hinges: list) -> np.ndarray:
+    """∂K_jj/∂θ_j (len(hinges),) of free hinges of :func:`exact_hinges` at ``state``, K_jj = ∂f/∂θ of their laws and
+    compliant stops: the generated ``hinge_stiffness_by_angle`` (codegen/joints.py) at :func:`_hinge_rows`."""
+    return np.asarray(assembler.kernels.hinge_stiffness_by_angle(*_hinge_rows(assembler, state, hinges))[0]).reshape(-1)
+
+
+def _hinge_rows(assembler, state, hinges: list) -> tuple:
+    """(states, laws, curvatures, contacts) of free hinges of :func:`exact_hinges` at ``state``, the generated hinge
+    kernels' rows: [θ, θ̇, θ_r, 1], their laws' values and first derivatives in θ and θ̇ at the state (a hinge driven
+    by a continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces), the laws' ∂²f/∂θ²
+    (:func:`_slope_law`), and their compliant stops."""
+    from latdyn.assembly.native_model import joint_contact_rows
+
+    model = assembler.model
+    scene = model.scene
     contact_rows = joint_contact_rows(model.hinges)
     states, laws, curvatures, contacts = [], [], [], []
-    for j, _ in on:
+    for j in hinges:
         hinge = model.hinges[j]
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), float(state.t)
         row, curvature = np.zeros(9), np.zeros(3)
@@ -831,10 +916,7 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float):
         curvatures.append(curvature)
         contacts.append(contact_rows[j])
     rows = lambda a: np.ascontiguousarray(np.asarray(a, float))  # noqa: E731
-    by_angle = np.asarray(kernels.hinge_stiffness_by_angle(rows(states), rows(laws), rows(curvatures),
-                                                           rows(contacts))[0]).reshape(-1)
-    hinge_rows = np.array([d for _, d in on], np.int64)
-    return hinge_rows, scale * by_angle * w[hinge_rows]
+    return rows(states), rows(laws), rows(curvatures), rows(contacts)
 
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
