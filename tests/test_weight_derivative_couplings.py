@@ -78,6 +78,12 @@ LENGTH = (CONTROLLED_BOOM.replace('  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rat
           .replace("    angle: {", "    stay_length: {cable: stay, quantity: length}\n    angle: {", 1)
           .replace("rest_length: 0.9, damping: 0.4}", "rest_length: 0.9, damping: 0.4, elements: 3, rhoA: 0.05}", 1))
 
+#: the controlled boom's PD reading the spar's start's velocity (an offset from the wheel's node: v + ω × T r)
+VELOCITY = (CONTROLLED_BOOM.replace('  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2)"}',
+                                    '  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2) '
+                                    '- 0.5*spar_vz*(1 + angle**2) - 0.3*spar_vz**2"}', 1)
+            .replace("    angle: {", "    spar_vz: {point: spar.start, quantity: velocity, component: z}\n    angle: {", 1))
+
 
 def _blocks_product(assembler, state, w: np.ndarray) -> np.ndarray:
     """The evaluation's hinges', loads' and cables', and couplings' blocks of K (no elements, no joint bodies),
@@ -121,14 +127,15 @@ def test_a_controller_reading_an_input_another_controller_or_its_state_is_genera
     _assert_blocks_are_richardsons(text)
 
 
-@pytest.mark.parametrize("text, kinds", [(POINTS, [5, 7]), (LENGTH, [8]), (FORCE, [14])],
-                         ids=["points", "cable_length", "joint_force"])
+@pytest.mark.parametrize("text, kinds", [(POINTS, [5, 7]), (VELOCITY, [6]), (LENGTH, [8]), (FORCE, [14])],
+                         ids=["points", "point_velocity", "cable_length", "joint_force"])
 def test_a_sensors_second_derivative_is_the_central_difference_of_its_gradient(text, kinds):
     """The sensors the PDs read whose second derivatives are composed of generated kernels (a point at an offset
-    from its node: kind 5; in a body's axes: 7; a cable of three elements' length: 8; a free joint's force: 14) at a
-    moved state: their gradient is the one csrc/evaluate.c computes (``sensor_jacobian``, to the bit), and its
-    derivative along each of their coordinates (the configuration's update: turns on SO(3)) the central difference
-    of that gradient (measured 4.6e-11, 3.8e-11, 8.4e-11, 4.8e-10 of its largest)."""
+    from its node: kind 5; in a body's axes: 7; a point's velocity at an offset by its node's turn: 6; a cable of
+    three elements' length: 8; a free joint's force: 14) at a moved state: their gradient is the one
+    csrc/evaluate.c computes (``sensor_jacobian``'s columns of K, to the bit), and its derivative along each of
+    their coordinates (the configuration's update: turns on SO(3)) the central difference of that gradient
+    (measured 4.6e-11, 3.8e-11, 5.8e-11, 8.4e-11, 4.8e-10 of its largest)."""
     prepared, state, _ = _boom_state(text)
     assembler = prepared.assembler
     control, n = assembler.control, prepared.model.n_dofs
@@ -142,7 +149,7 @@ def test_a_sensors_second_derivative_is_the_central_difference_of_its_gradient(t
         if kind not in kinds:
             continue
         gradient, second = _sensor_kinematics(assembler, state, int(kind), int(index), sensor)
-        first = int(control.sensor_column_start[sensor])
+        first = int(control.sensor_column_start[sensor]) + (6 if kind == 6 else 0)   # kind 6: after its six rates
         np.testing.assert_array_equal(gradient, jacobian[first:first + len(gradient)])
         dofs = _sensor_dofs(assembler, int(kind), int(index), sensor)
         for d in np.unique(dofs[dofs < n]):   # a node two elements share: both its columns
@@ -156,13 +163,14 @@ def test_a_sensors_second_derivative_is_the_central_difference_of_its_gradient(t
     assert sorted(checked) == kinds
 
 
-@pytest.mark.parametrize("text, kinds", [(POINTS, [0, 1, 2, 5, 7]), (LENGTH, [0, 1, 8]), (FORCE, [0, 1, 14])],
-                         ids=["points", "cable_length", "joint_force"])
+@pytest.mark.parametrize("text, kinds", [(POINTS, [0, 1, 2, 5, 7]), (VELOCITY, [0, 1, 6]), (LENGTH, [0, 1, 8]),
+                                         (FORCE, [0, 1, 14])],
+                         ids=["points", "point_velocity", "cable_length", "joint_force"])
 def test_a_controller_reading_points_a_cables_length_or_a_joints_force_is_generated(text, kinds):
     """The PD reading the wheel's position, the spar's start at an offset and the arm's middle in the wheel's axes;
-    the stay's length (three elements); the spar's hinge torque: no coordinate left to difference (10be92c
-    differenced 13, 13 and 2) and H's blocks agree with Richardson differences (measured 1.4e-12, 1.5e-12, 3.1e-12;
-    the difference 3.0e-11, 2.5e-10, 1.6e-9)."""
+    the spar's start's velocity; the stay's length (three elements); the spar's hinge torque: no coordinate left to
+    difference (10be92c differenced 13, 7, 13 and 2) and H's blocks agree with Richardson differences (measured
+    1.4e-12, 7.9e-13, 1.5e-12, 3.1e-12; the difference 3.0e-11, 7.9e-13, 2.5e-10, 1.6e-9)."""
     prepared, _, _ = _boom_state(text)
     assert exact_couplings(prepared.assembler).all()
     assert sorted(set(prepared.assembler.control.sensor_kind)) == kinds

@@ -50,22 +50,21 @@ and exact:
   element's K is the runtime's zero, its derivative too (:func:`_cable_part`);
 * the continuous controllers' couplings (:func:`exact_couplings`) from a controller that reads joints' angles and
   rates, points' positions and displacements (global at their node or at an offset, or in a body's axes), nodes'
-  velocities, cables' lengths, free joints' forces whose laws are generated, inputs, its own states and earlier
-  such controllers (:func:`_exact_controllers`): K's entry −a ∂y/∂q_c (a joint's force) or F(e_p) ∂y/∂q_c (a load
+  velocities and points' velocities at an offset, cables' lengths, free joints' forces whose laws are generated,
+  inputs, its own states and earlier such controllers (:func:`_exact_controllers`): K's entry −a ∂y/∂q_c (a joint's force) or F(e_p) ∂y/∂q_c (a load
   component) moves along q with y's second derivative through the chain rule (:func:`_controller_curvatures`):
   SymPy's first and second derivatives of each output's expression by its reads that move (lambdified once per
   controller in a process, :func:`_output_curvature`) at the sensors' values the evaluation computes, the rates
   held (W has no C), an input and a sampled controller's output at their values at the event, a state at its
   held value, an earlier controller's output through its own gradient and second derivative; each sensor's own
   second derivative through the kinematics under the configuration update (:func:`_sensor_kinematics`: 0 for an
-  angle and a global component; a point x + T r, a point in a body's axes and a cable's length composed of the
-  generated ``point_load``'s force and turn tangents, as csrc/evaluate.c composes their gradients from it; a free
+  angle and a global component; a point x + T r, a point in a body's axes, a point's velocity v + ω × T r (by the
+  turn, the rates held) and a cable's length composed of the generated ``point_load``'s force and turn tangents, as csrc/evaluate.c composes their gradients from it; a free
   joint's force from ``hinge_force`` and ``hinge_stiffness_by_angle``); 0 while an output is saturated
   (:func:`_coupling_part`, :func:`_driven_load_part`).
 
 Not generated, H_rest: the couplings of a controller reading a cable's tension, an element's section force, a
-point's velocity at an offset or relative to a body (whose value moves with q), a free joint's force whose law is
-not generated, or a controller of those, and the blocks of the loads such controllers drive. Their product (W
+point's velocity relative to a body (whose value moves with q), a free joint's force whose law is not generated, or a controller of those, and the blocks of the loads such controllers drive. Their product (W
 without the generated blocks) w is differenced centrally along each coordinate those blocks are on
 (:func:`rest_support`: those couplings' rows and columns, the driven loads' nodes and frame bodies, a hinge not in
 :func:`exact_hinges`), two evaluations per coordinate, step
@@ -545,15 +544,16 @@ def _controller_reads(control, k: int) -> list:
 
 #: the sensor kinds whose values move along q with a second derivative :func:`_sensor_kinematics` gives
 #: (latdyn.assembly.control: a joint's angle, a point's global position component at its node or at an offset, a
-#: point's position component in a body's axes, a cable's length, a free joint's force), and those held along q (a
-#: joint's rate, a node's velocity)
-_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 7, 8, 14), (1, 3)
+#: point's position component in a body's axes, a point's velocity at an offset (by its node's turn: v + ω × T r at
+#: the rates held), a cable's length, a free joint's force), and those held along q (a joint's rate, a node's velocity)
+_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 6, 7, 8, 14), (1, 3)
 
 
 def _exact_controllers(assembler) -> list:
     """(controllers,) bool: whether a continuous controller's output has its second derivatives along q generated
     (:func:`_controller_curvatures`): it reads joints' angles and rates, points' positions and displacements
-    (global, at an offset, in a body's axes), nodes' velocities, free joints' forces whose laws are generated
+    (global, at an offset, in a body's axes), nodes' velocities, points' velocities at an offset, cables' lengths,
+    free joints' forces whose laws are generated
     (:func:`exact_hinges`), inputs, its own states (held across the impulse) and earlier controllers of this kind
     alone, with an output whose second derivatives by the sensors that move
     and the controllers it reads are functions (:func:`_output_curvature`)."""
@@ -588,6 +588,8 @@ def _sensor_dofs(assembler, kind: int, index: int, sensor: int) -> np.ndarray:
         dofs = [model.node_dofs[index // 3, index % 3]]
     elif kind == 5:
         dofs = model.node_dofs[index // 3]
+    elif kind == 6:   # its K columns: the node's turn (the node's six rates are C's)
+        dofs = model.node_dofs[index // 3, 3:]
     elif kind == 8:   # each element's end nodes, as csrc/evaluate.c's gradient (12 columns an element)
         dofs = model.node_dofs[model.cables.nodes[_cable_elements(assembler, index, sensor)]].reshape(-1)
     else:
@@ -611,7 +613,9 @@ def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
     or None where 0) of a sensor of :data:`_MOVING_SENSORS` at ``state``, under the configuration's update
     (x += d, T ← exp(skew π) T): an angle and a global component x_c are linear in q; a free joint's force −f of its
     laws has −K_jj (``hinge_force``'s ∂f/∂θ) moving with −∂K_jj/∂θ (``hinge_stiffness_by_angle``, as
-    :func:`_hinge_part`); a point x + T r at an offset,
+    :func:`_hinge_part`); a point's velocity v + ω × T r at an offset, by the node's turn at fixed rates, the moment
+    rows of ``point_load`` at the values −(e_c × ω) (csrc/evaluate.c's) moving with that call's ∂/∂π_node; a point
+    x + T r at an offset,
     component c, has the gradient Jᵀ e_c = ``point_load``'s force for the values −e_c and its move by the node's turn
     that force's ∂/∂π_node; a point's component in a body's axes s = b·(x + T r − x_b), b = T_b e_c, has the
     gradient [b; T r × b] on the point's node (``point_load`` at the frame T_b, values −e_c: its ∂/∂π_node and
@@ -633,6 +637,10 @@ def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
     node, c = index // 3, index % 3
     T, r = state.T[node], control.sensor_offset[sensor]
     unit = -np.eye(6)[c]
+    if kind == 6:   # ω × T r by the turn at fixed ω: the moment rows of point_load at the values −(e_c × ω)
+        lever, by_node, _ = _point_load(assembler, T, r, np.concatenate([-np.cross(np.eye(3)[c], state.w[node]),
+                                                                         np.zeros(3)]), np.eye(3))
+        return lever[0, 3:], by_node[0, 3:]
     if kind == 5:
         force, by_node, _ = _point_load(assembler, T, r, unit, np.eye(3))
         second = np.zeros((6, 6))
