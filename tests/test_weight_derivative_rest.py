@@ -175,16 +175,16 @@ def test_a_slack_cable_adds_nothing_to_h():
     assert len(_cable_part(prepared.assembler, state, rng.normal(size=prepared.model.n_dofs), 1.0)[2]) == 0
 
 
-def test_a_load_a_controller_drives_keeps_the_difference_along_its_coordinates():
-    """The controlled wheel's load (two components driven by a continuous controller: its values move with the
-    sensors) stays in H_rest's difference, the wheel's turn among its coordinates; H still agrees with
-    Richardson-extrapolated differences of the evaluation's W w."""
+def test_a_load_a_chain_of_controllers_of_a_point_drives_is_generated():
+    """The controlled wheel's load (two components driven by a chain of continuous controllers reading the wheel's
+    position and the hinge's angle: its values move with the sensors) is generated now, its block and the
+    couplings' (tests/test_weight_derivative_couplings.py; 10be92c differenced the wheel's turn among their
+    coordinates); H agrees with Richardson-extrapolated differences of the evaluation's W w."""
     from tests.test_weight_derivative import _check_model
 
     prepared = prepare(latdyn.load_scene(yaml.safe_load(CONTROLLED_WHEEL)))
     assembler = prepared.assembler
-    assert not exact_loads(assembler).any()
-    assert set(assembler._load_columns().ravel()) & set(rest_support(assembler))
+    assert exact_loads(assembler).all() and len(rest_support(assembler)) == 0
     assert _check_model(CONTROLLED_WHEEL, 5) < 1e-8
 
 
@@ -281,9 +281,10 @@ def test_a_pd_controllers_coupling_in_h_is_sympys_second_derivative_and_no_diffe
     _assert_h_is_richardsons(assembler, state, rng, n)
 
 
-def test_a_saturated_controller_adds_nothing_and_a_controller_with_an_input_keeps_the_difference():
+def test_a_saturated_controller_adds_nothing_and_a_controller_of_a_tension_keeps_the_difference():
     """The PD's output clipped at the state (limits [−0.01, 0.01]): its coupling's part of H is empty (∂y/∂s = 0
-    about it, csrc/evaluate.c); the same controller reading an input keeps the difference along its couplings."""
+    about it, csrc/evaluate.c); the same controller reading the cable's tension keeps the difference along its
+    couplings (a controller reading an input or a point: tests/test_weight_derivative_couplings.py)."""
     from latdyn.analyses.weight_derivative import _coupling_part, exact_couplings
 
     clipped = CONTROLLED_BOOM.replace('(1 + angle**2)"}', '(1 + angle**2)", limits: [-0.01, 0.01]}')
@@ -291,9 +292,8 @@ def test_a_saturated_controller_adds_nothing_and_a_controller_with_an_input_keep
     state.theta[0] = 1.5
     assert exact_couplings(prepared.assembler).all()
     assert len(_coupling_part(prepared.assembler, state, rng.normal(size=prepared.model.n_dofs), 1.0)[2]) == 0
-    with_input = (CONTROLLED_BOOM.replace("- Kd*rate", "- g*Kd*rate")
-                  .replace("sections:", "inputs: {g: 1.0}\nsections:", 1))
-    assembler = prepare(latdyn.load_scene(yaml.safe_load(with_input))).assembler
+    with_tension = CONTROLLED_BOOM.replace("- Kd*rate", "- (1 + pull)*Kd*rate")
+    assembler = prepare(latdyn.load_scene(yaml.safe_load(with_tension))).assembler
     assert not exact_couplings(assembler).any() and len(rest_support(assembler))
 
 

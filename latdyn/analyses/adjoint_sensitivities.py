@@ -643,8 +643,9 @@ class AdjointSensitivities(TransientSensitivities):
         """The transpose of the forward method's :meth:`_weight_derivative` (δ(W w) = D δq + P, W = M + scale·K,
         or scale·K without ``mass``) applied to ``u_bar`` (n, m): (Dᵀū (n, m), Pᵀū (k, m)). D = ∂(W w)/∂q is the
         forward method's matrix H (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the
-        generated elements', joint bodies' (their weight's too), hinges', loads' and cables' parts, the differences
-        of the couplings' blocks and the loads they drive only along the coordinates they are on), Dᵀū its
+        generated elements', joint bodies' (their weight's too), hinges', loads', cables' and most couplings' parts,
+        the differences of the other couplings' blocks and the loads they drive only along the coordinates they are
+        on), Dᵀū its
         transposed product; Pᵀū:
         scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: the section values',
         hinges', loads', joint bodies' and cables' EA and damping parts generated, latdyn/analyses/parameter_stiffness.py,

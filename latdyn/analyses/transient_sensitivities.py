@@ -834,9 +834,9 @@ class TransientSensitivities(ParameterDerivatives):
         """δ(W w) (n, k) for W = M + scale·K (``mass``) or scale·K at ``state`` (K the evaluation's, without
         the inertia tangent, as the impulse uses it), along each column's (δq, δp): H δq with H = ∂(W w)/∂q
         generated (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the elements', joint
-        bodies' (their weight's too), hinges', loads' and cables' parts from the generated kernels, the continuous
-        controllers' couplings' blocks and those of the loads they drive differenced along the coordinates they are
-        on), ∂M/∂p w exactly (the inertia forces
+        bodies' (their weight's too), hinges', loads' and cables' parts and most continuous controllers' couplings
+        from the generated kernels, the couplings not generated and the blocks of the loads their controllers drive
+        differenced along the coordinates they are on), ∂M/∂p w exactly (the inertia forces
         are linear in the accelerations: ∂r/∂p at accelerations w less at none, at rest), scale ∂K/∂p w
         (:meth:`_stiffness_derivative`: the section values', hinges', loads', joint bodies' and cables' EA and damping
         parts generated, the rest differenced along w).

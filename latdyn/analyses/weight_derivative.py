@@ -31,27 +31,40 @@ and exact:
   of the law's ∂f/∂θ parsed as a law of the state (:func:`_angle_slope_law`, as the laws' rates in t are), evaluated
   with NumPy at the event (the events take the Python path; nothing is compiled for them: a scene without events,
   or without laws of θ, makes nothing new). A hinge that a continuous controller alone drives has no torque law
-  there (csrc/evaluate.c ``hinge_forces``). A hinge with a law of θ that names an input or a controller, or whose
-  ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along its angle;
+  there (csrc/evaluate.c ``hinge_forces``). A law naming an input is taken at the input's value at the event (the
+  law and its slope read the scene's inputs, as the compiled laws do). A hinge with a law of θ that names a
+  controller, or whose ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along
+  its angle;
 * the point loads' blocks K_l (the node's rows × the turns of the node and of the body the load turns with; a
   global load's frame half zero), along w_l on those columns: ``point_load_stiffness_D_q`` (codegen/joints.py: K_l w
   as the derivative of the load's force along the turns τ w at τ = 0, differentiated once more by the turns the
-  node and the frame start from) at the load's values at the state's time (:func:`_load_part`). A load a
-  continuous controller drives (alone or through a law a y + b) has values that move with the controller's
-  sensors: its block keeps the difference below (:func:`exact_loads`);
+  node and the frame start from) at the load's values at the state (:func:`_load_part`). A load a continuous
+  controller of :func:`_exact_controllers` drives (alone or through a law a y + b) is taken at the controller's
+  output there, and its values' move with the controller's sensors and the couplings' two terms (their force
+  turning with the node and the frame, the controller's gradient moving) are :func:`_driven_load_part`'s, from the
+  same ``point_load`` at a unit component; a load another controller drives keeps the difference below
+  (:func:`exact_loads`);
 * the cable elements' blocks K_c (both end nodes' [d, π], the damper's c ℓ̇ at the state's rates included), along
   w_c: ``cable_stiffness_D_q`` (the same construction on the taut law of ``cable_force``), for the elements taut at
   the state as csrc/evaluate.c ``cables`` decides (held taut, or on no side a positive gap min(N_el, N)); a slack
   element's K is the runtime's zero, its derivative too (:func:`_cable_part`);
-* the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
-  alone (:func:`exact_couplings`): K's entry −a ∂y/∂θ_j moves along q with −a ∂²y/∂θ_j∂θ_i (an angle sensor's own
-  second derivative is 0; the rates are held), SymPy's second derivatives of the output's expression by its angles
-  lambdified once per output in a process (:func:`_output_curvature`) and evaluated with NumPy at the event's sensor values; 0 while
-  the output is saturated (:func:`_coupling_part`).
+* the continuous controllers' couplings (:func:`exact_couplings`) from a controller that reads joints' angles and
+  rates, points' positions and displacements (global at their node or at an offset, or in a body's axes), nodes'
+  velocities and points' velocities at an offset, cables' lengths, free joints' forces whose laws are generated,
+  inputs, its own states and earlier such controllers (:func:`_exact_controllers`): K's entry −a ∂y/∂q_c (a joint's force) or F(e_p) ∂y/∂q_c (a load
+  component) moves along q with y's second derivative through the chain rule (:func:`_controller_curvatures`):
+  SymPy's first and second derivatives of each output's expression by its reads that move (lambdified once per
+  controller in a process, :func:`_output_curvature`) at the sensors' values the evaluation computes, the rates
+  held (W has no C), an input and a sampled controller's output at their values at the event, a state at its
+  held value, an earlier controller's output through its own gradient and second derivative; each sensor's own
+  second derivative through the kinematics under the configuration update (:func:`_sensor_kinematics`: 0 for an
+  angle and a global component; a point x + T r, a point in a body's axes, a point's velocity v + ω × T r (by the
+  turn, the rates held) and a cable's length composed of the generated ``point_load``'s force and turn tangents, as csrc/evaluate.c composes their gradients from it; a free
+  joint's force from ``hinge_force`` and ``hinge_stiffness_by_angle``); 0 while an output is saturated
+  (:func:`_coupling_part`, :func:`_driven_load_part`).
 
-Not generated, H_rest: the other continuous controllers' couplings (a sensor of a point, a body, a cable, an
-element or a joint's force, whose own second derivative through the kinematics is not generated; an input, a state
-or another controller read; a load component driven) and the blocks of the loads they drive. Their product (W
+Not generated, H_rest: the couplings of a controller reading a cable's tension, an element's section force, a
+point's velocity relative to a body (whose value moves with q), a free joint's force whose law is not generated, or a controller of those, and the blocks of the loads such controllers drive. Their product (W
 without the generated blocks) w is differenced centrally along each coordinate those blocks are on
 (:func:`rest_support`: those couplings' rows and columns, the driven loads' nodes and frame bodies, a hinge not in
 :func:`exact_hinges`), two evaluations per coordinate, step
@@ -144,12 +157,16 @@ RATES_MOVE = 1e-3
 #: id(law) -> (the law, its :func:`_angle_slope_law`): parsed once per law in a process (the law kept, so that its id
 #: is not reused)
 _SLOPES: dict = {}
-#: (output's text, symbols, angle reads) -> its :func:`_output_curvature`, made once per process
+#: (output's expression, symbols, moving reads) -> its :func:`_output_curvature`, made once per process (a scene
+#: loaded again reuses it; the expression's hash, not its printed text: printing it at each event cost the boom's H
+#: 2.7 ms)
 _CURVATURES: dict = {}
 #: id(the assembler's controllers' wiring) -> (a weak reference to the wiring, its :func:`linked_exact_couplings`):
 #: found once per wiring (a latch's renumbering wires them again), not at each of an event's evaluations (the outputs'
 #: text from SymPy: 18 ms an event on the gimbal with a mixed PD before, 9 ms after)
 _LINKED_COUPLINGS: dict = {}
+#: id(wiring) -> (the wiring, its :func:`_exact_controllers`): found once per numbering of a model in a process
+_EXACT: dict = {}
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -273,14 +290,20 @@ def rest_support(assembler) -> np.ndarray:
 
 
 def exact_loads(assembler) -> np.ndarray:
-    """(loads,) bool: whether the point load's part of H is generated (:func:`_load_part`): none of its components
-    is driven by a continuous controller (alone or through a law a y + b; latdyn.assembly.control: its values then
-    move with the controller's sensors, the couplings' columns, and its block stays in :func:`rest_support`'s
-    difference)."""
+    """(loads,) bool: whether the point load's part of H is generated (:func:`_load_part`): each of its components
+    a continuous controller drives (alone or through a law a y + b; latdyn.assembly.control: its values then move
+    with the controller's sensors, the couplings' columns) is driven by one of :func:`_exact_controllers` (its
+    values' and couplings' derivatives along q then generated, :func:`_driven_load_part`); otherwise its block
+    stays in :func:`rest_support`'s difference."""
     control = assembler.control
     out = np.ones(len(assembler.loads), bool)
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
-    out[np.asarray(getattr(control, "actuator_index", np.zeros(0, np.int64)))[kinds == 1]] = False
+    if not np.any(kinds == 1):
+        return out
+    plain = _exact_controllers(assembler)
+    for a in np.flatnonzero(kinds == 1):
+        if not plain[int(control.actuator_controller[a])]:
+            out[int(control.actuator_index[a])] = False
     return out
 
 
@@ -299,10 +322,11 @@ def _load_part(assembler, state, w: np.ndarray, scale: float, full: np.ndarray |
                exact: np.ndarray | None = None):
     """(rows, cols, values) of the point loads' part of H: s ∂(K_l w_l)/∂[π_node, π_frame] for each load of
     :func:`exact_loads` with w on its block's columns, from the generated ``point_load_stiffness_D_q``
-    (codegen/joints.py) at the load's values at the state's time (its laws of t; the evaluation's load factor 1).
-    ``full`` (n_total + 1; default w on the free coordinates, 0 elsewhere): the direction on every coordinate, a
-    dependent node's turns too (a model with rigid links or guides: P w, :func:`linked_configuration_tangent`);
-    ``exact`` (loads,) bool: the loads taken (default :func:`exact_loads`)."""
+    (codegen/joints.py) at the load's values at the state (its laws of t, the components a controller drives at its
+    output there: :func:`_load_values`; the evaluation's load factor 1). The driven values' own move along q is
+    :func:`_driven_load_part`'s. ``full`` (n_total + 1; default w on the free coordinates, 0 elsewhere): the direction
+    on every coordinate, a dependent node's turns too (a model with rigid links or guides: P w,
+    :func:`linked_configuration_tangent`); ``exact`` (loads,) bool: the loads taken (default :func:`exact_loads`)."""
     model, loads = assembler.model, assembler.loads
     if full is None:
         full = np.zeros(model.n_total + 1)
@@ -315,9 +339,7 @@ def _load_part(assembler, state, w: np.ndarray, scale: float, full: np.ndarray |
     on = np.flatnonzero(exact & np.any(along != 0.0, axis=1))
     if not len(on):
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    t = float(state.t)
-    values = np.array([[_law_value(c, t) for c in (loads[l].force or [0.0] * 3)]
-                       + [_law_value(c, t) for c in (loads[l].moment or [0.0] * 3)] for l in on], float)
+    values = _load_values(assembler, state, on)
     nodes, frames = assembler._load_nodes[on], assembler._load_frames[on]
     frame_turns = np.where(follower[on][:, None, None], state.T[frames], np.eye(3))
     rows = lambda a: np.ascontiguousarray(np.reshape(a, (len(on), -1)), dtype=float)  # noqa: E731
@@ -330,6 +352,97 @@ def _load_part(assembler, state, w: np.ndarray, scale: float, full: np.ndarray |
     c = columns[on]
     return (np.broadcast_to(d[:, :, None], blocks.shape).ravel(), np.broadcast_to(c[:, None, :], blocks.shape).ravel(),
             blocks.ravel())
+
+
+def _driving(assembler, state):
+    """[(load, component, gain a, controller k)] of the load components continuous controllers drive (a = ∂τ/∂y
+    of a law a y + b, 1 for the name alone) and the controllers' outputs at ``state`` with their curvatures
+    (:func:`_controller_curvatures`, for the controllers of :func:`_exact_controllers`; their gradients too):
+    (actuators, outputs, gradients, columns, curvatures)."""
+    control = assembler.control
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    actuators = [(int(control.actuator_index[a]), int(control.actuator_component[a]),
+                  float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0,
+                  int(control.actuator_controller[a])) for a in np.flatnonzero(kinds == 1)]
+    if not actuators:
+        return actuators, {}, {}, np.zeros(0, np.int64), {}
+    columns, curvatures, outputs, gradients = _controller_curvatures(assembler, state, _exact_controllers(assembler),
+                                                                     with_outputs=True)
+    return actuators, outputs, gradients, columns, curvatures
+
+
+def _load_values(assembler, state, on: np.ndarray) -> np.ndarray:
+    """(len(on), 6) the values [force; moment] of the loads ``on`` at ``state``: their laws of t at its time, and a
+    component a continuous controller drives at the controller's output there (:func:`_controller_curvatures`;
+    a law a y + b as a y + b(t), b(t) its value less a times the output it read)."""
+    loads = assembler.loads
+    t = float(state.t)
+    values = np.array([[_law_value(c, t) for c in (loads[l].force or [0.0] * 3)]
+                       + [_law_value(c, t) for c in (loads[l].moment or [0.0] * 3)] for l in on], float)
+    actuators, outputs, _, _, _ = _driving(assembler, state)
+    if not actuators:
+        return values
+    held = assembler.model.scene.controller_outputs
+    row = {int(l): i for i, l in enumerate(on)}
+    for l, p, gain, k in actuators:
+        if l not in row or k not in outputs:
+            continue
+        law = (loads[l].force if p < 3 else loads[l].moment)[p % 3]
+        alone = assembler.control.load_controller[l, p] == k
+        before = 0.0 if alone else values[row[l], p] - gain * float(held[assembler.control.controllers[k].name])
+        values[row[l], p] = gain * outputs[k] + before
+    return values
+
+
+def _driven_load_part(assembler, state, w: np.ndarray, scale: float):
+    """(rows, cols, values) of the part of H that the load components driven by controllers of
+    :func:`_exact_controllers` add beyond :func:`_load_part`'s turns (at the driven values): with e_p a unit
+    component times the gain a, F(e_p) its generalized force on the node's six rows (``point_load``'s, as
+    csrc/evaluate.c controller_couplings takes it) and K_l(e_p) its block on the load's columns (by the node's and
+    the frame's turns), y the controller's output, g = ∂y/∂q and G = ∂²y/∂q∂q over the angle coordinates it reaches
+    (:func:`_controller_curvatures`):
+
+        the load's block, its values moving:         s (K_l(e_p) w_l) gᵀ              (node rows × angle columns)
+        the couplings F(e_p) gᵀ, F turning:          s K_l(e_p) (gᵀ w)                (node rows × load columns)
+        the couplings, g moving:                     s F(e_p) (G w)ᵀ                  (node rows × angle columns)
+
+    0 for a saturated controller (g, G = 0)."""
+    actuators, _, gradients, columns, curvatures = _driving(assembler, state)
+    model = assembler.model
+    n = model.n_dofs
+    exact = exact_loads(assembler)
+    actuators = [(l, p, gain, k) for l, p, gain, k in actuators if exact[l] and np.any(gradients.get(k, 0.0))]
+    if not actuators:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
+    loads = assembler.loads
+    load_columns = _scattered(assembler._load_columns(), model.n_total)
+    rows = lambda a: np.ascontiguousarray(np.reshape(a, (1, -1)), dtype=float)  # noqa: E731
+    out_rows, out_cols, out_values = [], [], []
+    for l, p, gain, k in actuators:
+        follower = loads[l].frame != "global"
+        node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
+        unit = np.zeros(6)
+        unit[p] = gain
+        force, _, by_node, by_frame = (np.asarray(x) for x in assembler.kernels.point_load(
+            rows(state.T[node]), rows(assembler._load_offsets[l]), rows(unit),
+            rows(state.T[frame] if follower else np.eye(3)), rows(np.zeros(6))))
+        block = np.concatenate([by_node.reshape(6, 3), by_frame.reshape(6, 3) if follower else np.zeros((6, 3))],
+                               axis=1)
+        force = force.reshape(6)
+        c = load_columns[l]
+        w_l = full[c]
+        d = _scattered(model.node_dofs[node], model.n_total)
+        g, G = gradients[k], curvatures[k]
+        for r_, c_, v_ in ((d[:, None] + 0 * columns[None], columns[None] + 0 * d[:, None],
+                            np.outer(block @ w_l, g) + np.outer(force, G.T @ along)),
+                           (d[:, None] + 0 * c[None], c[None] + 0 * d[:, None], block * float(g @ along))):
+            out_rows.append(r_.ravel())
+            out_cols.append(c_.ravel())
+            out_values.append(scale * v_.ravel())
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
 
 
 def cable_stiffness_by_rates(assembler, state, w: np.ndarray, dv: np.ndarray) -> np.ndarray:
@@ -424,90 +537,339 @@ def _cable_part(assembler, state, w: np.ndarray, scale: float, full: np.ndarray 
             blocks.ravel())
 
 
-def _output_curvature(controller, angles: tuple):
-    """SymPy's ∂²f/∂s_i∂s_j of a continuous controller's output f before saturation by its reads at the positions
-    ``angles`` (its angle sensors; the rates' never enter W), lambdified once per output's text, reads and angles in a
-    process (:data:`_CURVATURES`: a scene loaded again reuses it), a function of ``(t, *reads values)`` giving the
-    (angles, angles) matrix; None where a second derivative is not a function (DiracDelta of a kink, an unevaluated
-    derivative)."""
-    reads = controller.symbols[1:1 + len(controller.reads)]
-    key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(angles))
+def _output_curvature(controller, moving: tuple):
+    """SymPy's f, ∂f/∂a_i and ∂²f/∂a_i∂a_j of a continuous controller's output f before saturation by its reads at the
+    positions ``moving`` of ``controller.reads`` (those that move with the configuration: its sensors of
+    :data:`_MOVING_SENSORS` and the earlier controllers it reads; a rate, an input and a state are held along q; Dirac
+    deltas dropped from the first, as the compiled law's), lambdified once per output's expression, symbols and
+    positions in a process (:data:`_CURVATURES`: a scene loaded again, its parameters the same, reuses it), a
+    function of ``(t, *reads values, *state values)`` giving f, its m first derivatives and the (m, m) second ones,
+    flat; None where a second derivative is not a function (DiracDelta of a kink, an unevaluated derivative)."""
+    key = (controller.output_expr, tuple(controller.symbols), tuple(moving))
     if key not in _CURVATURES:
         import sympy as sp
 
-        first = [sp.diff(controller.output_expr, reads[i]) for i in angles]
-        second = [[sp.diff(first[a], reads[j]) if b >= a else None for b, j in enumerate(angles)]
-                  for a in range(len(angles))]
-        second = [[second[a][b] if b >= a else second[b][a] for b in range(len(angles))] for a in range(len(angles))]
-        singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in second for e in row)
-        _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols[:1 + len(reads)], second,
+        from latdyn.scene.expressions import _drop_deltas
+
+        reads = controller.symbols[1:1 + len(controller.reads)]
+        first = [sp.diff(controller.output_expr, reads[i]) for i in moving]
+        second = [[sp.diff(first[a], reads[j]) if b >= a else None for b, j in enumerate(moving)]
+                  for a in range(len(moving))]
+        second = [second[a][b] if b >= a else second[b][a] for a in range(len(moving)) for b in range(len(moving))]
+        singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for e in second)
+        _CURVATURES[key] = None if singular else sp.lambdify(controller.symbols,
+                                                             [controller.output_expr]
+                                                             + [_drop_deltas(e) for e in first] + second,
                                                              modules=["math", "numpy"])
     return _CURVATURES[key]
 
 
+def _controller_reads(control, k: int) -> list:
+    """For each name controller ``k`` reads (``controller.reads``, its law's arguments after t, before its
+    states): ``(kind, index, sensor)`` of the sensor that gives it (latdyn.assembly.control: kinds ANGLE, RATE,
+    CONTROLLER, …, in the order of the wiring's sensors), or ``(None, name, -1)`` for a name no sensor gives: an
+    input or a sampled controller's held output, read from the scene's arrays (as the compiled laws read them)."""
+    controller = control.controllers[k]
+    sensed = set(control.sensor_names(k))
+    m = int(control.sensor_start[k])
+    out = []
+    for name in controller.reads:
+        if name in sensed:
+            out.append((int(control.sensor_kind[m]), int(control.sensor_index[m]), m))
+            m += 1
+        else:
+            out.append((None, name, -1))
+    return out
+
+
+#: the sensor kinds whose values move along q with a second derivative :func:`_sensor_kinematics` gives
+#: (latdyn.assembly.control: a joint's angle, a point's global position component at its node or at an offset, a
+#: point's position component in a body's axes, a point's velocity at an offset (by its node's turn: v + ω × T r at
+#: the rates held), a cable's length, a free joint's force), and those held along q (a joint's rate, a node's velocity)
+_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 6, 7, 8, 14), (1, 3)
+
+
+def _exact_controllers(assembler) -> list:
+    """(controllers,) bool: whether a continuous controller's output has its second derivatives along q generated
+    (:func:`_controller_curvatures`): it reads joints' angles and rates, points' positions and displacements
+    (global, at an offset, in a body's axes), nodes' velocities, points' velocities at an offset, cables' lengths,
+    free joints' forces whose laws are generated
+    (:func:`exact_hinges`), inputs, its own states (held across the impulse) and earlier controllers of this kind
+    alone, with an output whose second derivatives by the sensors that move
+    and the controllers it reads are functions (:func:`_output_curvature`)."""
+    from latdyn.assembly.control import CONTROLLER
+
+    control = assembler.control
+    known = _EXACT.get(id(control))
+    if known is not None and known[0] is control:
+        return known[1]
+    model = assembler.model
+    generated = dict(zip((int(j) for j in model.free_hinges), exact_hinges(assembler)))
+    out = []
+    for k, controller in enumerate(control.controllers):
+        reads = _controller_reads(control, k)
+        plain = all(kind is None or (kind in _MOVING_SENSORS + _HELD_SENSORS and (kind != 14 or generated.get(index)))
+                    or (kind == CONTROLLER and out[index]) for kind, index, _ in reads)
+        moving = tuple(p for p, (kind, _, _) in enumerate(reads) if kind in _MOVING_SENSORS + (CONTROLLER,))
+        out.append(plain and _output_curvature(controller, moving) is not None)
+    if len(_EXACT) >= 64:   # one entry a numbering: a process running many scenes keeps the last ones
+        _EXACT.clear()
+    _EXACT[id(control)] = (control, out)
+    return out
+
+
+def _sensor_dofs(assembler, kind: int, index: int, sensor: int) -> np.ndarray:
+    """The coordinates a sensor of :data:`_MOVING_SENSORS` moves with (latdyn.assembly.control ``_sensor``'s
+    columns; a slot that is no coordinate on n_total)."""
+    model = assembler.model
+    if kind in (0, 14):
+        dofs = [model.hinge_dofs[index]]
+    elif kind == 2:
+        dofs = [model.node_dofs[index // 3, index % 3]]
+    elif kind == 5:
+        dofs = model.node_dofs[index // 3]
+    elif kind == 6:   # its K columns: the node's turn (the node's six rates are C's)
+        dofs = model.node_dofs[index // 3, 3:]
+    elif kind == 8:   # each element's end nodes, as csrc/evaluate.c's gradient (12 columns an element)
+        dofs = model.node_dofs[model.cables.nodes[_cable_elements(assembler, index, sensor)]].reshape(-1)
+    else:
+        dofs = np.concatenate([model.node_dofs[index // 3], model.node_dofs[assembler.control.sensor_frame_node[sensor]]])
+    return _scattered(np.asarray(dofs, np.int64), model.n_total)
+
+
+def _point_load(assembler, T, r, values, R):
+    """The generated ``point_load``'s (force (b, 6), ∂force/∂π_node (b, 6, 3), ∂force/∂π_frame (b, 6, 3)) for rows
+    of node frames T, offsets r, values [F; Mo] and frames R (no velocity) — the kinematics of a point x + T r under
+    the configuration's update (csrc/evaluate.c ``sensor`` takes a point sensor's gradient from it)."""
+    values = np.atleast_2d(np.asarray(values, float))
+    b = len(values)
+    rows = lambda a: np.ascontiguousarray(np.broadcast_to(np.reshape(a, (1, -1)), (b, np.size(a))), dtype=float)  # noqa: E731
+    out = assembler.kernels.point_load(rows(T), rows(r), np.ascontiguousarray(values), rows(R), np.zeros((b, 6)))
+    return (np.asarray(out[0]).reshape(b, 6), np.asarray(out[2]).reshape(b, 6, 3), np.asarray(out[3]).reshape(b, 6, 3))
+
+
+def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
+    """(∂s/∂q on :func:`_sensor_dofs` (d,), ∂(∂s/∂q_c)/∂q_i (d, d): row c the gradient's column, column i the move,
+    or None where 0) of a sensor of :data:`_MOVING_SENSORS` at ``state``, under the configuration's update
+    (x += d, T ← exp(skew π) T): an angle and a global component x_c are linear in q; a free joint's force −f of its
+    laws has −K_jj (``hinge_force``'s ∂f/∂θ) moving with −∂K_jj/∂θ (``hinge_stiffness_by_angle``, as
+    :func:`_hinge_part`); a point's velocity v + ω × T r at an offset, by the node's turn at fixed rates, the moment
+    rows of ``point_load`` at the values −(e_c × ω) (csrc/evaluate.c's) moving with that call's ∂/∂π_node; a point
+    x + T r at an offset,
+    component c, has the gradient Jᵀ e_c = ``point_load``'s force for the values −e_c and its move by the node's turn
+    that force's ∂/∂π_node; a point's component in a body's axes s = b·(x + T r − x_b), b = T_b e_c, has the
+    gradient [b; T r × b] on the point's node (``point_load`` at the frame T_b, values −e_c: its ∂/∂π_node and
+    ∂/∂π_frame move it), −b on the body's translation (moved by the body's turn as that force's first rows), and
+    b × u on the body's turn, u = x + T r − x_b (``point_load`` at the body's node with offset e_c and values −u:
+    its ∂/∂π_node moves it at fixed u; u moves with the point's Jacobian J and −I on the body's translation,
+    b × δu the same kernel's moment rows for the values −δu)."""
+    if kind in (0, 2):
+        return np.ones(1), None
+    if kind == 8:
+        return _cable_length_kinematics(assembler, state, index, sensor)
+    if kind == 14:   # s = −f of the joint's laws (csrc/evaluate.c): −∂f/∂θ = −K_jj, moving with −∂K_jj/∂θ
+        states, laws, curvatures, contacts = _hinge_rows(assembler, state, [index])
+        kernels = assembler.kernels
+        stiffness = np.asarray(kernels.hinge_force(states, laws, contacts)[1]).reshape(1)
+        slope = np.asarray(kernels.hinge_stiffness_by_angle(states, laws, curvatures, contacts)[0]).reshape(1, 1)
+        return -stiffness, -slope
+    control = assembler.control
+    node, c = index // 3, index % 3
+    T, r = state.T[node], control.sensor_offset[sensor]
+    unit = -np.eye(6)[c]
+    if kind == 6:   # ω × T r by the turn at fixed ω: the moment rows of point_load at the values −(e_c × ω)
+        lever, by_node, _ = _point_load(assembler, T, r, np.concatenate([-np.cross(np.eye(3)[c], state.w[node]),
+                                                                         np.zeros(3)]), np.eye(3))
+        return lever[0, 3:], by_node[0, 3:]
+    if kind == 5:
+        force, by_node, _ = _point_load(assembler, T, r, unit, np.eye(3))
+        second = np.zeros((6, 6))
+        second[:, 3:] = by_node[0]
+        return force[0], second
+    body = int(control.sensor_frame_node[sensor])
+    Tb = state.T[body]
+    gradient, second = np.zeros(12), np.zeros((12, 12))
+    point, by_node, by_frame = _point_load(assembler, T, r, unit, Tb)
+    gradient[:6], second[:6, 3:6], second[:6, 9:] = point[0], by_node[0], by_frame[0]
+    gradient[6:9], second[6:9, 9:] = -point[0, :3], -by_frame[0, :3]
+    u = state.x[node] + T @ r - state.x[body]
+    lever, turned, _ = _point_load(assembler, Tb, np.eye(3)[c], np.concatenate([-u, np.zeros(3)]), np.eye(3))
+    gradient[9:], second[9:, 9:] = lever[0, 3:], turned[0, 3:]
+    crossed = _point_load(assembler, Tb, np.eye(3)[c], -np.eye(3, 6), np.eye(3))[0][:, 3:].T    # δu ↦ b × δu
+    jacobian = _point_load(assembler, T, r, -np.eye(3, 6), np.eye(3))[0]                       # J (3, 6)
+    second[9:, :6], second[9:, 6:9] = crossed @ jacobian, -crossed
+    return gradient, second
+
+
 def exact_couplings(assembler) -> np.ndarray:
     """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of H generated
-    (:func:`_coupling_part`): its actuator is a hinge's or guide's force, and its controller reads joints' angles
-    and rates alone (no input, no other controller, no state) with an output whose second derivatives by them are
-    functions (:func:`_output_curvature`). Its entry −a ∂y/∂s (sensor s an angle: the sensor's own second
-    derivative is 0) then moves along q with ∂²y/∂s² alone; the others keep the difference (:func:`rest_support`)."""
-    from latdyn.assembly.control import ANGLE, RATE
-
+    (:func:`_coupling_part` for a hinge's or guide's force, :func:`_driven_load_part` for a load component): its
+    controller is one of :func:`_exact_controllers` (joints' angles and rates, inputs, its states, earlier such
+    controllers). A hinge's entry −a ∂y/∂q_c (the total derivative through the controllers read; an angle sensor's
+    own second derivative is 0) then moves along q with ∂²y/∂q_c∂q_i alone, a load's F(e_p) ∂y/∂q_c with its node's
+    and frame's turns too; the others keep the difference (:func:`rest_support`)."""
     control = assembler.control
     rows = np.asarray(control.coupling_rows)
     out = np.zeros(len(rows), bool)
     if not len(rows):
         return out
-    plain = []
-    for k, controller in enumerate(control.controllers):
-        kinds = control.sensor_kind[control.sensor_start[k]:control.sensor_start[k + 1]]
-        plain.append(not controller.states and len(kinds) == len(controller.reads)
-                     and bool(np.all((kinds == ANGLE) | (kinds == RATE)))
-                     and _output_curvature(controller, tuple(np.flatnonzero(kinds == ANGLE))) is not None)
+    plain = _exact_controllers(assembler)
     for e, a in enumerate(np.asarray(control.coupling_actuator)):
-        out[e] = control.actuator_kind[a] == 0 and plain[control.actuator_controller[a]]
+        out[e] = plain[control.actuator_controller[a]]
     return out
+
+
+def _cable_elements(assembler, first: int, sensor: int) -> np.ndarray:
+    """The elements of the cable whose length sensor ``sensor`` reads, from its first ``first`` (their gradient's
+    columns, 12 an element: latdyn.assembly.control)."""
+    control = assembler.control
+    width = int(control.sensor_column_start[sensor + 1] - control.sensor_column_start[sensor])
+    return first + np.arange(width // 12)
+
+
+def _cable_length_kinematics(assembler, state, first: int, sensor: int):
+    """:func:`_sensor_kinematics` of a cable's length ℓ = Σ_e |d_e|, d = p_b − p_a the span between its element's
+    end points p = x + T r: with e = d/|d| and J_a, J_b the end points' Jacobians (``point_load``'s force for the
+    values −e_j), the gradient [−J_aᵀ e; J_bᵀ e] (``point_load`` at the values ±e, as csrc/evaluate.c) moves with
+    the ends' turns at fixed e (that call's ∂/∂π_node) and with e, δe = (I − e eᵀ) δd/|d|: Jᵀ (I − e eᵀ) J/|d|,
+    J = [−J_a, J_b]."""
+    cables = assembler.model.cables
+    elements = _cable_elements(assembler, first, sensor)
+    gradient, second = np.zeros(12 * len(elements)), np.zeros((12 * len(elements), 12 * len(elements)))
+    for k, element in enumerate(elements):
+        a, b = cables.nodes[element]
+        ra, rb = cables.offsets[element, 0], cables.offsets[element, 1]
+        span = state.x[b] + state.T[b] @ rb - state.x[a] - state.T[a] @ ra
+        length = float(np.linalg.norm(span))
+        if length == 0.0:
+            continue
+        e = span / length
+        at = slice(12 * k, 12 * k + 12)
+        toward_a, turned_a, _ = _point_load(assembler, state.T[a], ra, np.concatenate([e, np.zeros(3)]), np.eye(3))
+        toward_b, turned_b, _ = _point_load(assembler, state.T[b], rb, np.concatenate([-e, np.zeros(3)]), np.eye(3))
+        gradient[at] = np.concatenate([toward_a[0], toward_b[0]])
+        jacobian = np.concatenate([-_point_load(assembler, state.T[a], ra, -np.eye(3, 6), np.eye(3))[0],
+                                   _point_load(assembler, state.T[b], rb, -np.eye(3, 6), np.eye(3))[0]], axis=1)
+        block = jacobian.T @ (np.eye(3) - np.outer(e, e)) @ jacobian / length
+        block[0:6, 3:6] += turned_a[0]
+        block[6:12, 9:12] += turned_b[0]
+        second[at, at] = block
+    return gradient, second
+
+
+def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = False):
+    """(the coordinates the controllers reach (m,), {k: ∂²y_k/∂q∂q (m, m)}) at ``state`` for the controllers of
+    ``exact`` (:func:`_exact_controllers`), in their order: with a_p the arguments of f_k that move along q (a sensor
+    s − s_0 of :data:`_MOVING_SENSORS`: its gradient ∂s/∂q and ∂(∂s/∂q_c)/∂q_i, :func:`_sensor_kinematics`; an
+    earlier controller's output y_j: its total gradient g_j and second derivative),
+
+        g_k = Σ_p ∂f_k/∂a_p ∂a_p/∂q,
+        ∂(∂y_k/∂q_c)/∂q_i = Σ_pr ∂²f_k/∂a_p∂a_r (∂a_p/∂q_c)(∂a_r/∂q_i) + Σ_p ∂f_k/∂a_p ∂(∂a_p/∂q_c)/∂q_i
+
+    (the chain rule of csrc/evaluate.c controller_total, once more; row c the coupling's column, column i the move),
+    SymPy's first and second derivatives (:func:`_output_curvature`) at the
+    arguments the evaluation reads: the sensors' values as csrc/evaluate.c computes them
+    (``NativeModel.controller_outputs_at``; the controllers' array put back), the inputs' and sampled controllers'
+    values from the scene's arrays, the states' held values; 0 (both) where the output is saturated
+    (csrc/evaluate.c controller_outputs). ``with_outputs``: (columns, curvatures, the outputs y_k after saturation,
+    the gradients g_k (m,))."""
+    from latdyn.assembly.control import CONTROLLER
+
+    control, model, scene = assembler.control, assembler.model, assembler.model.scene
+    reads = {k: _controller_reads(control, k) for k, on in enumerate(exact) if on}
+    dofs = {sensor: _sensor_dofs(assembler, kind, index, sensor) for entries in reads.values()
+            for kind, index, sensor in entries if kind in _MOVING_SENSORS}
+    columns = sorted({int(d) for found in dofs.values() for d in found})
+    local = {c: i for i, c in enumerate(columns)}
+    m = len(columns)
+    inputs, held = getattr(scene, "inputs", None), getattr(scene, "controller_outputs", None)
+    states = control.states.values if control.states is not None else np.zeros(0)
+    sensed = None
+    if any(kind not in (0, 1, CONTROLLER) for entries in reads.values() for kind, _, _ in entries if kind is not None):
+        native = assembler.native()
+        kept = held.values.copy()
+        native.controller_outputs_at(state)
+        held.values[:] = kept
+        sensed = np.array(native.buffers["sensor_values"], float)
+    t = float(state.t)
+    outputs, gradients, curvatures = {}, {}, {}
+    for k, entries in reads.items():
+        controller = control.controllers[k]
+        values, rows, seconds, moving = [], [], [], []
+        for p, (kind, index, sensor) in enumerate(entries):
+            if kind is None:
+                values.append(float(inputs[index] if inputs is not None and index in inputs else held[index]))
+                continue
+            if kind == CONTROLLER:
+                values.append(outputs[index])
+                rows.append(gradients[index])
+                seconds.append(curvatures[index])
+                moving.append(p)
+                continue
+            values.append(float(state.theta[index] - control.sensor_origin[sensor]) if kind == 0 else
+                          float(state.theta_dot[index] - control.sensor_origin[sensor]) if kind == 1 else
+                          float(sensed[sensor]))
+            if kind in _MOVING_SENSORS:
+                gradient, second = _sensor_kinematics(assembler, state, kind, index, sensor)
+                at = np.array([local[int(d)] for d in dofs[sensor]], np.int64)
+                row = np.zeros(m)
+                np.add.at(row, at, gradient)
+                rows.append(row)
+                full = np.zeros((m, m))
+                if second is not None:
+                    np.add.at(full, (at[:, None], at[None, :]), second)
+                seconds.append(full)
+                moving.append(p)
+        arguments = (t, *values, *states[control.state_slot[control.state_start[k]:control.state_start[k + 1]]])
+        derivatives = np.asarray(_output_curvature(controller, tuple(moving))(*arguments), float).reshape(-1)
+        y = float(derivatives[0])
+        lo, hi = control.limits[k]
+        outputs[k] = float(min(max(y, lo), hi))
+        if y < lo or y > hi or not moving:   # saturated: ∂y/∂s = 0 about the state, its derivative too
+            gradients[k], curvatures[k] = np.zeros(m), np.zeros((m, m))
+            continue
+        slope = derivatives[1:1 + len(moving)]
+        second = derivatives[1 + len(moving):].reshape(len(moving), len(moving))
+        D = np.array(rows).reshape(len(moving), m)
+        curvature = D.T @ second @ D
+        for a, own in zip(slope, seconds):
+            curvature = curvature + a * own
+        gradients[k], curvatures[k] = slope @ D, curvature
+    if with_outputs:
+        return np.asarray(columns, np.int64), curvatures, outputs, gradients
+    return np.asarray(columns, np.int64), curvatures
 
 
 def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None):
     """(rows, cols, values) of the couplings' part of H for the entries of :func:`exact_couplings`: K's entry
-    K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while the output
-    is saturated, csrc/evaluate.c controller_outputs) along w: s Σ_j ∂K_rj/∂θ_i w_j = −s a Σ_j ∂²f/∂θ_j∂θ_i w_j
-    in column i, for the angle sensors i, j of the actuator's controller (rates held: W has no C). ``exact``
-    (couplings,) bool: the entries taken (default :func:`exact_couplings`; :func:`linked_exact_couplings`)."""
-    from latdyn.assembly.control import ANGLE
-
+    K_rc = −a ∂y/∂q_c (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; y's total derivative
+    through the controllers it reads; 0 while the output is saturated, csrc/evaluate.c controller_outputs) along w:
+    s Σ_c ∂K_rc/∂q_i w_c = −s a Σ_c ∂²y/∂q_c∂q_i w_c in column i, over the angle coordinates the actuator's
+    controller reaches (:func:`_controller_curvatures`; rates held: W has no C). ``exact`` (couplings,) bool: the
+    entries taken (default :func:`exact_couplings`; :func:`linked_exact_couplings`, whose controllers read joints'
+    angles and rates alone: their own curvatures alone are formed)."""
     control, model = assembler.control, assembler.model
+    subset = exact is not None
     exact = exact_couplings(assembler) if exact is None else exact
     n = model.n_dofs
+    actuators = sorted({int(control.coupling_actuator[e]) for e in np.flatnonzero(exact)
+                        if control.actuator_kind[control.coupling_actuator[e]] == 0})
+    if not actuators:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    controllers = _exact_controllers(assembler)
+    if subset:   # linked_exact_couplings: controllers of joints alone, no chain; the actuators' own
+        driving = {int(control.actuator_controller[a]) for a in actuators}
+        controllers = [bool(on) and k in driving for k, on in enumerate(controllers)]
+    columns, curvatures = _controller_curvatures(assembler, state, controllers)
+    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
     out_rows, out_cols, out_values = [], [], []
-    done = set()
-    for e in np.flatnonzero(exact):
-        a = int(control.coupling_actuator[e])
-        if a in done:
+    for a in actuators:
+        curvature = curvatures[int(control.actuator_controller[a])]
+        if not np.any(along) or not np.any(curvature):
             continue
-        done.add(a)
-        k = int(control.actuator_controller[a])
-        controller = control.controllers[k]
-        first, last = int(control.sensor_start[k]), int(control.sensor_start[k + 1])
-        kinds, indices = control.sensor_kind[first:last], control.sensor_index[first:last]
-        values = [float(state.theta[i] if kind == ANGLE else state.theta_dot[i])
-                  - float(control.sensor_origin[first + m]) for m, (kind, i) in enumerate(zip(kinds, indices))]
-        t = float(state.t)
-        y = float(controller.functions()[0](t, *values))
-        lo, hi = control.limits[k]
-        if y < lo or y > hi:   # saturated: ∂y/∂s = 0 about the state, its derivative too
-            continue
-        angles = np.flatnonzero(kinds == ANGLE)
-        columns = np.asarray(model.hinge_dofs, np.int64)[indices[angles]]
-        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
-        if not np.any(along):
-            continue
-        second = _output_curvature(controller, tuple(angles))
-        curvature = np.asarray(second(t, *values), float).reshape(len(angles), len(angles))
         gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
         row = int(model.hinge_dofs[control.actuator_index[a]])
-        out_rows.append(np.full(len(angles), row, np.int64))
+        out_rows.append(np.full(len(columns), row, np.int64))
         out_cols.append(columns)
         out_values.append(-scale * gain * (curvature.T @ along))
     if not out_rows:
@@ -545,29 +907,27 @@ def _hinge_laws(assembler, j: int) -> tuple:
 
 def exact_hinges(assembler) -> np.ndarray:
     """(free hinges,) bool: whether the free hinge's part of H is generated (:func:`_hinge_part`): each of its laws
-    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`) and naming no input or
-    controller (their values are the runtime's, read by the compiled laws); otherwise its angle stays in
+    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`) and naming no controller
+    (a continuous one's output moves with its sensors; an input it names is a number at the event, the value the
+    law and its slope read from the scene's inputs as the compiled laws do); otherwise its angle stays in
     :func:`rest_support`, differenced as before."""
     model = assembler.model
+    inputs = set(getattr(getattr(model.scene, "inputs", None), "names", ()))
     out = np.ones(len(model.free_hinges), bool)
     for i, j in enumerate(model.free_hinges):
         for key, law in _hinge_laws(assembler, int(j)):
             if law is None or "theta" not in law.depends_on:
                 continue
-            if getattr(law, "input_names", ()) or _slope_law(law, model.scene,
-                                                             f"joints.{model.hinges[j].name}.{key}") is None:
+            if set(getattr(law, "input_names", ())) - inputs or _slope_law(
+                    law, model.scene, f"joints.{model.hinges[j].name}.{key}") is None:
                 out[i] = False
     return out
 
 
 def _hinge_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None):
     """(rows, values) of the hinges' part of H, on its diagonal: s (∂K_jj/∂θ_j) w_j for each free hinge j with
-    w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated ``hinge_stiffness_by_angle``,
-    codegen/joints.py, from the laws' values, first and second derivatives in θ at the state; a hinge driven by a
-    continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces). ``exact`` (free hinges,)
-    bool: the hinges taken (default :func:`exact_hinges`; :func:`linked_exact_hinges`)."""
-    from latdyn.assembly.native_model import joint_contact_rows
-
+    w_j ≠ 0 (:func:`_stiffness_slopes`). ``exact`` (free hinges,) bool: the hinges taken (default
+    :func:`exact_hinges`; :func:`linked_exact_hinges`)."""
     model = assembler.model
     n = model.n_dofs
     free = np.asarray(model.free_hinges, np.int64)
@@ -576,10 +936,29 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray
     on = [(j, d) for j, d, taken in zip(free, dofs, exact) if taken and d < n and w[d] != 0.0]
     if not on:
         return np.zeros(0, np.int64), np.zeros(0)
-    kernels, scene = assembler.kernels, model.scene
+    by_angle = _stiffness_slopes(assembler, state, [j for j, _ in on])
+    hinge_rows = np.array([d for _, d in on], np.int64)
+    return hinge_rows, scale * by_angle * w[hinge_rows]
+
+
+def _stiffness_slopes(assembler, state, hinges: list) -> np.ndarray:
+    """∂K_jj/∂θ_j (len(hinges),) of free hinges of :func:`exact_hinges` at ``state``, K_jj = ∂f/∂θ of their laws and
+    compliant stops: the generated ``hinge_stiffness_by_angle`` (codegen/joints.py) at :func:`_hinge_rows`."""
+    return np.asarray(assembler.kernels.hinge_stiffness_by_angle(*_hinge_rows(assembler, state, hinges))[0]).reshape(-1)
+
+
+def _hinge_rows(assembler, state, hinges: list) -> tuple:
+    """(states, laws, curvatures, contacts) of free hinges of :func:`exact_hinges` at ``state``, the generated hinge
+    kernels' rows: [θ, θ̇, θ_r, 1], their laws' values and first derivatives in θ and θ̇ at the state (a hinge driven
+    by a continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces), the laws' ∂²f/∂θ²
+    (:func:`_slope_law`), and their compliant stops."""
+    from latdyn.assembly.native_model import joint_contact_rows
+
+    model = assembler.model
+    scene = model.scene
     contact_rows = joint_contact_rows(model.hinges)
     states, laws, curvatures, contacts = [], [], [], []
-    for j, _ in on:
+    for j in hinges:
         hinge = model.hinges[j]
         theta, rate, t = float(state.theta[j]), float(state.theta_dot[j]), float(state.t)
         row, curvature = np.zeros(9), np.zeros(3)
@@ -594,10 +973,7 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray
         curvatures.append(curvature)
         contacts.append(contact_rows[j])
     rows = lambda a: np.ascontiguousarray(np.asarray(a, float))  # noqa: E731
-    by_angle = np.asarray(kernels.hinge_stiffness_by_angle(rows(states), rows(laws), rows(curvatures),
-                                                           rows(contacts))[0]).reshape(-1)
-    hinge_rows = np.array([d for _, d in on], np.int64)
-    return hinge_rows, scale * by_angle * w[hinge_rows]
+    return rows(states), rows(laws), rows(curvatures), rows(contacts)
 
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
@@ -640,9 +1016,11 @@ def configuration_tangent_of_weight(assembler, state, w: np.ndarray, scale: floa
     load_rows, load_cols, load_values = _load_part(assembler, state, w, scale)
     cable_rows, cable_cols, cable_values = _cable_part(assembler, state, w, scale)
     coupling_rows, coupling_cols, coupling_values = _coupling_part(assembler, state, w, scale)
-    rows, cols, values = (np.concatenate([rows, hinge_rows, load_rows, cable_rows, coupling_rows]),
-                          np.concatenate([cols, hinge_rows, load_cols, cable_cols, coupling_cols]),
-                          np.concatenate([values, hinge_values, load_values, cable_values, coupling_values]))
+    driven_rows, driven_cols, driven_values = _driven_load_part(assembler, state, w, scale)
+    rows, cols, values = (np.concatenate([rows, hinge_rows, load_rows, cable_rows, coupling_rows, driven_rows]),
+                          np.concatenate([cols, hinge_rows, load_cols, cable_cols, coupling_cols, driven_cols]),
+                          np.concatenate([values, hinge_values, load_values, cable_values, coupling_values,
+                                          driven_values]))
     support = rest_support(assembler)
     if len(support):
         columns = []
