@@ -88,17 +88,37 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   rates along δv, δv̇, the dependent ones completed) as before, two evaluations a parameter — none where the model
   has no such block (:func:`linked_has_rest`).
 
-Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
-evaluations a parameter; its transpose in the adjoint, two a free rate; generated where the damped taut cables' block
-is the only one moving and no controller: :func:`cable_stiffness_by_rates`, K_c affine in the rates). Which terms of K move with the rates is
-asked of the model's own evaluation, not of a list of the laws that can make them (:func:`stiffness_moving_with_rates`:
-K's blocks at the state's rates and at rates moved, compared bit for bit): a damped cable's c ℓ̇ terms, a hinge law
-whose ∂τ/∂θ holds θ̇, a compliant stop's Hunt–Crossley damping n δⁿ⁻¹ c δ̇ in contact, a continuous controller's
-couplings whose ∂y/∂s holds a rate (an output nonlinear in an angle and a rate) and the block of a load in a body's
-frame whose component a controller of a rate drives (found so at random rates:
-tests/test_sensitivities_rate_stiffness.py); not the joint bodies' gyroscopic terms nor the elements' (the inertia
-tangent, which the weight's K leaves out), nor friction (∂f/∂θ = 0: its level and engagement are functions of the
-rate alone), nor a stop out of contact, an undamped one, an undamped cable or a controller linear in its sensors.
+Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``; its
+transpose in the adjoint, the same matrix times the identity). Which terms of K move with the rates is asked of the
+model's own evaluation, not of a list of the laws that can make them (:func:`stiffness_moving_with_rates`: K's blocks
+at the state's rates and at rates moved, compared bit for bit): a damped cable's c ℓ̇ terms, a hinge law whose ∂τ/∂θ
+holds θ̇, a compliant stop's Hunt–Crossley damping n δⁿ⁻¹ c δ̇ in contact, a continuous controller's couplings whose
+∂y/∂s holds a rate (an output nonlinear in an angle and a rate) and the block of a load in a body's frame whose
+component a controller of a rate drives (found so at random rates: tests/test_sensitivities_rate_stiffness.py); not
+the joint bodies' gyroscopic terms nor the elements' (the inertia tangent, which the weight's K leaves out), nor
+friction (∂f/∂θ = 0: its level and engagement are functions of the rate alone), nor a stop out of contact, an undamped
+one, an undamped cable or a controller linear in its sensors. Generated and exact, with no evaluation of the model:
+
+* the free hinges' diagonal, (∂K_jj/∂θ̇_j) w_j δθ̇_j with ∂K_jj/∂θ̇_j = ∂²f/∂θ∂θ̇ from ``hinge_stiffness_by_rate``
+  (codegen/joints.py: f with each law expanded to second order in (θ, θ̇), its compliant stop with its damping
+  included, differentiated by θ and θ̇ at the state), fed the laws' values and first derivatives and their mixed second derivatives,
+  the ``d_rate`` of :func:`_angle_slope_law`'s law (SymPy's ∂²f/∂θ∂θ̇, evaluated with NumPy at the event), for the
+  hinges of :func:`exact_hinges_by_rates` (:func:`_hinge_rates_part`);
+* the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
+  alone (:func:`exact_couplings_by_rates`): K's entry −a ∂y/∂θ_j moves with a rate sensor's θ̇_i by
+  −a ∂²y/∂θ_j∂θ̇_i, SymPy's mixed second derivatives of the output lambdified once per output in a process
+  (:func:`_output_mixed`), 0 while the output is saturated (:func:`_coupling_rates_part`); with the hinges' part one
+  sparse n × n matrix, :func:`rates_tangent_of_weight`;
+* the damped taut cables' blocks: K_c is affine in the rates, so ``cable_stiffness_D_q`` at δv less at 0
+  (:func:`cable_stiffness_by_rates`).
+
+Still a central difference (:func:`rates_rest_needed`; two evaluations a parameter, the adjoint's two a free rate),
+of the blocks not generated alone (:func:`rates_rest_product`: K w of those blocks, the others out): a hinge law of
+θ or θ̇ naming an input (:func:`exact_hinges_by_rates`), a load a continuous controller drives (its values move with
+the controller's rate sensors; the follower load's block ∂(T f)/∂π is proportional to them), and the couplings
+outside :func:`exact_couplings_by_rates` (a controller reading a point, a body, a cable, an element, a joint's force,
+an input, a state or another controller, or driving a load). Rigid links and guides: the rates' move is in
+``TransientSensitivities._linked_weight_derivative`` (above), not here.
 """
 from __future__ import annotations
 
@@ -108,10 +128,11 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads",
+__all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_couplings_by_rates",
+           "exact_hinges", "exact_hinges_by_rates", "exact_loads",
            "geometric_product", "linked_configuration_tangent", "linked_geometric_derivative",
            "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
-           "needs_the_kernel",
+           "needs_the_kernel", "rates_rest_needed", "rates_rest_product", "rates_tangent_of_weight",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
 #: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
@@ -125,6 +146,9 @@ RATES_MOVE = 1e-3
 _SLOPES: dict = {}
 #: (output's text, symbols, angle reads) -> its :func:`_output_curvature`, made once per process
 _CURVATURES: dict = {}
+#: (output's text, symbols, angle reads, rate reads) -> its :func:`_output_mixed`, made once per process; and
+#: (id(controller), angle reads, rate reads) -> (the controller, the same), its key's text printed once
+_MIXED: dict = {}
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -305,8 +329,8 @@ def cable_stiffness_by_rates(assembler, state, w: np.ndarray, dv: np.ndarray) ->
     """∂(K w)/∂v δv (n, k) of the cable elements taut at ``state`` (as :func:`_cable_part` finds them), each column of
     ``dv`` (n, k) a move of the free rates: K_c is affine in the rates (the damper's c ℓ̇, ℓ̇ linear in the ends'
     velocities), so K_c(δv) w − K_c(0) w from the generated ``cable_stiffness_D_q``'s ``cable_stiffness_along`` is
-    it exactly (``TransientSensitivities._stiffness_by_rates`` where the cables' block is the only one of K moving
-    with the rates, :func:`stiffness_moving_with_rates`, and no controller drives a load)."""
+    it exactly (``TransientSensitivities._stiffness_by_rates`` where the loads' and cables' block moves with the
+    rates, :func:`stiffness_moving_with_rates`; a load a controller drives there is :func:`rates_rest_product`'s)."""
     model = assembler.model
     n, k = dv.shape
     taut = _taut_cables(assembler, state)
@@ -523,13 +547,23 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float):
     w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated ``hinge_stiffness_by_angle``,
     codegen/joints.py, from the laws' values, first and second derivatives in θ at the state; a hinge driven by a
     continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces)."""
+    hinge_rows, by_angle = _hinge_stiffness_slope(assembler, state, w, exact_hinges(assembler),
+                                                  "hinge_stiffness_by_angle", "d_theta")
+    return hinge_rows, scale * by_angle * w[hinge_rows]
+
+
+def _hinge_stiffness_slope(assembler, state, w: np.ndarray, exact: np.ndarray, kernel: str, by: str):
+    """(rows, slopes) of the free hinges j with ``exact`` and w_j ≠ 0: their K_jj = ∂f/∂θ's derivative from the
+    generated ``kernel`` (``hinge_stiffness_by_angle``: by θ, ``hinge_stiffness_by_rate``: by θ̇), fed the hinge's
+    state, its laws' values and first derivatives and, for each law of θ, its slope law's (:func:`_slope_law`)
+    derivative ``by`` ("d_theta": ∂²f/∂θ², "d_rate": ∂²f/∂θ∂θ̇), and its compliant stop and friction."""
     from latdyn.assembly.native_model import joint_contact_rows
 
     model = assembler.model
     n = model.n_dofs
     free = np.asarray(model.free_hinges, np.int64)
     dofs = np.asarray(model.hinge_dofs, np.int64)[free] if len(free) else np.zeros(0, np.int64)
-    on = [(j, d) for j, d, exact in zip(free, dofs, exact_hinges(assembler)) if exact and d < n and w[d] != 0.0]
+    on = [(j, d) for j, d, exact in zip(free, dofs, exact) if exact and d < n and w[d] != 0.0]
     if not on:
         return np.zeros(0, np.int64), np.zeros(0)
     kernels, scene = assembler.kernels, model.scene
@@ -544,16 +578,16 @@ def _hinge_part(assembler, state, w: np.ndarray, scale: float):
                 continue
             row[3 * slot:3 * slot + 3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
             if "theta" in law.depends_on:
-                curvature[slot] = _slope_law(law, scene, f"joints.{hinge.name}.{key}").d_theta(theta, rate, t)
+                slope = _slope_law(law, scene, f"joints.{hinge.name}.{key}")
+                curvature[slot] = getattr(slope, by)(theta, rate, t)
         states.append([theta, rate, hinge.rest_angle, 1.0])
         laws.append(row)
         curvatures.append(curvature)
         contacts.append(contact_rows[j])
     rows = lambda a: np.ascontiguousarray(np.asarray(a, float))  # noqa: E731
-    by_angle = np.asarray(kernels.hinge_stiffness_by_angle(rows(states), rows(laws), rows(curvatures),
-                                                           rows(contacts))[0]).reshape(-1)
-    hinge_rows = np.array([d for _, d in on], np.int64)
-    return hinge_rows, scale * by_angle * w[hinge_rows]
+    slopes = np.asarray(getattr(kernels, kernel)(rows(states), rows(laws), rows(curvatures),
+                                                 rows(contacts))[0]).reshape(-1)
+    return np.array([d for _, d in on], np.int64), slopes
 
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
@@ -639,6 +673,160 @@ def stiffness_moving_with_rates(assembler, state) -> tuple:
     here = assembler.evaluate(state, matrices=True).flat_blocks("stiffness")
     there = assembler.evaluate(moved, matrices=True).flat_blocks("stiffness")
     return tuple(name for name, a, b in zip(STIFFNESS_BLOCKS, here, there) if not np.array_equal(a, b))
+
+
+def exact_hinges_by_rates(assembler) -> np.ndarray:
+    """(free hinges,) bool: whether the free hinge's part of ∂(K w)/∂v is generated (:func:`_hinge_rates_part`): each
+    of its laws that reads θ or θ̇ names no input (its slopes are then the law's own), and one that reads θ has its
+    slope law (:func:`_angle_slope_law`, whose ``d_rate`` is SymPy's ∂²f/∂θ∂θ̇); otherwise its entry stays in
+    :func:`rates_rest_product`'s difference."""
+    model = assembler.model
+    out = np.ones(len(model.free_hinges), bool)
+    for i, j in enumerate(model.free_hinges):
+        for key, law in _hinge_laws(assembler, int(j)):
+            reads = set(getattr(law, "depends_on", ())) if law is not None else set()
+            if not {"theta", "theta_dot"} & reads:
+                continue
+            if getattr(law, "input_names", ()) or ("theta" in reads and _slope_law(
+                    law, model.scene, f"joints.{model.hinges[j].name}.{key}") is None):
+                out[i] = False
+    return out
+
+
+def _hinge_rates_part(assembler, state, w: np.ndarray):
+    """(rows, values) of the hinges' part of ∂(K w)/∂v, on its diagonal: (∂K_jj/∂θ̇_j) w_j for each free hinge j of
+    :func:`exact_hinges_by_rates` with w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated
+    ``hinge_stiffness_by_rate``, codegen/joints.py: ∂²f/∂θ∂θ̇ from the laws' values, first derivatives and mixed
+    second derivatives at the state — SymPy's, the ``d_rate`` of the law's slope in the angle — and the stop's
+    Hunt–Crossley damping in contact)."""
+    hinge_rows, by_rate = _hinge_stiffness_slope(assembler, state, w, exact_hinges_by_rates(assembler),
+                                                 "hinge_stiffness_by_rate", "d_rate")
+    return hinge_rows, by_rate * w[hinge_rows]
+
+
+def _output_mixed(controller, angles: tuple, rates: tuple):
+    """SymPy's ∂²f/∂s_i∂ṡ_j of a continuous controller's output f before saturation by its angle reads i
+    (``angles``) and its rate reads j (``rates``), lambdified once per output's text, reads, angles and rates in a
+    process (:data:`_MIXED`; found again by the controller's id), a function of ``(t, *reads values)`` giving the
+    (angles, rates) matrix; None where a mixed derivative is not a function (DiracDelta of a kink, an unevaluated
+    derivative)."""
+    held = _MIXED.get((id(controller), tuple(angles), tuple(rates)))
+    if held is not None and held[0] is controller:   # the output's text is not printed again (0.1 ms an event)
+        return held[1]
+    reads = controller.symbols[1:1 + len(controller.reads)]
+    key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(angles), tuple(rates))
+    if key not in _MIXED:
+        import sympy as sp
+
+        mixed = [[sp.diff(controller.output_expr, reads[i], reads[j]) for j in rates] for i in angles]
+        singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in mixed for e in row)
+        _MIXED[key] = None if singular else sp.lambdify(controller.symbols[:1 + len(reads)], mixed,
+                                                        modules=["math", "numpy"])
+    _MIXED[(id(controller), tuple(angles), tuple(rates))] = (controller, _MIXED[key])   # the controller kept: its id
+    return _MIXED[key]
+
+
+def _joint_reads(control, k: int):
+    """(first sensor, angle reads, rate reads) of continuous controller ``k`` (their positions among its reads), or
+    None unless it reads joints' angles and rates alone — no input, no other controller, no state — with mixed
+    second derivatives of its output by them that are functions (:func:`_output_mixed`)."""
+    from latdyn.assembly.control import ANGLE, RATE
+
+    controller = control.controllers[k]
+    first, last = int(control.sensor_start[k]), int(control.sensor_start[k + 1])
+    kinds = np.asarray(control.sensor_kind[first:last])
+    angles, rates = tuple(np.flatnonzero(kinds == ANGLE)), tuple(np.flatnonzero(kinds == RATE))
+    if controller.states or len(kinds) != len(controller.reads) or len(angles) + len(rates) != len(kinds):
+        return None
+    return None if _output_mixed(controller, angles, rates) is None else (first, angles, rates)
+
+
+def exact_couplings_by_rates(assembler) -> np.ndarray:
+    """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of ∂(K w)/∂v generated
+    (:func:`_coupling_rates_part`): its actuator is a hinge's force, and its controller reads joints' angles and
+    rates alone (:func:`_joint_reads`). Its entry −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone
+    (an angle sensor does not read a rate); the others keep :func:`rates_rest_product`'s difference."""
+    control = assembler.control
+    actuators = np.asarray(control.coupling_actuator, np.int64)
+    plain = np.array([_joint_reads(control, k) is not None for k in range(len(control.controllers))], bool)
+    on_hinges = np.asarray(control.actuator_kind)[actuators] == 0
+    return on_hinges & plain[np.asarray(control.actuator_controller, np.int64)[actuators]] if len(actuators) \
+        else np.zeros(0, bool)
+
+
+def _coupling_rates_part(assembler, state, w: np.ndarray):
+    """(rows, cols, values) of the couplings' part of ∂(K w)/∂v for the entries of :func:`exact_couplings_by_rates`:
+    K's entry K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while
+    the output is saturated, csrc/evaluate.c controller_outputs) moves with the rate of a rate sensor i by
+    −a ∂²y/∂θ_j∂θ̇_i: Σ_j of it times w_j in row r, column i."""
+    control, model = assembler.control, assembler.model
+    n = model.n_dofs
+    dofs = np.asarray(model.hinge_dofs, np.int64)
+    t = float(state.t)
+    out_rows, out_cols, out_values = [], [], []
+    for a in np.unique(np.asarray(control.coupling_actuator, np.int64)[exact_couplings_by_rates(assembler)]):
+        k = int(control.actuator_controller[a])
+        first, angles, rates = _joint_reads(control, k)
+        indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
+        columns = dofs[indices[list(angles)]]
+        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
+        if not len(rates) or not np.any(along):
+            continue
+        reads_rate = np.zeros(len(indices), bool)
+        reads_rate[list(rates)] = True
+        values = [float(state.theta_dot[i] if by_rate else state.theta[i]) - float(control.sensor_origin[first + m])
+                  for m, (by_rate, i) in enumerate(zip(reads_rate, indices))]
+        controller = control.controllers[k]
+        lo, hi = control.limits[k]
+        if not lo <= float(controller.functions()[0](t, *values)) <= hi:   # saturated: ∂y/∂s = 0, its slopes too
+            continue
+        mixed = np.asarray(_output_mixed(controller, angles, rates)(t, *values), float).reshape(len(angles),
+                                                                                                len(rates))
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        out_rows.append(np.full(len(rates), int(dofs[control.actuator_index[a]]), np.int64))
+        out_cols.append(dofs[indices[list(rates)]])
+        out_values.append(-gain * (mixed.T @ along))
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
+
+
+def rates_tangent_of_weight(assembler, state, w: np.ndarray):
+    """∂(K w)/∂v (n × n, sparse as :func:`configuration_tangent_of_weight`'s H; applied by :func:`times`,
+    :func:`transposed_times`) of the hinges' and the couplings' parts generated (:func:`_hinge_rates_part`,
+    :func:`_coupling_rates_part`) at ``state``, a model without rigid links or guides (module docstring, "Along the
+    rates"); the taut cables' part is :func:`cable_stiffness_by_rates`'s, the rest :func:`rates_rest_product`'s."""
+    n = assembler.model.n_dofs
+    hinge_rows, hinge_values = _hinge_rates_part(assembler, state, w)
+    coupling_rows, coupling_cols, coupling_values = _coupling_rates_part(assembler, state, w)
+    return _sparse(np.concatenate([hinge_rows, coupling_rows]), np.concatenate([hinge_rows, coupling_cols]),
+                   np.concatenate([hinge_values, coupling_values]), n)
+
+
+def rates_rest_needed(assembler, moving: tuple) -> bool:
+    """Whether a block of K that moves with the rates (``moving``: :func:`stiffness_moving_with_rates`'s names) has
+    a part not generated along them (:func:`rates_rest_product`): a hinge outside :func:`exact_hinges_by_rates`, a
+    load a continuous controller drives (its values move with the controller's rate sensors), a coupling outside
+    :func:`exact_couplings_by_rates`."""
+    return bool(("joints" in moving and not np.all(exact_hinges_by_rates(assembler)))
+                or ("loads and cables" in moving and len(assembler.loads) and not np.all(exact_loads(assembler)))
+                or ("controllers' couplings" in moving and not np.all(exact_couplings_by_rates(assembler))))
+
+
+def rates_rest_product(assembler, state, w: np.ndarray) -> np.ndarray:
+    """(K_rest w) (n,) at ``state``: the evaluation's K with only the blocks whose derivative along the rates is not
+    generated (:func:`rates_rest_needed`): the hinges outside :func:`exact_hinges_by_rates`, the loads a continuous
+    controller drives, the couplings outside :func:`exact_couplings_by_rates`; the elements' and the joint bodies'
+    (which do not move with the rates), the other hinges', loads' and couplings' and every cable element's (the
+    generated ones) out. ``TransientSensitivities._stiffness_by_rates`` differences it along δv."""
+    stiffness = assembler.evaluate(state, matrices=True).flat_blocks("stiffness")
+    hinges = np.where(exact_hinges_by_rates(assembler), 0.0, stiffness[2])
+    driven = np.broadcast_to(~exact_loads(assembler)[:, None, None], (len(assembler.loads), 6, 6))
+    cable_blocks = int(np.count_nonzero(assembler._cable_mask))
+    differenced = np.concatenate([driven[assembler._load_mask], np.zeros(cable_blocks, bool)])
+    loads = np.where(differenced, stiffness[3], 0.0)
+    couplings = np.where(exact_couplings_by_rates(assembler)[assembler._coupling_mask], 0.0, stiffness[4])
+    return np.asarray(assembler.assemble([0.0 * stiffness[0], 0.0 * stiffness[1], hinges, loads, couplings]) @ w)
 
 
 def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, generated: bool):
