@@ -5,10 +5,11 @@ compliant stop's Hunt–Crossley damping in contact) against central differences
 rate; a continuous controller's couplings from SymPy's mixed second derivatives of its output by (angle, rate); at a
 turned, moving state of genuinely 3D arms (a hinge law of θ and θ̇, a damped compliant stop in contact, a PD nonlinear
 in angle and rate) the term with no evaluation of the model, against Richardson-extrapolated central differences of
-the moving block's K w (the central difference of the whole K w it replaces was 5.5e-8 … 1.7e-7 off); a follower load
-a controller of a rate drives keeps the difference, of its block alone; and whole runs through a latch and a rigid stop
-against Richardson differences of whole runs (API and ``latdyn run``), the loop of steps on and off to the bit, the
-adjoint with the forward method — each with no difference of K w along δv left at the events."""
+the moving block's K w (the central difference of the whole K w it replaces was 5.5e-8 … 1.7e-7 off); loads a
+controller of angles and rates drives, their block and couplings, the same; a hinge law naming an input keeps the
+difference, of its entry alone; and whole runs through a latch and a rigid stop against Richardson differences of
+whole runs (API and ``latdyn run``), the loop of steps on and off to the bit, the adjoint with the forward method —
+each with no difference of K w along δv left at the events."""
 from __future__ import annotations
 
 import numpy as np
@@ -20,7 +21,6 @@ import latdyn
 from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.analyses.weight_derivative import STIFFNESS_BLOCKS
 from latdyn.assembly.assembler import Assembler, free_velocity, unpack_free
-from latdyn.assembly.prepare import prepare
 from latdyn.model.kernels import load_kernels
 from latdyn.scene.expressions import HingeLaw
 from tests.cli_runs import latdyn_run, summary_of
@@ -28,7 +28,8 @@ from tests.sensitivity_equality import runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import WHEEL_3D
 from tests.test_sensitivities_fuzz_findings import _assert_adjoint_agrees, _richardson
 from tests.test_sensitivities_rate_stiffness import (ARMS, CONTROLLER_OF_ANGLE_AND_RATE,
-                                                      DAMPED_STOP_IN_CONTACT_AT_A_LATCH, FOLLOWER_LOAD_OF_A_RATE, LAW)
+                                                      DAMPED_STOP_IN_CONTACT_AT_A_LATCH, FOLLOWER_LOAD_OF_A_RATE, LAW,
+                                                      moving_state)
 
 #: the 3D wheel of the event tests on a spring, a damper and a torque nonlinear in θ and θ̇: K = ∂f/∂θ holds
 #: θ̇ ∂c/∂θ, which moves with the rate (its mixed ∂²c/∂θ∂θ̇ too)
@@ -44,6 +45,12 @@ ARMS_HINGE_LAW = ARMS.replace(LAW, "torque: -8*theta - c*(1 + 30*theta**2)*theta
 #: the second arm on a damped compliant stop (Hunt–Crossley, n = 1.5), in contact at the state below
 ARMS_DAMPED_STOP = ARMS.replace(LAW, "stiffness: 8, limits: [-0.005, 0.5], contact: {stiffness: 2000.0, "
                                      "exponent: 1.5, damping: 5.0}}")
+#: the arms' follower load in d's axes driven by a controller nonlinear in the second arm's angle and rate: its block
+#: and its couplings move with the rate; and the same load global, and through a law 2 y + 1
+LOAD_OF_ANGLE_AND_RATE = FOLLOWER_LOAD_OF_A_RATE.replace('push: {output: "-c*r2*30 - 3.0"}',
+                                                         'push: {output: "-c*r2*30*(1 + 20*a2**2) - 3.0 + 5*a2"}')
+GLOBAL_LOAD_OF_ANGLE_AND_RATE = LOAD_OF_ANGLE_AND_RATE.replace("frame: d}", "frame: global}")
+LOAD_LAW_OF_ANGLE_AND_RATE = LOAD_OF_ANGLE_AND_RATE.replace("force: [0, push, 0]", "force: [0, 2*push + 1, 0]")
 #: the second arm's torque a law of θ, θ̇ and an input: its entry keeps the difference
 ARMS_INPUT_LAW = ARMS.replace(LAW, "torque: -8*theta - g*(1 + 30*theta**2)*theta_dot}") + "inputs: {g: 0.5}\n"
 
@@ -80,17 +87,6 @@ def test_the_generated_stiffness_by_rate_is_the_central_difference_of_the_hinge_
         central = [(stiffness(rate + e) - stiffness(rate - e)) / (2 * e) for e in (1e-4, 5e-5)]
         numeric = (4 * central[1] - central[0]) / 3
         assert np.isfinite(exact) and abs(exact - numeric) <= 1e-8 * max(abs(numeric), 1.0), (exact, numeric)
-
-
-def _moving_state(text: str):
-    """(prepared, a turned state with random rates, every hinge at −0.05 rad — the stop at −0.005 in contact —, rng)."""
-    rng = np.random.default_rng(3)
-    prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
-    model = prepared.model
-    state = prepared.assembler.advance(prepared.state, 0.02 * rng.standard_normal(model.n_dofs))
-    unpack_free(model, rng.standard_normal(model.n_dofs), state.v, state.w, state.theta_dot)
-    state.theta[:] = -0.05
-    return prepared, state, rng
 
 
 def _richardson_by_rates(prepared, state, w: np.ndarray, dv: np.ndarray, blocks: tuple, h: float = 1e-2):
@@ -143,17 +139,23 @@ def _evaluations_in_the_rates_term(monkeypatch) -> list:
 @pytest.mark.parametrize("text, blocks, evaluations", [
     (ARMS_HINGE_LAW, ("joints",), 0), (ARMS_DAMPED_STOP, ("joints",), 0),
     (CONTROLLER_OF_ANGLE_AND_RATE, ("controllers' couplings",), 0),
-    (FOLLOWER_LOAD_OF_A_RATE, ("loads and cables",), 6), (ARMS_INPUT_LAW, ("joints",), 6),
+    (FOLLOWER_LOAD_OF_A_RATE, ("loads and cables",), 0),
+    (LOAD_OF_ANGLE_AND_RATE, ("loads and cables", "controllers' couplings"), 0),
+    (GLOBAL_LOAD_OF_ANGLE_AND_RATE, ("controllers' couplings",), 0),
+    (LOAD_LAW_OF_ANGLE_AND_RATE, ("loads and cables", "controllers' couplings"), 0),
+    (ARMS_INPUT_LAW, ("joints",), 6),
 ], ids=["hinge law of angle and rate", "damped stop in contact", "pd of angle and rate", "follower load of a rate",
+        "follower load of angle and rate", "global load of angle and rate", "load law of angle and rate",
         "hinge law naming an input"])
 def test_the_rates_term_agrees_with_richardson_generated_or_differenced_alone(monkeypatch, text, blocks, evaluations):
     """At a turned, moving state, ∂(K w)/∂v δv (3 columns) within 1e-9 of the Richardson reference's largest entry.
     Generated, without an evaluation of the model: a torque law of θ and θ̇, a damped compliant stop in contact, a
-    PD of angle and rate (measured 3.3e-13, 3.9e-11, 3.3e-13; the difference of the whole K w it replaces, two
-    evaluations a column, 5.5e-8, 1.7e-7, 5.5e-8). Still differenced, two evaluations a column, of their own K w
-    alone: a follower load a controller of a rate drives and a hinge law naming an input (measured 3.3e-12 and
-    4.3e-11; the whole K w's difference before, 2.7e-7 and 5.5e-8)."""
-    prepared, state, rng = _moving_state(text)
+    PD of angle and rate, a follower load a controller of a rate drives, loads (follower, global, through a law) a
+    controller of angle and rate drives (measured 3.3e-13, 3.9e-11, 3.3e-13, 2.3e-14, 2.7e-14, 1.8e-14, 2.3e-14; the
+    difference of the whole K w it replaces, two evaluations a column, 5.5e-8, 1.7e-7, 5.5e-8, 2.7e-7, 3.7e-7,
+    1.9e-7, 1.5e-7). Still differenced, two evaluations a column, of its own K w alone: a hinge law naming an input
+    (measured 4.3e-11; the whole K w's difference before 5.5e-8)."""
+    prepared, state, rng = moving_state(text)
     owner = TransientSensitivities(prepared)
     n = prepared.model.n_dofs
     w, dv = rng.normal(size=n), rng.normal(size=(n, 3))
@@ -177,12 +179,13 @@ def _with(text: str, names: tuple) -> dict:
     (WHEEL_STOP, ("angle", "tip_x", "mid_z"), "c", ["stop", "stop"]),
     (DAMPED_STOP_IN_CONTACT_AT_A_LATCH, ("torque", "a2", "tq2", "y"), "k", ["latch"]),
     (CONTROLLER_OF_ANGLE_AND_RATE, ("torque", "a2", "y"), "c", ["latch"]),
-], ids=["wheel latch", "wheel stop", "damped stop at a latch", "pd of angle and rate"])
+    (LOAD_OF_ANGLE_AND_RATE, ("torque", "a2", "y"), "c", ["latch"]),
+], ids=["wheel latch", "wheel stop", "damped stop at a latch", "pd of angle and rate", "load of angle and rate"])
 def test_whole_runs_through_events_agree_with_richardson_with_no_difference_along_the_rates(monkeypatch, text, probes,
                                                                                             name, kinds):
     """Through the events the sensitivities agree with Richardson differences of whole runs (h = 1e-3 |p|), every
-    row within 1e-7 of its probe's largest (measured 7.1e-10, 1.7e-9, 1.7e-9, 1.9e-9 — as on 10be92c, whose
-    difference's error lay below the reference's: the runs' sensitivities moved by ≤ 6e-12), and at each event the
+    row within 1e-7 of its probe's largest (measured 7.1e-10, 1.7e-9, 1.7e-9, 1.9e-9, 1.8e-9 — as on 10be92c, whose
+    difference's error lay below the reference's: the runs' sensitivities moved by ≤ 1.2e-11), and at each event the
     rates' term took no evaluation of the model (before: two a parameter)."""
     counts = _evaluations_in_the_rates_term(monkeypatch)
     result = latdyn.run(latdyn.load_scene(_with(text, (name,))))
@@ -217,9 +220,11 @@ def test_latdyn_run_writes_the_apis_event_sensitivities_and_the_loop_off_the_sam
 
 
 @pytest.mark.parametrize("text, kinds", [(CONTROLLER_OF_ANGLE_AND_RATE, ("latch",)),
+                                         (LOAD_OF_ANGLE_AND_RATE, ("latch",)),
                                          (WHEEL_STOP.replace("solve: {analysis: transient,",
                                                              "solve: {analysis: transient, tol: 1.0e-12,"),
-                                          ("stop", "stop"))], ids=["pd of angle and rate", "wheel stop"])
+                                          ("stop", "stop"))], ids=["pd of angle and rate", "load of angle and rate",
+                                                                   "wheel stop"])
 def test_the_adjoint_takes_the_generated_transpose(monkeypatch, text, kinds):
     """The adjoint's transposed term, (∂(K w)/∂v)ᵀ ū from the same generated matrix: its summary within 1e-8 of the
     forward method's (measured ≤ 1e-12), with no evaluation in the rates' term (before: two a free rate)."""

@@ -30,7 +30,7 @@ of a run whose ∂r/∂p holds more than the parameters' own terms (:meth:`Trans
 conditions: a state moved in time, held angles, controllers, rigid links or guides).
 
 The weight's move along the rates, ∂(K w)/∂v δv, is not a parameter's part: latdyn/analyses/weight_derivative.py
-"Along the rates" (the hinges' ∂²f/∂θ∂θ̇, controllers' couplings of angles and rates and damped cables generated).
+"Along the rates" (the hinges' ∂²f/∂θ∂θ̇, controllers' couplings and loads of angles and rates, damped cables).
 """
 from __future__ import annotations
 

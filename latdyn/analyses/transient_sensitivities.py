@@ -879,10 +879,10 @@ class TransientSensitivities(ParameterDerivatives):
         :meth:`stiffness_moves_with_rates`: the evaluation's K depends on the free rates where a term does (a damped
         cable's geometric terms c ℓ̇, a hinge law whose ∂τ/∂θ holds θ̇, a compliant stop's damping in contact, a
         controller's couplings), and the impulse's weight M + dt² K moves with them. Generated
-        (latdyn/analyses/weight_derivative.py, "Along the rates"): the hinges' ∂²f/∂θ∂θ̇ and the couplings' mixed
-        second derivatives of a controller of angles and rates (:func:`rates_tangent_of_weight`), the damped taut
-        cables' (:func:`cable_stiffness_by_rates`, K_c affine in the rates); the blocks not generated
-        (:func:`rates_rest_needed`: a hinge law naming an input, a load a controller drives, other couplings) a
+        (latdyn/analyses/weight_derivative.py, "Along the rates"): the hinges' ∂²f/∂θ∂θ̇, the couplings and driven
+        loads of a controller of angles and rates by its mixed second derivatives (:func:`rates_tangent_of_weight`),
+        the damped taut cables' (:func:`cable_stiffness_by_rates`, K_c affine in the rates); the blocks not generated
+        (:func:`rates_rest_needed`: a hinge law naming an input, other controllers' couplings and loads) a
         central difference of their K w along each column's δv (:func:`rates_rest_product`; the step relative: the
         rates' own size, or 1), no evaluation where there is none."""
         model, assembler = self.model, self.assembler

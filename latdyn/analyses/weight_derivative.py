@@ -107,17 +107,20 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
 * the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
   alone (:func:`exact_couplings_by_rates`): K's entry −a ∂y/∂θ_j moves with a rate sensor's θ̇_i by
   −a ∂²y/∂θ_j∂θ̇_i, SymPy's mixed second derivatives of the output lambdified once per output in a process
-  (:func:`_output_mixed`), 0 while the output is saturated (:func:`_coupling_rates_part`); with the hinges' part one
-  sparse n × n matrix, :func:`rates_tangent_of_weight`;
+  (:func:`_output_mixed`), 0 while the output is saturated (:func:`_coupling_rates_part`);
+* the point loads such a controller drives (:func:`exact_loads_by_rates`): a component a y + b moves with a rate
+  sensor by a ∂y/∂θ̇_i, the load's block (linear in its values) by K_l(a ∂y/∂θ̇_i e_c) w from the generated
+  ``point_load_stiffness_D_q``, and its couplings g ∂y/∂θ_j (g: ``point_load``'s force at a e_c) by g ∂²y/∂θ_j∂θ̇_i
+  (:func:`_load_rates_part`); with the hinges' and couplings' parts one sparse n × n matrix,
+  :func:`rates_tangent_of_weight`;
 * the damped taut cables' blocks: K_c is affine in the rates, so ``cable_stiffness_D_q`` at δv less at 0
   (:func:`cable_stiffness_by_rates`).
 
 Still a central difference (:func:`rates_rest_needed`; two evaluations a parameter, the adjoint's two a free rate),
 of the blocks not generated alone (:func:`rates_rest_product`: K w of those blocks, the others out): a hinge law of
-θ or θ̇ naming an input (:func:`exact_hinges_by_rates`), a load a continuous controller drives (its values move with
-the controller's rate sensors; the follower load's block ∂(T f)/∂π is proportional to them), and the couplings
-outside :func:`exact_couplings_by_rates` (a controller reading a point, a body, a cable, an element, a joint's force,
-an input, a state or another controller, or driving a load). Rigid links and guides: the rates' move is in
+θ or θ̇ naming an input (:func:`exact_hinges_by_rates`), and the couplings and driven loads of the other controllers
+(:func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`: a controller reading a point, a body, a cable, an
+element, a joint's force, an input, a state or another controller). Rigid links and guides: the rates' move is in
 ``TransientSensitivities._linked_weight_derivative`` (above), not here.
 """
 from __future__ import annotations
@@ -129,7 +132,7 @@ from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
 __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_couplings_by_rates",
-           "exact_hinges", "exact_hinges_by_rates", "exact_loads",
+           "exact_hinges", "exact_hinges_by_rates", "exact_loads", "exact_loads_by_rates",
            "geometric_product", "linked_configuration_tangent", "linked_geometric_derivative",
            "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
            "needs_the_kernel", "rates_rest_needed", "rates_rest_product", "rates_tangent_of_weight",
@@ -146,8 +149,7 @@ RATES_MOVE = 1e-3
 _SLOPES: dict = {}
 #: (output's text, symbols, angle reads) -> its :func:`_output_curvature`, made once per process
 _CURVATURES: dict = {}
-#: (output's text, symbols, angle reads, rate reads) -> its :func:`_output_mixed`, made once per process; and
-#: (id(controller), angle reads, rate reads) -> (the controller, the same), its key's text printed once
+#: (output's expression, symbols, angle reads, rate reads) -> its :func:`_output_mixed`, made once per process
 _MIXED: dict = {}
 
 
@@ -706,15 +708,12 @@ def _hinge_rates_part(assembler, state, w: np.ndarray):
 
 def _output_mixed(controller, angles: tuple, rates: tuple):
     """SymPy's ∂²f/∂s_i∂ṡ_j of a continuous controller's output f before saturation by its angle reads i
-    (``angles``) and its rate reads j (``rates``), lambdified once per output's text, reads, angles and rates in a
-    process (:data:`_MIXED`; found again by the controller's id), a function of ``(t, *reads values)`` giving the
-    (angles, rates) matrix; None where a mixed derivative is not a function (DiracDelta of a kink, an unevaluated
-    derivative)."""
-    held = _MIXED.get((id(controller), tuple(angles), tuple(rates)))
-    if held is not None and held[0] is controller:   # the output's text is not printed again (0.1 ms an event)
-        return held[1]
+    (``angles``) and its rate reads j (``rates``), lambdified once per output's expression, reads, angles and rates
+    in a process (:data:`_MIXED`), a function of ``(t, *reads values)`` giving the (angles, rates) matrix; None
+    where a mixed derivative is not a function (DiracDelta of a kink, an unevaluated derivative)."""
     reads = controller.symbols[1:1 + len(controller.reads)]
-    key = (str(controller.output_expr), tuple(str(x) for x in controller.symbols), tuple(angles), tuple(rates))
+    # keyed by the expression itself (SymPy's cached structural hash): printing its text cost 2–9 ms a call
+    key = (controller.output_expr, tuple(controller.symbols), tuple(angles), tuple(rates))
     if key not in _MIXED:
         import sympy as sp
 
@@ -722,7 +721,20 @@ def _output_mixed(controller, angles: tuple, rates: tuple):
         singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in mixed for e in row)
         _MIXED[key] = None if singular else sp.lambdify(controller.symbols[:1 + len(reads)], mixed,
                                                         modules=["math", "numpy"])
-    _MIXED[(id(controller), tuple(angles), tuple(rates))] = (controller, _MIXED[key])   # the controller kept: its id
+    return _MIXED[key]
+
+
+def _output_rate_slopes(controller, rates: tuple):
+    """SymPy's ∂f/∂ṡ_j of a continuous controller's output f before saturation by its rate reads j (``rates``),
+    lambdified once per output's expression, reads and rates in a process (:data:`_MIXED`, as :func:`_output_mixed`;
+    the controller's own ``output_gradient`` is lambdified per loaded scene), a function of ``(t, *reads values)``."""
+    key = ("rate slopes", controller.output_expr, tuple(controller.symbols), tuple(rates))
+    if key not in _MIXED:
+        import sympy as sp
+
+        reads = controller.symbols[1:1 + len(controller.reads)]
+        _MIXED[key] = sp.lambdify(controller.symbols[:1 + len(reads)],
+                                  [sp.diff(controller.output_expr, reads[j]) for j in rates], modules=["math", "numpy"])
     return _MIXED[key]
 
 
@@ -745,13 +757,50 @@ def exact_couplings_by_rates(assembler) -> np.ndarray:
     """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of ∂(K w)/∂v generated
     (:func:`_coupling_rates_part`): its actuator is a hinge's force, and its controller reads joints' angles and
     rates alone (:func:`_joint_reads`). Its entry −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone
-    (an angle sensor does not read a rate); the others keep :func:`rates_rest_product`'s difference."""
+    (an angle sensor does not read a rate); the same for a load's component such a controller drives (its entries
+    g ∂y/∂θ_j, g the load's generalized force per unit output: :func:`_load_rates_part`); the others keep
+    :func:`rates_rest_product`'s difference."""
     control = assembler.control
     actuators = np.asarray(control.coupling_actuator, np.int64)
-    plain = np.array([_joint_reads(control, k) is not None for k in range(len(control.controllers))], bool)
-    on_hinges = np.asarray(control.actuator_kind)[actuators] == 0
-    return on_hinges & plain[np.asarray(control.actuator_controller, np.int64)[actuators]] if len(actuators) \
-        else np.zeros(0, bool)
+    if not len(actuators):
+        return np.zeros(0, bool)
+    return _plain_controllers(control)[np.asarray(control.actuator_controller, np.int64)[actuators]]
+
+
+def _plain_controllers(control) -> np.ndarray:
+    """(controllers,) bool: those of :func:`_joint_reads` (joints' angles and rates alone)."""
+    return np.array([_joint_reads(control, k) is not None for k in range(len(control.controllers))], bool)
+
+
+def exact_loads_by_rates(assembler) -> np.ndarray:
+    """(loads,) bool: whether the point load's part of ∂(K w)/∂v is generated (:func:`_load_rates_part`): a load no
+    continuous controller drives (its block does not move with the rates), or one whose driven components' controllers
+    read joints' angles and rates alone (:func:`_joint_reads`); otherwise its block stays in
+    :func:`rates_rest_product`'s difference."""
+    control = assembler.control
+    out = np.ones(len(assembler.loads), bool)
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    if not np.any(kinds == 1):
+        return out
+    plain = _plain_controllers(control)
+    for a in np.flatnonzero(kinds == 1):
+        if not plain[control.actuator_controller[a]]:
+            out[control.actuator_index[a]] = False
+    return out
+
+
+def _controller_at(control, k: int, state):
+    """(reads' values less their origins, t) of continuous controller ``k`` of :func:`_joint_reads` at ``state``,
+    or None while its output is saturated (∂y/∂s = 0 about the state, and its derivatives)."""
+    first, angles, rates = _joint_reads(control, k)
+    indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
+    reads_rate = np.zeros(len(indices), bool)
+    reads_rate[list(rates)] = True
+    values = [float(state.theta_dot[i] if by_rate else state.theta[i]) - float(control.sensor_origin[first + m])
+              for m, (by_rate, i) in enumerate(zip(reads_rate, indices))]
+    t = float(state.t)
+    lo, hi = control.limits[k]
+    return (values, t) if lo <= float(control.controllers[k].functions()[0](t, *values)) <= hi else None
 
 
 def _coupling_rates_part(assembler, state, w: np.ndarray):
@@ -762,26 +811,20 @@ def _coupling_rates_part(assembler, state, w: np.ndarray):
     control, model = assembler.control, assembler.model
     n = model.n_dofs
     dofs = np.asarray(model.hinge_dofs, np.int64)
-    t = float(state.t)
     out_rows, out_cols, out_values = [], [], []
-    for a in np.unique(np.asarray(control.coupling_actuator, np.int64)[exact_couplings_by_rates(assembler)]):
+    actuators = np.unique(np.asarray(control.coupling_actuator, np.int64)[exact_couplings_by_rates(assembler)])
+    for a in actuators[np.asarray(control.actuator_kind)[actuators] == 0]:   # a load's: :func:`_load_rates_part`
         k = int(control.actuator_controller[a])
         first, angles, rates = _joint_reads(control, k)
         indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
         columns = dofs[indices[list(angles)]]
         along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
-        if not len(rates) or not np.any(along):
+        at = _controller_at(control, k, state) if len(rates) and np.any(along) else None
+        if at is None:   # no rate read, no w on its angles, or saturated
             continue
-        reads_rate = np.zeros(len(indices), bool)
-        reads_rate[list(rates)] = True
-        values = [float(state.theta_dot[i] if by_rate else state.theta[i]) - float(control.sensor_origin[first + m])
-                  for m, (by_rate, i) in enumerate(zip(reads_rate, indices))]
         controller = control.controllers[k]
-        lo, hi = control.limits[k]
-        if not lo <= float(controller.functions()[0](t, *values)) <= hi:   # saturated: ∂y/∂s = 0, its slopes too
-            continue
-        mixed = np.asarray(_output_mixed(controller, angles, rates)(t, *values), float).reshape(len(angles),
-                                                                                                len(rates))
+        mixed = np.asarray(_output_mixed(controller, angles, rates)(at[1], *at[0]), float).reshape(len(angles),
+                                                                                                    len(rates))
         gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
         out_rows.append(np.full(len(rates), int(dofs[control.actuator_index[a]]), np.int64))
         out_cols.append(dofs[indices[list(rates)]])
@@ -791,37 +834,92 @@ def _coupling_rates_part(assembler, state, w: np.ndarray):
     return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
 
 
+def _load_rates_part(assembler, state, w: np.ndarray):
+    """(rows, cols, values) of the driven point loads' part of ∂(K w)/∂v for the loads of :func:`exact_loads_by_rates`:
+    a component a y + b (a = 1 for the controller's name alone) of a controller of :func:`_joint_reads` moves with
+    its rate sensor i by a ∂y/∂θ̇_i, so the load's block (linear in its values) by K_l(e_c a ∂y/∂θ̇_i) w — the
+    generated ``point_load_stiffness_D_q``'s ``load_stiffness_along`` at those values — and its coupling entries
+    g ∂y/∂θ_j (g = ``point_load``'s ``load_force`` at a e_c, csrc/evaluate.c controller_couplings) by
+    g ∂²y/∂θ_j∂θ̇_i (:func:`_output_mixed`), times w_j: both on the load's node rows, column i. 0 while saturated."""
+    control, model, loads = assembler.control, assembler.model, assembler.loads
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    driven = np.flatnonzero(kinds == 1)
+    exact = exact_loads_by_rates(assembler)
+    n = model.n_dofs
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    dofs = np.asarray(model.hinge_dofs, np.int64)
+    columns = _scattered(assembler._load_columns(), model.n_total)
+    out_rows, out_cols, out_values = [], [], []
+    for a in driven:
+        l, k = int(control.actuator_index[a]), int(control.actuator_controller[a])
+        first, angles, rates = _joint_reads(control, k) if exact[l] else (0, (), ())
+        at = _controller_at(control, k, state) if len(rates) else None
+        if at is None:   # not generated here (the rest), no rate read, or saturated
+            continue
+        controller = control.controllers[k]
+        indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        unit = np.zeros(6)
+        unit[int(control.actuator_component[a])] = gain
+        follower = loads[l].frame != "global"
+        along = full[columns[l]].copy()
+        if not follower:
+            along[3:] = 0.0   # a global load's block has no frame half (csrc/evaluate.c)
+        node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
+        rows = lambda a_: np.ascontiguousarray(np.reshape(a_, (1, -1)), dtype=float)  # noqa: E731
+        T, r, R = rows(state.T[node]), rows(assembler._load_offsets[l]), rows(state.T[frame] if follower else np.eye(3))
+        block = np.asarray(assembler.kernels.point_load_stiffness_D_q(T, r, rows(unit), R, rows(along))[0]).reshape(6)
+        force = np.asarray(assembler.kernels.point_load(T, r, rows(unit), R, rows(np.zeros(6)))[0]).reshape(6)
+        slopes = np.asarray(_output_rate_slopes(controller, rates)(at[1], *at[0]), float).reshape(len(rates))
+        angle_columns = dofs[indices[list(angles)]]
+        on_angles = np.where(angle_columns < n, w[np.minimum(angle_columns, n - 1)], 0.0)
+        mixed = np.asarray(_output_mixed(controller, angles, rates)(at[1], *at[0]), float).reshape(len(angles),
+                                                                                                    len(rates))
+        node_rows = _scattered(model.node_dofs[node], model.n_total)
+        for m, i in enumerate(rates):
+            out_rows.append(node_rows)
+            out_cols.append(np.full(6, dofs[indices[i]], np.int64))
+            out_values.append(slopes[m] * block + force * float(mixed[:, m] @ on_angles))
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
+
+
 def rates_tangent_of_weight(assembler, state, w: np.ndarray):
     """∂(K w)/∂v (n × n, sparse as :func:`configuration_tangent_of_weight`'s H; applied by :func:`times`,
-    :func:`transposed_times`) of the hinges' and the couplings' parts generated (:func:`_hinge_rates_part`,
-    :func:`_coupling_rates_part`) at ``state``, a model without rigid links or guides (module docstring, "Along the
-    rates"); the taut cables' part is :func:`cable_stiffness_by_rates`'s, the rest :func:`rates_rest_product`'s."""
+    :func:`transposed_times`) of the hinges', the couplings' and the driven loads' parts generated
+    (:func:`_hinge_rates_part`, :func:`_coupling_rates_part`, :func:`_load_rates_part`) at ``state``, a model
+    without rigid links or guides (module docstring, "Along the rates"); the taut cables' part is
+    :func:`cable_stiffness_by_rates`'s, the rest :func:`rates_rest_product`'s."""
     n = assembler.model.n_dofs
     hinge_rows, hinge_values = _hinge_rates_part(assembler, state, w)
     coupling_rows, coupling_cols, coupling_values = _coupling_rates_part(assembler, state, w)
-    return _sparse(np.concatenate([hinge_rows, coupling_rows]), np.concatenate([hinge_rows, coupling_cols]),
-                   np.concatenate([hinge_values, coupling_values]), n)
+    load_rows, load_cols, load_values = _load_rates_part(assembler, state, w)
+    return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows]),
+                   np.concatenate([hinge_rows, coupling_cols, load_cols]),
+                   np.concatenate([hinge_values, coupling_values, load_values]), n)
 
 
 def rates_rest_needed(assembler, moving: tuple) -> bool:
     """Whether a block of K that moves with the rates (``moving``: :func:`stiffness_moving_with_rates`'s names) has
     a part not generated along them (:func:`rates_rest_product`): a hinge outside :func:`exact_hinges_by_rates`, a
-    load a continuous controller drives (its values move with the controller's rate sensors), a coupling outside
-    :func:`exact_couplings_by_rates`."""
+    load outside :func:`exact_loads_by_rates` (its values move with its controller's rate sensors), a coupling
+    outside :func:`exact_couplings_by_rates`."""
     return bool(("joints" in moving and not np.all(exact_hinges_by_rates(assembler)))
-                or ("loads and cables" in moving and len(assembler.loads) and not np.all(exact_loads(assembler)))
+                or ("loads and cables" in moving and not np.all(exact_loads_by_rates(assembler)))
                 or ("controllers' couplings" in moving and not np.all(exact_couplings_by_rates(assembler))))
 
 
 def rates_rest_product(assembler, state, w: np.ndarray) -> np.ndarray:
     """(K_rest w) (n,) at ``state``: the evaluation's K with only the blocks whose derivative along the rates is not
-    generated (:func:`rates_rest_needed`): the hinges outside :func:`exact_hinges_by_rates`, the loads a continuous
-    controller drives, the couplings outside :func:`exact_couplings_by_rates`; the elements' and the joint bodies'
-    (which do not move with the rates), the other hinges', loads' and couplings' and every cable element's (the
+    generated (:func:`rates_rest_needed`): the hinges outside :func:`exact_hinges_by_rates`, the loads outside
+    :func:`exact_loads_by_rates`, the couplings outside :func:`exact_couplings_by_rates`; the elements' and the joint
+    bodies' (which do not move with the rates), the other hinges', loads' and couplings' and every cable element's (the
     generated ones) out. ``TransientSensitivities._stiffness_by_rates`` differences it along δv."""
     stiffness = assembler.evaluate(state, matrices=True).flat_blocks("stiffness")
     hinges = np.where(exact_hinges_by_rates(assembler), 0.0, stiffness[2])
-    driven = np.broadcast_to(~exact_loads(assembler)[:, None, None], (len(assembler.loads), 6, 6))
+    driven = np.broadcast_to(~exact_loads_by_rates(assembler)[:, None, None], (len(assembler.loads), 6, 6))
     cable_blocks = int(np.count_nonzero(assembler._cable_mask))
     differenced = np.concatenate([driven[assembler._load_mask], np.zeros(cable_blocks, bool)])
     loads = np.where(differenced, stiffness[3], 0.0)
