@@ -595,6 +595,42 @@ def _hinge_stiffness_by_angle_kernel() -> KernelSpec:
                       "twice by the angle; Hunt-Crossley contact", intermediates=branch_free.intermediates)
 
 
+HINGE_LAW_MIXED = Argument("mixed", 3, "d2k/dtheta_dtheta_dot d2c/dtheta_dtheta_dot d2tau/dtheta_dtheta_dot: the mixed "
+                           "second derivatives by the angle and its rate of the stiffness, damping and applied torque "
+                           "laws at the hinge's (theta, theta_dot, t) (SymPy's; 0 for constants and laws of t)")
+
+
+def hinge_stiffness_by_rate(state, laws, mixed, contact, branch_free=None):
+    """∂K/∂θ̇ of a hinge's K = ∂f/∂θ (:func:`hinge_force`'s f, its stop with its damping included) at fixed θ and t,
+    the mixed second derivative ∂²f/∂θ∂θ̇: f with each law expanded to second order in (θ, θ̇),
+    k + ∂k/∂θ dθ + ∂k/∂θ̇ dθ̇ + ∂²k/∂θ∂θ̇ dθ dθ̇ (and c, τ alike; the pure second-order terms do not enter the mixed
+    derivative), differentiated by dθ and dθ̇ at 0. A compliant stop's part is n ⟨δ⟩ⁿ⁻¹ step(δ) c step(k ± c θ̇) in
+    contact (its Hunt–Crossley damping), exactly 0 out of it; friction reads the rate alone (0)."""
+    theta, rate, rest, factor = state
+    branch_free = branch_free or _BranchFree()
+    d_theta, d_rate = sp.symbols("dtheta drate")
+    k, c, tau = ((laws[3 * j] + laws[3 * j + 1] * d_theta + laws[3 * j + 2] * d_rate + mixed[j] * d_theta * d_rate)
+                 for j in range(3))
+    f = k * (theta + d_theta - rest) + c * (rate + d_rate) - factor * tau
+    stop, _, _ = joint_contact(theta + d_theta, rate + d_rate, contact)
+    return branch_free(sp.diff(f + stop, d_theta, d_rate).xreplace({d_theta: 0, d_rate: 0}))
+
+
+def _hinge_stiffness_by_rate_kernel() -> KernelSpec:
+    state, laws, contact = HINGE_STATE.symbols(), HINGE_LAWS.symbols(), JOINT_CONTACT.symbols()
+    mixed = HINGE_LAW_MIXED.symbols()
+    branch_free = _BranchFree()
+    by_rate = hinge_stiffness_by_rate(state, laws, mixed, contact, branch_free)
+    outputs = [Output("hinge_stiffness_by_rate", (), [by_rate], "∂K/∂θ̇ = ∂²f/∂θ∂θ̇, K = ∂f/∂θ: ∂k/∂θ̇ + s ∂²k/∂θ∂θ̇ "
+                      "+ ∂c/∂θ + θ̇ ∂²c/∂θ∂θ̇ − λ ∂²τ/∂θ∂θ̇ + ∂²f_contact/∂θ∂θ̇: a hinge's part of an event's impulse "
+                      "weight derivative along the rates ∂(W w)/∂v (latdyn/analyses/weight_derivative.py)")]
+    return KernelSpec(name="hinge_stiffness_by_rate", doc="The derivative by the angle's rate of a hinge's stiffness "
+                      "∂f/∂θ (hinge_force's), from its laws' mixed second derivatives and its compliant stop's damping",
+                      inputs=[HINGE_STATE, HINGE_LAWS, HINGE_LAW_MIXED, JOINT_CONTACT], outputs=outputs,
+                      variant="joints", equations="hinge springs, dampers and torques (Eqs. 4, 9) differentiated by "
+                      "the angle and its rate; Hunt-Crossley contact", intermediates=branch_free.intermediates)
+
+
 def _contact_law_derivative_kernel() -> KernelSpec:
     """∂f/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇): the
     right-hand sides of sensitivities by the stop's stiffness, exponent and damping
@@ -1216,6 +1252,7 @@ def build_kernels() -> list[KernelSpec]:
     return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(),
             _point_load_stiffness_D_q_kernel(), _hinged_end_kernel(),
             _reference_variation_kernel(), _hinge_force_kernel(), _hinge_stiffness_by_angle_kernel(),
+            _hinge_stiffness_by_rate_kernel(),
             _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),

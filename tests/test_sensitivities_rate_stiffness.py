@@ -161,10 +161,17 @@ def test_the_terms_of_k_that_move_with_the_rates_at_random_rates(text, terms):
     controller nonlinear in an angle and a rate, the block of a follower load a controller of a rate drives, a damped
     cable's; nothing for friction (∂f/∂θ = 0), the joint bodies' gyroscopic terms (the inertia tangent, which the
     impulse's K leaves out), a stop out of contact or undamped, a linear controller, an undamped cable."""
+    prepared, state, _ = moving_state(text)
+    assert stiffness_moving_with_rates(prepared.assembler, state) == terms
+
+
+def moving_state(text: str):
+    """(prepared, a turned state with random rates, every hinge at −0.05 rad — a stop at −0.005 in contact —, the
+    random generator after them) of the scene ``text`` (also tests/test_weight_derivative_rates.py's)."""
     rng = np.random.default_rng(3)
     prepared = prepare(latdyn.load_scene(yaml.safe_load(text)))
     model = prepared.model
     state = prepared.assembler.advance(prepared.state, 0.02 * rng.standard_normal(model.n_dofs))
     unpack_free(model, rng.standard_normal(model.n_dofs), state.v, state.w, state.theta_dot)
     state.theta[:] = -0.05
-    assert stiffness_moving_with_rates(prepared.assembler, state) == terms
+    return prepared, state, rng

@@ -615,7 +615,10 @@ class AdjointSensitivities(TransientSensitivities):
     def _stiffness_by_rates_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float) -> np.ndarray:
         """The transpose of the forward method's rates' term of the weight derivative, scale ∂(K w)/∂v δv
         (:meth:`TransientSensitivities._stiffness_by_rates`), applied to ``u_bar`` (n, m): scale (∂(K w)/∂v)ᵀ ū,
-        ∂(K w)/∂v by the forward method's central differences along each free rate. Where K moves with the rates
+        ∂(K w)/∂v the forward method's along each free rate (the identity's columns): generated for the hinges, the
+        couplings and loads of controllers of angles and rates and the damped cables, no evaluation; a difference,
+        two evaluations a free rate, of the blocks not generated alone (latdyn/analyses/weight_derivative.py, "Along
+        the rates"). Where K moves with the rates
         at ``state`` (:meth:`TransientSensitivities.stiffness_moves_with_rates`, the forward method's one predicate:
         a damped cable's c ℓ̇ terms, a hinge law whose ∂τ/∂θ holds θ̇, a controller's couplings that hold a rate …),
         else 0."""

@@ -28,6 +28,9 @@ Not generated, differenced along w by the caller (:func:`exact_parameters` False
 controllers' outputs and states, a hinge law that names an input (its value is the runtime's), and every parameter
 of a run whose ∂r/∂p holds more than the parameters' own terms (:meth:`TransientSensitivities.by_sections_only`'s
 conditions: a state moved in time, held angles, controllers, rigid links or guides).
+
+The weight's move along the rates, ∂(K w)/∂v δv, is not a parameter's part: latdyn/analyses/weight_derivative.py
+"Along the rates" (the hinges' ∂²f/∂θ∂θ̇, controllers' couplings and loads of angles and rates, damped cables).
 """
 from __future__ import annotations
 

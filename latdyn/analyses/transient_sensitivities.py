@@ -140,8 +140,9 @@ from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configu
                                                linked_geometric_rate_in_time,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
                                                linked_cable_rates_product,
-                                               needs_the_kernel, refuse_without_kernel, stiffness_moving_with_rates,
-                                               times)
+                                               needs_the_kernel, rates_rest_needed, rates_rest_product,
+                                               rates_tangent_of_weight, refuse_without_kernel,
+                                               stiffness_moving_with_rates, times)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
 from latdyn.errors import SceneError, SolverError
@@ -868,7 +869,8 @@ class TransientSensitivities(ParameterDerivatives):
     def stiffness_moves_with_rates(self, state) -> bool:
         """Whether the evaluation's K at ``state`` moves with the free rates (a model without rigid links or guides):
         :func:`latdyn.analyses.weight_derivative.stiffness_moving_with_rates`, two evaluations, which the event's
-        weight derivative asks before the 2k of :meth:`_stiffness_by_rates` (the adjoint's transpose, 2n)."""
+        weight derivative asks before :meth:`_stiffness_by_rates` (generated, or 2k evaluations where a block not
+        generated moves; the adjoint's transpose 2n)."""
         moving = stiffness_moving_with_rates(self.assembler, state)
         self._rates_moving = (state, moving)   # which blocks: :meth:`_stiffness_by_rates` at the same state
         return bool(moving)
@@ -877,29 +879,34 @@ class TransientSensitivities(ParameterDerivatives):
         """∂(K w)/∂v δv (n, k) at ``state`` (a model without rigid links or guides), where
         :meth:`stiffness_moves_with_rates`: the evaluation's K depends on the free rates where a term does (a damped
         cable's geometric terms c ℓ̇, a hinge law whose ∂τ/∂θ holds θ̇, a compliant stop's damping in contact, a
-        controller's couplings), and the impulse's weight M + dt² K moves with them. Where the damped taut cables'
-        block is the only one moving (:meth:`stiffness_moves_with_rates` at the same state) and no controller:
-        generated, :func:`latdyn.analyses.weight_derivative.cable_stiffness_by_rates` (K_c affine in the rates);
-        otherwise a central difference of K w along each column's δv, as :func:`configuration_tangent_of_weight`
-        differences the couplings' blocks along q (the step relative: the rates' own size, or 1)."""
+        controller's couplings), and the impulse's weight M + dt² K moves with them. Generated
+        (latdyn/analyses/weight_derivative.py, "Along the rates"): the hinges' ∂²f/∂θ∂θ̇, the couplings and driven
+        loads of a controller of angles and rates by its mixed second derivatives (:func:`rates_tangent_of_weight`),
+        the damped taut cables' (:func:`cable_stiffness_by_rates`, K_c affine in the rates); the blocks not generated
+        (:func:`rates_rest_needed`: a hinge law naming an input, other controllers' couplings and loads) a
+        central difference of their K w along each column's δv (:func:`rates_rest_product`; the step relative: the
+        rates' own size, or 1), no evaluation where there is none."""
         model, assembler = self.model, self.assembler
         held = self.__dict__.get("_rates_moving")
-        if held is not None and held[0] is state and held[1] == ("loads and cables",) and not self.scene.controllers:
-            return cable_stiffness_by_rates(assembler, state, w, dv)   # the damped cables' c ℓ̇ alone: generated
+        moving = held[1] if held is not None and held[0] is state else stiffness_moving_with_rates(assembler, state)
+        out = times(rates_tangent_of_weight(assembler, state, w), dv)
+        if "loads and cables" in moving:
+            out += cable_stiffness_by_rates(assembler, state, w, dv)   # the damped cables' c ℓ̇: generated
+        if not rates_rest_needed(assembler, moving):
+            return out
         v0 = free_velocity(model, state)
-        out = np.zeros_like(dv)
 
         def product(v):
             moved = state.copy()
             unpack_free(model, v, moved.v, moved.w, moved.theta_dot)
-            return assembler.evaluate(moved, matrices=True).combined(0.0, 0.0, 1.0) @ w
+            return rates_rest_product(assembler, moved, w)
 
         for c in range(dv.shape[1]):
             size = float(np.max(np.abs(dv[:, c]), initial=0.0))
             if size == 0.0:
                 continue
             eta = WEIGHT_STEP * max(float(np.max(np.abs(v0), initial=0.0)), 1.0) / size
-            out[:, c] = (product(v0 + eta * dv[:, c]) - product(v0 - eta * dv[:, c])) / (2 * eta)
+            out[:, c] += (product(v0 + eta * dv[:, c]) - product(v0 - eta * dv[:, c])) / (2 * eta)
         return out
 
     def by_sections_only(self) -> np.ndarray:

@@ -119,17 +119,40 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   rate take none; 10be92c took 2k there, docs/performance.md "The linked weight's loads, cables and couplings
   generated (issue 34)").
 
-Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``, two
-evaluations a parameter; its transpose in the adjoint, two a free rate; generated where the damped taut cables' block
-is the only one moving and no controller: :func:`cable_stiffness_by_rates`, K_c affine in the rates). Which terms of K move with the rates is
-asked of the model's own evaluation, not of a list of the laws that can make them (:func:`stiffness_moving_with_rates`:
-K's blocks at the state's rates and at rates moved, compared bit for bit): a damped cable's c ℓ̇ terms, a hinge law
-whose ∂τ/∂θ holds θ̇, a compliant stop's Hunt–Crossley damping n δⁿ⁻¹ c δ̇ in contact, a continuous controller's
-couplings whose ∂y/∂s holds a rate (an output nonlinear in an angle and a rate) and the block of a load in a body's
-frame whose component a controller of a rate drives (found so at random rates:
-tests/test_sensitivities_rate_stiffness.py); not the joint bodies' gyroscopic terms nor the elements' (the inertia
-tangent, which the weight's K leaves out), nor friction (∂f/∂θ = 0: its level and engagement are functions of the
-rate alone), nor a stop out of contact, an undamped one, an undamped cable or a controller linear in its sensors.
+Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``; its
+transpose in the adjoint, the same matrix times the identity). Which terms of K move with the rates is asked of the
+model's own evaluation, not of a list of the laws that can make them (:func:`stiffness_moving_with_rates`: K's blocks
+at the state's rates and at rates moved, compared bit for bit): a damped cable's c ℓ̇ terms, a hinge law whose ∂τ/∂θ
+holds θ̇, a compliant stop's Hunt–Crossley damping n δⁿ⁻¹ c δ̇ in contact, a continuous controller's couplings whose
+∂y/∂s holds a rate (an output nonlinear in an angle and a rate) and the block of a load in a body's frame whose
+component a controller of a rate drives (found so at random rates: tests/test_sensitivities_rate_stiffness.py); not
+the joint bodies' gyroscopic terms nor the elements' (the inertia tangent, which the weight's K leaves out), nor
+friction (∂f/∂θ = 0: its level and engagement are functions of the rate alone), nor a stop out of contact, an undamped
+one, an undamped cable or a controller linear in its sensors. Generated and exact, with no evaluation of the model:
+
+* the free hinges' diagonal, (∂K_jj/∂θ̇_j) w_j δθ̇_j with ∂K_jj/∂θ̇_j = ∂²f/∂θ∂θ̇ from ``hinge_stiffness_by_rate``
+  (codegen/joints.py: f with each law expanded to second order in (θ, θ̇), its compliant stop with its damping
+  included, differentiated by θ and θ̇ at the state), fed the laws' values and first derivatives and their mixed second derivatives,
+  the ``d_rate`` of :func:`_angle_slope_law`'s law (SymPy's ∂²f/∂θ∂θ̇, evaluated with NumPy at the event), for the
+  hinges of :func:`exact_hinges_by_rates` (:func:`_hinge_rates_part`);
+* the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
+  alone (:func:`exact_couplings_by_rates`): K's entry −a ∂y/∂θ_j moves with a rate sensor's θ̇_i by
+  −a ∂²y/∂θ_j∂θ̇_i, SymPy's mixed second derivatives of the output lambdified once per output in a process
+  (:func:`_output_mixed`), 0 while the output is saturated (:func:`_coupling_rates_part`);
+* the point loads such a controller drives (:func:`exact_loads_by_rates`): a component a y + b moves with a rate
+  sensor by a ∂y/∂θ̇_i, the load's block (linear in its values) by K_l(a ∂y/∂θ̇_i e_c) w from the generated
+  ``point_load_stiffness_D_q``, and its couplings g ∂y/∂θ_j (g: ``point_load``'s force at a e_c) by g ∂²y/∂θ_j∂θ̇_i
+  (:func:`_load_rates_part`); with the hinges' and couplings' parts one sparse n × n matrix,
+  :func:`rates_tangent_of_weight`;
+* the damped taut cables' blocks: K_c is affine in the rates, so ``cable_stiffness_D_q`` at δv less at 0
+  (:func:`cable_stiffness_by_rates`).
+
+Still a central difference (:func:`rates_rest_needed`; two evaluations a parameter, the adjoint's two a free rate),
+of the blocks not generated alone (:func:`rates_rest_product`: K w of those blocks, the others out): a hinge law of
+θ or θ̇ naming an input (:func:`exact_hinges_by_rates`), and the couplings and driven loads of the other controllers
+(:func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`: a controller reading a point, a body, a cable, an
+element, a joint's force, an input, a state or another controller). Rigid links and guides: the rates' move is in
+``TransientSensitivities._linked_weight_derivative`` (above), not here.
 """
 from __future__ import annotations
 
@@ -141,11 +164,12 @@ from latdyn.numerics import csr
 from latdyn.numerics.csr import CSR
 from latdyn.numerics.linalg import RCM_IN_PYTHON
 
-__all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads",
+__all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_couplings_by_rates",
+           "exact_hinges", "exact_hinges_by_rates", "exact_loads", "exact_loads_by_rates",
            "geometric_product", "geometric_second_product", "linked_configuration_tangent", "linked_geometric_derivative",
            "linked_cable_rates_product", "linked_exact_couplings", "linked_exact_hinges", "linked_generated_loads",
            "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
-           "needs_the_kernel",
+           "needs_the_kernel", "rates_rest_needed", "rates_rest_product", "rates_tangent_of_weight",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
 #: the names of the evaluation's blocks of K, in their order (latdyn.assembly.assembler.Assembler.evaluation_in)
@@ -167,6 +191,8 @@ _CURVATURES: dict = {}
 _LINKED_COUPLINGS: dict = {}
 #: id(wiring) -> (the wiring, its :func:`_exact_controllers`): found once per numbering of a model in a process
 _EXACT: dict = {}
+#: (output's expression, symbols, angle reads, rate reads) -> its :func:`_output_mixed`, made once per process
+_MIXED: dict = {}
 
 
 def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
@@ -449,8 +475,8 @@ def cable_stiffness_by_rates(assembler, state, w: np.ndarray, dv: np.ndarray) ->
     """∂(K w)/∂v δv (n, k) of the cable elements taut at ``state`` (as :func:`_cable_part` finds them), each column of
     ``dv`` (n, k) a move of the free rates: K_c is affine in the rates (the damper's c ℓ̇, ℓ̇ linear in the ends'
     velocities), so K_c(δv) w − K_c(0) w from the generated ``cable_stiffness_D_q``'s ``cable_stiffness_along`` is
-    it exactly (``TransientSensitivities._stiffness_by_rates`` where the cables' block is the only one of K moving
-    with the rates, :func:`stiffness_moving_with_rates`, and no controller drives a load)."""
+    it exactly (``TransientSensitivities._stiffness_by_rates`` where the loads' and cables' block moves with the
+    rates, :func:`stiffness_moving_with_rates`; a load a controller drives there is :func:`rates_rest_product`'s)."""
     model = assembler.model
     n, k = dv.shape
     taut = _taut_cables(assembler, state)
@@ -926,32 +952,36 @@ def exact_hinges(assembler) -> np.ndarray:
 
 def _hinge_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None):
     """(rows, values) of the hinges' part of H, on its diagonal: s (∂K_jj/∂θ_j) w_j for each free hinge j with
-    w_j ≠ 0 (:func:`_stiffness_slopes`). ``exact`` (free hinges,) bool: the hinges taken (default
-    :func:`exact_hinges`; :func:`linked_exact_hinges`)."""
+    w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated ``hinge_stiffness_by_angle``,
+    codegen/joints.py, from the laws' values, first and second derivatives in θ at the state; a hinge driven by a
+    continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces). ``exact`` (free hinges,)
+    bool: the hinges taken (default :func:`exact_hinges`; :func:`linked_exact_hinges`)."""
+    exact = exact_hinges(assembler) if exact is None else exact
+    hinge_rows, by_angle = _hinge_stiffness_slope(assembler, state, w, exact, "hinge_stiffness_by_angle", "d_theta")
+    return hinge_rows, scale * by_angle * w[hinge_rows]
+
+
+def _hinge_stiffness_slope(assembler, state, w: np.ndarray, exact: np.ndarray, kernel: str, by: str):
+    """(rows, slopes) of the free hinges j with ``exact`` and w_j ≠ 0: their K_jj = ∂f/∂θ's derivative from the
+    generated ``kernel`` (``hinge_stiffness_by_angle``: by θ, ``hinge_stiffness_by_rate``: by θ̇) at
+    :func:`_hinge_rows` with the slope laws' derivative ``by``."""
     model = assembler.model
     n = model.n_dofs
     free = np.asarray(model.free_hinges, np.int64)
     dofs = np.asarray(model.hinge_dofs, np.int64)[free] if len(free) else np.zeros(0, np.int64)
-    exact = exact_hinges(assembler) if exact is None else exact
     on = [(j, d) for j, d, taken in zip(free, dofs, exact) if taken and d < n and w[d] != 0.0]
     if not on:
         return np.zeros(0, np.int64), np.zeros(0)
-    by_angle = _stiffness_slopes(assembler, state, [j for j, _ in on])
-    hinge_rows = np.array([d for _, d in on], np.int64)
-    return hinge_rows, scale * by_angle * w[hinge_rows]
+    slopes = getattr(assembler.kernels, kernel)(*_hinge_rows(assembler, state, [j for j, _ in on], by))
+    return np.array([d for _, d in on], np.int64), np.asarray(slopes[0]).reshape(-1)
 
 
-def _stiffness_slopes(assembler, state, hinges: list) -> np.ndarray:
-    """∂K_jj/∂θ_j (len(hinges),) of free hinges of :func:`exact_hinges` at ``state``, K_jj = ∂f/∂θ of their laws and
-    compliant stops: the generated ``hinge_stiffness_by_angle`` (codegen/joints.py) at :func:`_hinge_rows`."""
-    return np.asarray(assembler.kernels.hinge_stiffness_by_angle(*_hinge_rows(assembler, state, hinges))[0]).reshape(-1)
-
-
-def _hinge_rows(assembler, state, hinges: list) -> tuple:
+def _hinge_rows(assembler, state, hinges: list, by: str = "d_theta") -> tuple:
     """(states, laws, curvatures, contacts) of free hinges of :func:`exact_hinges` at ``state``, the generated hinge
     kernels' rows: [θ, θ̇, θ_r, 1], their laws' values and first derivatives in θ and θ̇ at the state (a hinge driven
-    by a continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces), the laws' ∂²f/∂θ²
-    (:func:`_slope_law`), and their compliant stops."""
+    by a continuous controller alone has no torque law there, as csrc/evaluate.c hinge_forces), for each law of θ its
+    slope law's (:func:`_slope_law`) derivative ``by`` ("d_theta": ∂²f/∂θ², "d_rate": ∂²f/∂θ∂θ̇), and their
+    compliant stops."""
     from latdyn.assembly.native_model import joint_contact_rows
 
     model = assembler.model
@@ -967,7 +997,8 @@ def _hinge_rows(assembler, state, hinges: list) -> tuple:
                 continue
             row[3 * slot:3 * slot + 3] = law.value(theta, rate, t), law.d_theta(theta, rate, t), law.d_rate(theta, rate, t)
             if "theta" in law.depends_on:
-                curvature[slot] = _slope_law(law, scene, f"joints.{hinge.name}.{key}").d_theta(theta, rate, t)
+                slope = _slope_law(law, scene, f"joints.{hinge.name}.{key}")
+                curvature[slot] = getattr(slope, by)(theta, rate, t)
         states.append([theta, rate, hinge.rest_angle, 1.0])
         laws.append(row)
         curvatures.append(curvature)
@@ -1152,6 +1183,256 @@ def _linked_split(assembler, exact: np.ndarray):
     cables = np.ones(int(np.count_nonzero(assembler._cable_mask)), bool)
     return (np.asarray(exact, bool), np.concatenate([loads[assembler._load_mask], cables]),
             linked_exact_couplings(assembler)[assembler._coupling_mask])
+
+
+def exact_hinges_by_rates(assembler) -> np.ndarray:
+    """(free hinges,) bool: whether the free hinge's part of ∂(K w)/∂v is generated (:func:`_hinge_rates_part`): each
+    of its laws that reads θ or θ̇ names no input (its slopes are then the law's own), and one that reads θ has its
+    slope law (:func:`_angle_slope_law`, whose ``d_rate`` is SymPy's ∂²f/∂θ∂θ̇); otherwise its entry stays in
+    :func:`rates_rest_product`'s difference."""
+    model = assembler.model
+    out = np.ones(len(model.free_hinges), bool)
+    for i, j in enumerate(model.free_hinges):
+        for key, law in _hinge_laws(assembler, int(j)):
+            reads = set(getattr(law, "depends_on", ())) if law is not None else set()
+            if not {"theta", "theta_dot"} & reads:
+                continue
+            if getattr(law, "input_names", ()) or ("theta" in reads and _slope_law(
+                    law, model.scene, f"joints.{model.hinges[j].name}.{key}") is None):
+                out[i] = False
+    return out
+
+
+def _hinge_rates_part(assembler, state, w: np.ndarray):
+    """(rows, values) of the hinges' part of ∂(K w)/∂v, on its diagonal: (∂K_jj/∂θ̇_j) w_j for each free hinge j of
+    :func:`exact_hinges_by_rates` with w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated
+    ``hinge_stiffness_by_rate``, codegen/joints.py: ∂²f/∂θ∂θ̇ from the laws' values, first derivatives and mixed
+    second derivatives at the state — SymPy's, the ``d_rate`` of the law's slope in the angle — and the stop's
+    Hunt–Crossley damping in contact)."""
+    hinge_rows, by_rate = _hinge_stiffness_slope(assembler, state, w, exact_hinges_by_rates(assembler),
+                                                 "hinge_stiffness_by_rate", "d_rate")
+    return hinge_rows, by_rate * w[hinge_rows]
+
+
+def _output_mixed(controller, angles: tuple, rates: tuple):
+    """SymPy's ∂²f/∂s_i∂ṡ_j of a continuous controller's output f before saturation by its angle reads i
+    (``angles``) and its rate reads j (``rates``), lambdified once per output's expression, reads, angles and rates
+    in a process (:data:`_MIXED`), a function of ``(t, *reads values)`` giving the (angles, rates) matrix; None
+    where a mixed derivative is not a function (DiracDelta of a kink, an unevaluated derivative)."""
+    reads = controller.symbols[1:1 + len(controller.reads)]
+    # keyed by the expression itself (SymPy's cached structural hash): printing its text cost 2–9 ms a call
+    key = (controller.output_expr, tuple(controller.symbols), tuple(angles), tuple(rates))
+    if key not in _MIXED:
+        import sympy as sp
+
+        mixed = [[sp.diff(controller.output_expr, reads[i], reads[j]) for j in rates] for i in angles]
+        singular = any(e.has(sp.DiracDelta, sp.Derivative, sp.Subs) for row in mixed for e in row)
+        _MIXED[key] = None if singular else sp.lambdify(controller.symbols[:1 + len(reads)], mixed,
+                                                        modules=["math", "numpy"])
+    return _MIXED[key]
+
+
+def _output_rate_slopes(controller, rates: tuple):
+    """SymPy's ∂f/∂ṡ_j of a continuous controller's output f before saturation by its rate reads j (``rates``),
+    lambdified once per output's expression, reads and rates in a process (:data:`_MIXED`, as :func:`_output_mixed`;
+    the controller's own ``output_gradient`` is lambdified per loaded scene), a function of ``(t, *reads values)``."""
+    key = ("rate slopes", controller.output_expr, tuple(controller.symbols), tuple(rates))
+    if key not in _MIXED:
+        import sympy as sp
+
+        reads = controller.symbols[1:1 + len(controller.reads)]
+        _MIXED[key] = sp.lambdify(controller.symbols[:1 + len(reads)],
+                                  [sp.diff(controller.output_expr, reads[j]) for j in rates], modules=["math", "numpy"])
+    return _MIXED[key]
+
+
+def _joint_reads(control, k: int):
+    """(first sensor, angle reads, rate reads) of continuous controller ``k`` (their positions among its reads), or
+    None unless it reads joints' angles and rates alone — no input, no other controller, no state — with mixed
+    second derivatives of its output by them that are functions (:func:`_output_mixed`)."""
+    from latdyn.assembly.control import ANGLE, RATE
+
+    controller = control.controllers[k]
+    first, last = int(control.sensor_start[k]), int(control.sensor_start[k + 1])
+    kinds = np.asarray(control.sensor_kind[first:last])
+    angles, rates = tuple(np.flatnonzero(kinds == ANGLE)), tuple(np.flatnonzero(kinds == RATE))
+    if controller.states or len(kinds) != len(controller.reads) or len(angles) + len(rates) != len(kinds):
+        return None
+    return None if _output_mixed(controller, angles, rates) is None else (first, angles, rates)
+
+
+def exact_couplings_by_rates(assembler) -> np.ndarray:
+    """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of ∂(K w)/∂v generated
+    (:func:`_coupling_rates_part`): its actuator is a hinge's force, and its controller reads joints' angles and
+    rates alone (:func:`_joint_reads`). Its entry −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone
+    (an angle sensor does not read a rate); the same for a load's component such a controller drives (its entries
+    g ∂y/∂θ_j, g the load's generalized force per unit output: :func:`_load_rates_part`); the others keep
+    :func:`rates_rest_product`'s difference."""
+    control = assembler.control
+    actuators = np.asarray(control.coupling_actuator, np.int64)
+    if not len(actuators):
+        return np.zeros(0, bool)
+    return _plain_controllers(control)[np.asarray(control.actuator_controller, np.int64)[actuators]]
+
+
+def _plain_controllers(control) -> np.ndarray:
+    """(controllers,) bool: those of :func:`_joint_reads` (joints' angles and rates alone)."""
+    return np.array([_joint_reads(control, k) is not None for k in range(len(control.controllers))], bool)
+
+
+def exact_loads_by_rates(assembler) -> np.ndarray:
+    """(loads,) bool: whether the point load's part of ∂(K w)/∂v is generated (:func:`_load_rates_part`): a load no
+    continuous controller drives (its block does not move with the rates), or one whose driven components' controllers
+    read joints' angles and rates alone (:func:`_joint_reads`); otherwise its block stays in
+    :func:`rates_rest_product`'s difference."""
+    control = assembler.control
+    out = np.ones(len(assembler.loads), bool)
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    if not np.any(kinds == 1):
+        return out
+    plain = _plain_controllers(control)
+    for a in np.flatnonzero(kinds == 1):
+        if not plain[control.actuator_controller[a]]:
+            out[control.actuator_index[a]] = False
+    return out
+
+
+def _controller_at(control, k: int, state):
+    """(reads' values less their origins, t) of continuous controller ``k`` of :func:`_joint_reads` at ``state``,
+    or None while its output is saturated (∂y/∂s = 0 about the state, and its derivatives)."""
+    first, angles, rates = _joint_reads(control, k)
+    indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
+    reads_rate = np.zeros(len(indices), bool)
+    reads_rate[list(rates)] = True
+    values = [float(state.theta_dot[i] if by_rate else state.theta[i]) - float(control.sensor_origin[first + m])
+              for m, (by_rate, i) in enumerate(zip(reads_rate, indices))]
+    t = float(state.t)
+    lo, hi = control.limits[k]
+    return (values, t) if lo <= float(control.controllers[k].functions()[0](t, *values)) <= hi else None
+
+
+def _coupling_rates_part(assembler, state, w: np.ndarray):
+    """(rows, cols, values) of the couplings' part of ∂(K w)/∂v for the entries of :func:`exact_couplings_by_rates`:
+    K's entry K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while
+    the output is saturated, csrc/evaluate.c controller_outputs) moves with the rate of a rate sensor i by
+    −a ∂²y/∂θ_j∂θ̇_i: Σ_j of it times w_j in row r, column i."""
+    control, model = assembler.control, assembler.model
+    n = model.n_dofs
+    dofs = np.asarray(model.hinge_dofs, np.int64)
+    out_rows, out_cols, out_values = [], [], []
+    actuators = np.unique(np.asarray(control.coupling_actuator, np.int64)[exact_couplings_by_rates(assembler)])
+    for a in actuators[np.asarray(control.actuator_kind)[actuators] == 0]:   # a load's: :func:`_load_rates_part`
+        k = int(control.actuator_controller[a])
+        first, angles, rates = _joint_reads(control, k)
+        indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
+        columns = dofs[indices[list(angles)]]
+        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
+        at = _controller_at(control, k, state) if len(rates) and np.any(along) else None
+        if at is None:   # no rate read, no w on its angles, or saturated
+            continue
+        controller = control.controllers[k]
+        mixed = np.asarray(_output_mixed(controller, angles, rates)(at[1], *at[0]), float).reshape(len(angles),
+                                                                                                    len(rates))
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        out_rows.append(np.full(len(rates), int(dofs[control.actuator_index[a]]), np.int64))
+        out_cols.append(dofs[indices[list(rates)]])
+        out_values.append(-gain * (mixed.T @ along))
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
+
+
+def _load_rates_part(assembler, state, w: np.ndarray):
+    """(rows, cols, values) of the driven point loads' part of ∂(K w)/∂v for the loads of :func:`exact_loads_by_rates`:
+    a component a y + b (a = 1 for the controller's name alone) of a controller of :func:`_joint_reads` moves with
+    its rate sensor i by a ∂y/∂θ̇_i, so the load's block (linear in its values) by K_l(e_c a ∂y/∂θ̇_i) w — the
+    generated ``point_load_stiffness_D_q``'s ``load_stiffness_along`` at those values — and its coupling entries
+    g ∂y/∂θ_j (g = ``point_load``'s ``load_force`` at a e_c, csrc/evaluate.c controller_couplings) by
+    g ∂²y/∂θ_j∂θ̇_i (:func:`_output_mixed`), times w_j: both on the load's node rows, column i. 0 while saturated."""
+    control, model, loads = assembler.control, assembler.model, assembler.loads
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    driven = np.flatnonzero(kinds == 1)
+    exact = exact_loads_by_rates(assembler)
+    n = model.n_dofs
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    dofs = np.asarray(model.hinge_dofs, np.int64)
+    columns = _scattered(assembler._load_columns(), model.n_total)
+    out_rows, out_cols, out_values = [], [], []
+    for a in driven:
+        l, k = int(control.actuator_index[a]), int(control.actuator_controller[a])
+        first, angles, rates = _joint_reads(control, k) if exact[l] else (0, (), ())
+        at = _controller_at(control, k, state) if len(rates) else None
+        if at is None:   # not generated here (the rest), no rate read, or saturated
+            continue
+        controller = control.controllers[k]
+        indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        unit = np.zeros(6)
+        unit[int(control.actuator_component[a])] = gain
+        follower = loads[l].frame != "global"
+        along = full[columns[l]].copy()
+        if not follower:
+            along[3:] = 0.0   # a global load's block has no frame half (csrc/evaluate.c)
+        node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
+        rows = lambda a_: np.ascontiguousarray(np.reshape(a_, (1, -1)), dtype=float)  # noqa: E731
+        T, r, R = rows(state.T[node]), rows(assembler._load_offsets[l]), rows(state.T[frame] if follower else np.eye(3))
+        block = np.asarray(assembler.kernels.point_load_stiffness_D_q(T, r, rows(unit), R, rows(along))[0]).reshape(6)
+        force = np.asarray(assembler.kernels.point_load(T, r, rows(unit), R, rows(np.zeros(6)))[0]).reshape(6)
+        slopes = np.asarray(_output_rate_slopes(controller, rates)(at[1], *at[0]), float).reshape(len(rates))
+        angle_columns = dofs[indices[list(angles)]]
+        on_angles = np.where(angle_columns < n, w[np.minimum(angle_columns, n - 1)], 0.0)
+        mixed = np.asarray(_output_mixed(controller, angles, rates)(at[1], *at[0]), float).reshape(len(angles),
+                                                                                                    len(rates))
+        node_rows = _scattered(model.node_dofs[node], model.n_total)
+        for m, i in enumerate(rates):
+            out_rows.append(node_rows)
+            out_cols.append(np.full(6, dofs[indices[i]], np.int64))
+            out_values.append(slopes[m] * block + force * float(mixed[:, m] @ on_angles))
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
+
+
+def rates_tangent_of_weight(assembler, state, w: np.ndarray):
+    """∂(K w)/∂v (n × n, sparse as :func:`configuration_tangent_of_weight`'s H; applied by :func:`times`,
+    :func:`transposed_times`) of the hinges', the couplings' and the driven loads' parts generated
+    (:func:`_hinge_rates_part`, :func:`_coupling_rates_part`, :func:`_load_rates_part`) at ``state``, a model
+    without rigid links or guides (module docstring, "Along the rates"); the taut cables' part is
+    :func:`cable_stiffness_by_rates`'s, the rest :func:`rates_rest_product`'s."""
+    n = assembler.model.n_dofs
+    hinge_rows, hinge_values = _hinge_rates_part(assembler, state, w)
+    coupling_rows, coupling_cols, coupling_values = _coupling_rates_part(assembler, state, w)
+    load_rows, load_cols, load_values = _load_rates_part(assembler, state, w)
+    return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows]),
+                   np.concatenate([hinge_rows, coupling_cols, load_cols]),
+                   np.concatenate([hinge_values, coupling_values, load_values]), n)
+
+
+def rates_rest_needed(assembler, moving: tuple) -> bool:
+    """Whether a block of K that moves with the rates (``moving``: :func:`stiffness_moving_with_rates`'s names) has
+    a part not generated along them (:func:`rates_rest_product`): a hinge outside :func:`exact_hinges_by_rates`, a
+    load outside :func:`exact_loads_by_rates` (its values move with its controller's rate sensors), a coupling
+    outside :func:`exact_couplings_by_rates`."""
+    return bool(("joints" in moving and not np.all(exact_hinges_by_rates(assembler)))
+                or ("loads and cables" in moving and not np.all(exact_loads_by_rates(assembler)))
+                or ("controllers' couplings" in moving and not np.all(exact_couplings_by_rates(assembler))))
+
+
+def rates_rest_product(assembler, state, w: np.ndarray) -> np.ndarray:
+    """(K_rest w) (n,) at ``state``: the evaluation's K with only the blocks whose derivative along the rates is not
+    generated (:func:`rates_rest_needed`): the hinges outside :func:`exact_hinges_by_rates`, the loads outside
+    :func:`exact_loads_by_rates`, the couplings outside :func:`exact_couplings_by_rates`; the elements' and the joint
+    bodies' (which do not move with the rates), the other hinges', loads' and couplings' and every cable element's (the
+    generated ones) out. ``TransientSensitivities._stiffness_by_rates`` differences it along δv."""
+    stiffness = assembler.evaluate(state, matrices=True).flat_blocks("stiffness")
+    hinges = np.where(exact_hinges_by_rates(assembler), 0.0, stiffness[2])
+    driven = np.broadcast_to(~exact_loads_by_rates(assembler)[:, None, None], (len(assembler.loads), 6, 6))
+    cable_blocks = int(np.count_nonzero(assembler._cable_mask))
+    differenced = np.concatenate([driven[assembler._load_mask], np.zeros(cable_blocks, bool)])
+    loads = np.where(differenced, stiffness[3], 0.0)
+    couplings = np.where(exact_couplings_by_rates(assembler)[assembler._coupling_mask], 0.0, stiffness[4])
+    return np.asarray(assembler.assemble([0.0 * stiffness[0], 0.0 * stiffness[1], hinges, loads, couplings]) @ w)
 
 
 def _linked_weight(assembler, ev, scale: float, mass: bool, exact: np.ndarray, generated: bool):
