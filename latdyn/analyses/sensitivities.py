@@ -218,9 +218,9 @@ def refusal(scene) -> SceneError | None:
 
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, without guides and
-    controllers with states; the forward
-    method's refusals come first, :func:`refusal`)."""
+    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides
+    (their energy and momentum probes refused), without controllers with states; the forward method's refusals
+    come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
     if scene.solve.analysis != "transient":
@@ -238,18 +238,11 @@ def adjoint_refusal(scene) -> SceneError | None:
         used = next(used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
                     if GEOMETRY_KEY.match(used))
         why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
-    elif any(body.guide is not None for body in scene.bodies.values()):
-        name = next(n for n, body in scene.bodies.items() if body.guide is not None)
-        why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
-    elif any(beam.rigid for beam in scene.beams.values()) and any(
-            not ((p.kind == "point" and p.frame == "global") or p.kind in ("hinge", "guide"))
-            for p in scene.output.probes):
-        link = next(name for name, beam in scene.beams.items() if beam.rigid)
-        probe = next(p for p in scene.output.probes
-                     if not ((p.kind == "point" and p.frame == "global") or p.kind in ("hinge", "guide")))
-        why = (f"with rigid links (beams.{link}.rigid) the adjoint is seeded by points in the global frame and "
-               f"joints' probes, not yet by probe {probe.name!r} ({probe.kind} {probe.quantity}: its gradient "
-               "through the links' reduction)")
+    elif _linked_key(scene) is not None and any(p.kind in ("energy", "momentum") for p in scene.output.probes):
+        probe = next(p for p in scene.output.probes if p.kind in ("energy", "momentum"))
+        why = (f"with rigid links or guides ({_linked_key(scene)}) the adjoint is seeded by points, joints, section "
+               f"forces and cables, not yet by probe {probe.name!r} ({probe.kind} {probe.quantity}: its gradient "
+               "through the reduction); the forward method differentiates it")
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
@@ -260,6 +253,14 @@ def adjoint_refusal(scene) -> SceneError | None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
                                        "(docs/parameters.md, \"The discrete adjoint\")")
+
+
+def _linked_key(scene) -> str | None:
+    """The first key that gives ``scene`` a reduction onto minimum coordinates (latdyn/assembly/linked.py): a rigid
+    link's ``beams.NAME.rigid`` or a guide's ``bodies.NAME.guide``; None without."""
+    rigid = next((f"beams.{name}.rigid" for name, beam in scene.beams.items() if beam.rigid), None)
+    return rigid or next((f"bodies.{name}.guide" for name, body in scene.bodies.items() if body.guide is not None),
+                         None)
 
 
 def _law_in_time(scene):
@@ -323,10 +324,10 @@ def _transient_refusal(scene) -> str | None:
 
 
 def _adjoint_event_refusal(scene) -> str | None:
-    """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's latch (``lock_at``) and rigid
-    stops (``limits`` with ``restitution``) and cables' slack and taut changes (latdyn/analyses/adjoint_sensitivities.py,
-    "Events"), not a compliant stop's onset, nor events beside laws in t, rigid links or energy and momentum probes
-    (guides and friction: their own refusals)."""
+    """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's or a guide's latch (``lock_at``)
+    and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links and guides
+    too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a compliant stop's onset, nor events beside laws in
+    t or energy and momentum probes (friction: its own refusal)."""
     if not has_events(scene):
         return None
     compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
@@ -338,12 +339,11 @@ def _adjoint_event_refusal(scene) -> str | None:
     if depends_on_time(scene) or reel is not None:
         timed = reel or _timed_key(scene)
         event = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                      if hinge.lock_at is not None or hinge.limits is not None), "cables")
+                      if hinge.lock_at is not None or hinge.limits is not None), None) or next(
+            (f"bodies.{name}.guide" for name, body in scene.bodies.items()
+             if body.guide is not None and (body.guide.lock_at is not None or body.guide.limits is not None)), "cables")
         return (f"the adjoint does not differentiate events ({event}: lock_at, limits, a cable's slack and taut "
                 f"changes) beside laws in t yet ({timed} depends on t, so it moves with the event's time)")
-    rigid = next((name for name, beam in scene.beams.items() if beam.rigid), None)
-    if rigid is not None:
-        return f"the adjoint does not differentiate events beside rigid links yet (beams.{rigid}.rigid)"
     probe = next((p for p in scene.output.probes if p.kind in ("energy", "momentum")), None)
     if probe is not None:
         return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
