@@ -91,7 +91,7 @@ def test_the_adjoint_with_guides_and_events_beside_links_gives_the_forward_metho
     """Refused on 10be92c. Measured (largest relative difference over the outputs and event times): guide 9.0e-14,
     guide latch 9.0e-14, guide stop 1.8e-13, links latch 7.1e-13, links stop 9.6e-13, links cable 5.5e-13, bead on the
     gimbal 1.6e-12, the seeds through the links 8.3e-12, through the guide 1.8e-13. With the impulse's and restart's
-    δv̇ terms left out 2.7e-4 … 1.1e-2, δv's 2.1e-5 … 1.3e-4; the seeds on the dependent nodes' own coordinates alone
+    δv̇ terms left out 2.7e-4 … 1.1e-2, δv's 2.1e-5 … 1.3e-4 (the guide's and the links' latch and stop); the seeds on the dependent nodes' own coordinates alone
     (the rest dropped) 13.8 (the root moment) and 3.65 (a ring's frame) off."""
     forward, adjoint = _both(text)
     assert [e["kind"] for e in forward.summary["events"]] == events
