@@ -20,6 +20,12 @@ accounts too (its step returned before them: the work by the mass was 0 where it
 Richardson-extrapolated central differences of whole runs at a tight Newton tolerance (the work is that of the last
 Newton evaluation: at the default tolerance 5e-6 off the differences).
 
+3. A geometry parameter with continuous controllers without states that read section forces, joints' angles and
+rates, inputs or earlier controllers and drive joints (no events): the sensed section force's own ∂S/∂X from the
+generated ``beam_section_forces_D_reference`` through ∂f/∂s (``ControllerTerms.sensed_force_slopes``; the force counts as
+moved by any geometry parameter), the rest as without controllers. Points, cables and joint forces as sensors, loads
+as actuators and events stay refused (naming ``solve.sensitivities``).
+
 Every case but the kept refusals was refused on 10be92c (SceneError naming ``solve.sensitivity_method`` or
 ``solve.sensitivities``) or, nothing free, wrong."""
 from __future__ import annotations
@@ -36,6 +42,7 @@ from tests.cli_runs import latdyn_run
 from tests.test_sensitivities_events import _run
 from tests.test_sensitivities_guide_energies import BEAD_3D
 from tests.test_sensitivities_guides import GUIDE_3D, LATCH_3D, STOP_3D
+from tests.test_sensitivities_in_loop_controller_reads import ARM_AXIAL, BOOM_INPUT
 from tests.test_sensitivities_rigid_links import GIMBAL, LATCH, STOP, TETHER
 
 #: the gimbal of rigid links with a bead on a skew guide fixed to its inner ring (a body that follows the links),
@@ -249,3 +256,64 @@ output:
     column = rows[0].index("W/m")
     api = _run(text, "m").sensitivities[("W", "m")]
     assert np.array_equal(np.array([float(row[column]) for row in rows[1:]]), api) and api[-1] != 0.0
+
+
+#: the 3D arm's first element's axial force fed back to its skew hinge (-Ka ax - 2 hinge), the knee (the first beam's
+#: end, the second's start) placed at x = X: X moves the sensed element's reference (its length, its frame)
+PLACED_AXIAL = ARM_AXIAL.replace("Ka: 0.05, m: 0.8}", "Ka: 0.05, m: 0.8, X: 1.0}").replace(
+    "knee: {at: [1, 0, 0]", "knee: {at: [X, 0, 0]").replace("[F, Ka, m]", "[X, Ka]")
+#: the arm's hinge driven by a PD on its angle and rate with inputs, the knee placed at x = X
+PLACED_PD = BOOM_INPUT.replace("Kp: 20.0, Kd: 1.5}", "Kp: 20.0, Kd: 1.5, X: 1.0}").replace(
+    "knee: {at: [1, 0, 0]", "knee: {at: [X, 0, 0]").replace("sensitivities: [E, Kp, Kd]", "sensitivities: [X, Kp]")
+assert "at: [X, 0, 0]" in PLACED_AXIAL and "[X, Ka]" in PLACED_AXIAL
+assert "at: [X, 0, 0]" in PLACED_PD and "[X, Kp]" in PLACED_PD
+
+
+def _probes_error(result, text: str, name: str) -> float:
+    """The largest error of ``result``'s sensitivities by ``name`` (every probe over the rows, relative to its largest)
+    against Richardson-extrapolated central differences of whole runs (1e-4 and 5e-5 relative)."""
+    p0 = yaml.safe_load(text)["parameters"][name]
+    central = []
+    for step in (1e-4 * abs(p0), 5e-5 * abs(p0)):
+        up, down = _run(text, name, **{name: p0 + step}), _run(text, name, **{name: p0 - step})
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
+    return max(float(np.abs(result.sensitivities[(k, name)] - (4 * central[1][k] - central[0][k]) / 3).max()
+                     / np.abs((4 * central[1][k] - central[0][k]) / 3).max()) for k in central[0])
+
+
+@pytest.mark.parametrize("text, name", [(PLACED_AXIAL, "X"), (PLACED_PD, "X")],
+                         ids=["sensed-section-force-by-X", "pd-on-angle-and-rate-by-X"])
+def test_a_geometry_parameter_beside_controllers_agrees_with_richardson(text, name):
+    """Refused on 10be92c (geometry sensitivities with controllers). Measured: the axial force's feedback by X 9.0e-9
+    (tip 1.1e-9, hinge 9.0e-9, the force 3.6e-9), by Ka 4.4e-9 (not run here); the PD by X 2.8e-8 (its steps in the loop of steps, 60
+    of 60). Without the sensed force's ∂S/∂X (the force not counted as moved by X) the feedback by X was 8.3 … 55 off."""
+    assert _probes_error(_run(text, name), text, name) <= 1e-6
+
+
+def test_a_sensed_section_force_placed_by_a_parameter_through_the_cli(tmp_path):
+    """``latdyn run`` of PLACED_AXIAL as typed: sensitivities.csv's columns those of ``latdyn.run`` (to the bit)."""
+    run, out = latdyn_run(tmp_path, PLACED_AXIAL)
+    assert run.returncode == 0, run.stderr
+    rows = [line.split(",") for line in (out / "sensitivities.csv").read_text().splitlines()]
+    api = latdyn.run(latdyn.load_scene(yaml.safe_load(PLACED_AXIAL)))
+    for column in ("ax/X", "hinge/X", "ax/Ka"):
+        at = rows[0].index(column)
+        assert np.array_equal([float(row[at]) for row in rows[1:]], api.sensitivities[tuple(column.split("/"))])
+
+
+@pytest.mark.parametrize("change, expected", [
+    (lambda text: text.replace('"-Ka*ax - 2*hinge"', '"-Ka*ax - 2*tip_z"'), "reading point probes"),
+    (lambda text: text.replace(
+        "stiffness: 30.0, damping: 0.2, torque: \"ax_ctl\"}", "stiffness: 30.0, damping: 0.2, lock_at: 0.3, "
+        "torque: \"ax_ctl\"}"), "beside events"),
+], ids=["point-sensor", "events"])
+def test_what_geometry_beside_controllers_does_not_take_stays_refused(tmp_path, change, expected):
+    """A guard (refused on 10be92c too, by the general message): a point sensor (its displacement holds the reference)
+    and events beside the controllers, named, exit 2 through the CLI without a traceback."""
+    text = change(PLACED_AXIAL)
+    assert text != PLACED_AXIAL
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert refused.value.key == "solve.sensitivities" and expected in str(refused.value)
+    run, _ = latdyn_run(tmp_path, text)
+    assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr

@@ -1270,8 +1270,8 @@ def _force_sensor_refusal(scene) -> str | None:
     hinge_force: csrc/evaluate.c ``sensor_jacobian``), and the controller's ∂f/∂p is read at the sensor's value (the
     evaluation's, :meth:`ControllerTerms.sensed_in_c`); the force's own explicit dependence on a parameter (∂F/∂p of
     the cable's EA, damping or rest length, the element's section values, the joint's laws) enters through ∂f/∂s
-    (:meth:`ControllerTerms.sensed_force_slopes`). Refused: a geometry parameter that moves a sensed section force,
-    a sensed law of t in a run with events (∂F/∂t δt is not taken through the controller), and readers with states
+    (:meth:`ControllerTerms.sensed_force_slopes`; a geometry parameter's through the section force's generated
+    ∂S/∂X, :func:`moved_forces`). Refused: a sensed law of t in a run with events (∂F/∂t δt is not taken through the controller), and readers with states
     (their δs along δq)."""
     forces = {p.name: p for p in scene.output.probes if (p.kind == "cable" and p.quantity == "tension")
               or p.kind == "element" or (p.kind in ("hinge", "guide") and p.quantity in ("torque", "force"))}
@@ -1287,11 +1287,6 @@ def _force_sensor_refusal(scene) -> str | None:
                     "coordinates (a cable's length, an angle, a point), or a controller without states")
         for name in read:
             _, laws = _sensed_force_laws(scene, forces[name])
-            moved = sorted(used for used in uses if forces[name].kind == "element" and GEOMETRY_KEY.match(used))
-            if moved:
-                return (f"controller {c.name!r} reads the force {name!r}, which the geometry parameter "
-                        f"{uses[moved[0]]!r} moves ({moved[0]}): its derivative by a geometry parameter is not taken "
-                        "through a controller yet; expected the parameters elsewhere")
             if has_events(scene) and any(timed(law) for law in laws):
                 return (f"controller {c.name!r} reads the force {name!r}, whose law depends on t, in a run with "
                         "events (a latch, a stop, a cable's change): its rate in t is not taken through a controller "
@@ -1301,12 +1296,15 @@ def _force_sensor_refusal(scene) -> str | None:
 
 def moved_forces(scene) -> dict:
     """The force probes (a cable's tension, an element's section force, a joint's torque or force) that a continuous
-    controller reads and whose own laws a parameter of ``solve.sensitivities`` moves, by name."""
+    controller reads and whose own laws a parameter of ``solve.sensitivities`` moves, by name; a section force by any
+    geometry parameter too (its element's reference: ``beam_section_forces_D_reference``, zero where it does not move)."""
     uses = {used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)}
     read = {r for c in scene.controllers.values() if not c.sampled for r in c.reads}
+    placed = any(GEOMETRY_KEY.match(used) for used in uses)   # a section force moves with its element's reference
     return {p.name: p for p in scene.output.probes if p.name in read
             and ((p.kind == "cable" and p.quantity == "tension") or p.kind == "element" or is_joint_force(p))
-            and any(used.startswith(_sensed_force_laws(scene, p)[0]) for used in uses)}
+            and (any(used.startswith(_sensed_force_laws(scene, p)[0]) for used in uses)
+                 or (placed and p.kind == "element"))}
 
 
 def _sensed_force_laws(scene, probe) -> tuple:
