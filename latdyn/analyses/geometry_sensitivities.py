@@ -103,15 +103,17 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
 
 def _controllers_refusal(scene) -> str | None:
     """What of ``scene``'s controllers keeps geometry sensitivities from being exact (a phrase completing "with
-    controllers …"), or None. Taken: continuous controllers without states, in runs without events, that read section
+    controllers …"), or None. Taken: continuous controllers without states, in transient runs without events, that read section
     forces (their ∂S/∂X from the generated ``beam_section_forces_D_reference`` through ∂f/∂s:
     latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), hinge and guide angles and rates (free
     coordinates: no reference in them), inputs and earlier controllers, and drive hinge torques or guide forces (a
     joint's coordinate: no reference either). Other sensors (points, whose displacement and offsets hold the reference;
-    cables, joint forces) and actuators (loads, placed at points) are not differentiated by geometry yet."""
+    cables, joint forces), actuators (loads, placed at points) and static paths are not differentiated by geometry yet."""
     from latdyn.analyses.sensitivities import ControllerTerms, has_events
 
     controllers = scene.controllers
+    if scene.solve.analysis != "transient":
+        return "on a static path (transient runs take them)"
     probes = {p.name: p for p in scene.output.probes}
     for c in controllers.values():
         if c.states or c.sampled:
