@@ -138,7 +138,8 @@ from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
 from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight,
                                                geometric_product, linked_configuration_tangent,
                                                linked_geometric_rate_in_time,
-                                               linked_geometric_derivative, linked_has_rest, linked_rest_product,
+                                               linked_geometric_derivative, linked_has_rest, linked_rest_moves,
+                                               linked_rest_product,
                                                needs_the_kernel, refuse_without_kernel, stiffness_moving_with_rates,
                                                times)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
@@ -993,7 +994,7 @@ class TransientSensitivities(ParameterDerivatives):
         assembler = self.assembler
         out = linked_configuration_tangent(assembler, state, w, dq, scale, mass)
         out += linked_geometric_derivative(assembler, state, w, dq, scale, rates, self.length or 1.0)
-        if not linked_has_rest(assembler):
+        if not linked_has_rest(assembler) or not linked_rest_moves(assembler, state, scale, mass):
             return out
         for c in range(dq.shape[1]):
             eta = self._linked_move_step(dq, rates, c)

@@ -110,7 +110,7 @@ from latdyn.numerics.linalg import RCM_IN_PYTHON
 
 __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_hinges", "exact_loads",
            "geometric_product", "linked_configuration_tangent", "linked_geometric_derivative",
-           "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
+           "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_moves", "linked_rest_product",
            "needs_the_kernel",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
@@ -669,6 +669,22 @@ def linked_has_rest(assembler) -> bool:
     :func:`exact_hinges`. Without them W_rest is 0 and its difference takes no evaluation."""
     return bool(len(assembler.loads) or len(assembler.cable_dofs()) or len(assembler.control.coupling_rows)
                 or not np.all(exact_hinges(assembler)))
+
+
+def linked_rest_moves(assembler, state, scale: float, mass: bool) -> bool:
+    """Whether W_rest (:func:`linked_has_rest`) may move along a column's move at ``state``: False where its only blocks
+    are global point loads' and they are zero there — a global load's block, −skew(F(t)) skew(T r) of its force at the
+    offset r, is then zero at every configuration and rate (no offset, or no force at t), and the difference of
+    ``TransientSensitivities._linked_weight_derivative`` would add exact zeros at two evaluations a column (a load at a
+    gimbal's tip: 80 % of the adjoint's cost of an event, which differences 3n unit moves)."""
+    if len(assembler.cable_dofs()) or len(assembler.control.coupling_rows) or not np.all(exact_hinges(assembler)):
+        return True
+    if any(load.frame != "global" for load in assembler.loads):
+        return True
+    ev = assembler.evaluate(state, matrices=True)
+    W_rest = _linked_weight(assembler, ev, scale, mass, exact_hinges(assembler), generated=False)
+    values = W_rest.data if hasattr(W_rest, "data") and not isinstance(W_rest, np.ndarray) else W_rest
+    return bool(np.any(np.asarray(values) != 0.0))
 
 
 def linked_rest_product(assembler, ev, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
