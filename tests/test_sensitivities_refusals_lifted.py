@@ -40,7 +40,7 @@ import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
 from tests.test_sensitivities_events import _run
-from tests.test_sensitivities_guide_energies import BEAD_3D
+from tests.test_sensitivities_guide_energies import BEAD_3D, _agree
 from tests.test_sensitivities_guides import GUIDE_3D, LATCH_3D, STOP_3D
 from tests.test_sensitivities_in_loop_controller_reads import ARM_AXIAL, BOOM_INPUT
 from tests.test_sensitivities_rigid_links import GIMBAL, LATCH, STOP, TETHER
@@ -269,25 +269,13 @@ assert "at: [X, 0, 0]" in PLACED_AXIAL and "[X, Ka]" in PLACED_AXIAL
 assert "at: [X, 0, 0]" in PLACED_PD and "[X, Kp]" in PLACED_PD
 
 
-def _probes_error(result, text: str, name: str) -> float:
-    """The largest error of ``result``'s sensitivities by ``name`` (every probe over the rows, relative to its largest)
-    against Richardson-extrapolated central differences of whole runs (1e-4 and 5e-5 relative)."""
-    p0 = yaml.safe_load(text)["parameters"][name]
-    central = []
-    for step in (1e-4 * abs(p0), 5e-5 * abs(p0)):
-        up, down = _run(text, name, **{name: p0 + step}), _run(text, name, **{name: p0 - step})
-        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
-    return max(float(np.abs(result.sensitivities[(k, name)] - (4 * central[1][k] - central[0][k]) / 3).max()
-                     / np.abs((4 * central[1][k] - central[0][k]) / 3).max()) for k in central[0])
-
-
 @pytest.mark.parametrize("text, name", [(PLACED_AXIAL, "X"), (PLACED_PD, "X")],
                          ids=["sensed-section-force-by-X", "pd-on-angle-and-rate-by-X"])
 def test_a_geometry_parameter_beside_controllers_agrees_with_richardson(text, name):
     """Refused on 10be92c (geometry sensitivities with controllers). Measured: the axial force's feedback by X 9.0e-9
     (tip 1.1e-9, hinge 9.0e-9, the force 3.6e-9), by Ka 4.4e-9 (not run here); the PD by X 2.8e-8 (its steps in the loop of steps, 60
     of 60). Without the sensed force's ∂S/∂X (the force not counted as moved by X) the feedback by X was 8.3 … 55 off."""
-    assert _probes_error(_run(text, name), text, name) <= 1e-6
+    assert _agree(_run(text, name), text, name) <= 1e-6   # every probe over the rows, relative to its largest
 
 
 def test_a_sensed_section_force_placed_by_a_parameter_through_the_cli(tmp_path):
