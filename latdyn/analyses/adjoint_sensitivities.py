@@ -68,11 +68,12 @@ step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) an
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
 stop's onset, events beside laws in t or energy probes, friction, controllers with states and sampled ones
-(continuous controllers without states enter E and the matrices as in the forward method), and energy and momentum
-probes on a model with rigid links or guides (their seeds miss the reduction). Rigid links and guides are taken: the
-matrices are the reduced step's, a probe on a node that follows them has its output gradient on the coordinates it
-moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and a body frame's
-seeds likewise, latdyn/analyses/probe_derivatives.py ``probe_forms``), and at an event the impulse's and the
+(continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
+are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
+coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
+a body frame's seeds likewise, latdyn/analyses/probe_derivatives.py ``probe_forms``, and the energies' and momenta's
+through the forward method's maps of the free columns, latdyn/analyses/energy_sensitivities.py ``probe_forms``), and
+at an event the impulse's and the
 restart's weights of the reduction, which move with the step's δv and δv̇ as well as δq (their geometric term, the
 forward method's ``rates``), are transposed along all three (:meth:`_linked_weight_transposed`).
 """

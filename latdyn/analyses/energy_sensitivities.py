@@ -242,7 +242,17 @@ def probe_forms(owner, probe, state, body_key) -> tuple:
     rows = ([_QUANTITIES.index(_quantity(probe))] if probe.kind == "momentum"
             else [_QUANTITIES.index(part) for part in _PARTS[probe.quantity]])
     n = owner.model.n_dofs
-    return by_q[rows].sum(axis=0)[:n], by_rates[rows].sum(axis=0)[:n], explicit[rows].sum(axis=0)
+    c_q, c_v = by_q[rows].sum(axis=0), by_rates[rows].sum(axis=0)
+    if owner.model.links is None:
+        return c_q[:n], c_v[:n], explicit[rows].sum(axis=0)
+    # with rigid links or guides the forms on all coordinates through the forward method's own maps of the free
+    # coordinates' columns (:func:`probe_derivatives` along ``_by_parameter`` and ``_rates_by_parameter``): a dependent
+    # node moves by P δq, its rates by P δv + ∂(J v)/∂q δq — on the n unit columns, transposed onto the forms
+    eye, zero = np.eye(n), np.zeros((n, n))
+    moved = forms.on_all(*owner._by_parameter(eye, state))                     # noqa: SLF001
+    turned = forms.on_all(*owner._rates_by_parameter(zero, eye, state))       # noqa: SLF001
+    rated = forms.on_all(*owner._rates_by_parameter(eye, zero, state))        # noqa: SLF001
+    return c_q @ moved + c_v @ turned, c_v @ rated, explicit[rows].sum(axis=0)
 
 
 #: the rows of :class:`_StateForms`: the three energies and the momenta's components

@@ -218,9 +218,8 @@ def refusal(scene) -> SceneError | None:
 
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides
-    (their energy and momentum probes refused), without controllers with states; the forward method's refusals
-    come first, :func:`refusal`)."""
+    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides,
+    without controllers with states; the forward method's refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
     if scene.solve.analysis != "transient":
@@ -238,11 +237,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         used = next(used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
                     if GEOMETRY_KEY.match(used))
         why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
-    elif _linked_key(scene) is not None and any(p.kind in ("energy", "momentum") for p in scene.output.probes):
-        probe = next(p for p in scene.output.probes if p.kind in ("energy", "momentum"))
-        why = (f"with rigid links or guides ({_linked_key(scene)}) the adjoint is seeded by points, joints, section "
-               f"forces and cables, not yet by probe {probe.name!r} ({probe.kind} {probe.quantity}: its gradient "
-               "through the reduction); the forward method differentiates it")
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
@@ -253,14 +247,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
                                        "(docs/parameters.md, \"The discrete adjoint\")")
-
-
-def _linked_key(scene) -> str | None:
-    """The first key that gives ``scene`` a reduction onto minimum coordinates (latdyn/assembly/linked.py): a rigid
-    link's ``beams.NAME.rigid`` or a guide's ``bodies.NAME.guide``; None without."""
-    rigid = next((f"beams.{name}.rigid" for name, beam in scene.beams.items() if beam.rigid), None)
-    return rigid or next((f"bodies.{name}.guide" for name, body in scene.bodies.items() if body.guide is not None),
-                         None)
 
 
 def _law_in_time(scene):
