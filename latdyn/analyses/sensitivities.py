@@ -311,9 +311,9 @@ def _transient_refusal(scene) -> str | None:
 
 def _adjoint_event_refusal(scene) -> str | None:
     """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's or a guide's latch (``lock_at``)
-    and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links and guides
-    too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a compliant stop's onset, nor events beside laws in
-    t or energy and momentum probes (friction: its own refusal)."""
+    and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links, guides
+    and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a compliant stop's
+    onset, nor events beside laws in t (friction: its own refusal)."""
     if not has_events(scene):
         return None
     compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
@@ -330,10 +330,6 @@ def _adjoint_event_refusal(scene) -> str | None:
              if body.guide is not None and (body.guide.lock_at is not None or body.guide.limits is not None)), "cables")
         return (f"the adjoint does not differentiate events ({event}: lock_at, limits, a cable's slack and taut "
                 f"changes) beside laws in t yet ({timed} depends on t, so it moves with the event's time)")
-    probe = next((p for p in scene.output.probes if p.kind in ("energy", "momentum")), None)
-    if probe is not None:
-        return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
-                "the forward method differentiates them")
     return None
 
 
