@@ -40,6 +40,7 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
+from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import LATCH_3D as WHEEL_LATCH
 from tests.test_sensitivities_events import STOP_3D as WHEEL_STOP
 from tests.test_sensitivities_events import _run
@@ -307,6 +308,13 @@ def test_a_geometry_parameter_beside_controllers_agrees_with_richardson(text, na
     (tip 1.1e-9, hinge 9.0e-9, the force 3.6e-9), by Ka 4.4e-9 (not run here); the PD by X 2.8e-8 (its steps in the loop of steps, 60
     of 60). Without the sensed force's ∂S/∂X (the force not counted as moved by X) the feedback by X was 8.3 … 55 off."""
     assert _agree(_run(text, name), text, name) <= 1e-6   # every probe over the rows, relative to its largest
+
+
+def test_a_geometry_parameter_beside_a_pd_takes_the_loop_and_equals_the_per_step_path():
+    """PLACED_PD's smooth steps in the loop of steps (geometry parameters and stateless controllers on joints it took
+    before, apart): every step of the 60, its sensitivities those of the per-step path to the bit."""
+    runs = runs_with_the_loop_on_and_off(PLACED_PD)
+    assert_same_sensitivities(runs[True], runs[False], in_loop_but=0, nonzero="each")
 
 
 def test_a_sensed_section_force_placed_by_a_parameter_through_the_cli(tmp_path):
