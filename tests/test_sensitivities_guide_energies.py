@@ -9,8 +9,8 @@ energies' forms (energy_sensitivities._StateForms) and the external work's power
 Richardson-extrapolated central differences of whole runs (1e-4 and 5e-5 relative), the loop against the per-step
 path to the bit (API and CLI). Scenes (3D): a bead guided along a skew rod that a prescribed motion turns about a skew
 axis, under gravity and a load; a mass on a skew guide at the tip of a flexible arm, pushed by a load and the guide's
-force. The external work of a prescribed motion with guides stays refused (the drive's reaction through the guides'
-reduction is not differentiated)."""
+force. The external work of a prescribed motion with guides (the drive's reaction through the guides' reduction), refused
+here before, is differentiated now: tests/test_sensitivities_refusals_lifted.py."""
 from __future__ import annotations
 
 import numpy as np
@@ -121,18 +121,6 @@ def test_the_cli_writes_the_python_paths_files(tmp_path):
     from tests.cli_runs import the_loop_off_writes_the_same
 
     the_loop_off_writes_the_same(tmp_path, out)
-
-
-def test_the_external_work_of_a_prescribed_motion_with_guides_stays_refused(tmp_path):
-    """A guard: the bead's rod turned by a prescribed motion, an external-work probe: refused by the API (naming
-    solve.sensitivities) and by the CLI (exit 2, the file and the key named, no traceback)."""
-    text = BEAD_3D + "    work: {energy: external_work}\n"
-    with pytest.raises(SceneError, match=r"solve\.sensitivities.*prescribed motion with guides"):
-        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
-    completed, _ = latdyn_run(tmp_path, text)
-    assert completed.returncode == 2
-    assert "scene.yaml" in completed.stderr and "solve.sensitivities" in completed.stderr
-    assert "Traceback" not in completed.stderr
 
 
 def test_a_static_guide_total_energy_agrees_and_the_rest_are_zero():

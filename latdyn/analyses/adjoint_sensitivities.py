@@ -67,10 +67,15 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
-stop's onset, events beside laws in t, rigid links or energy probes, friction, guides, controllers with states
-and sampled ones (continuous controllers without states enter E and the matrices as in the forward method). Rigid links are taken: the matrices are the reduced step's, and a probe on a node
-that follows the links has its output gradient on the coordinates it moves with
-(:func:`latdyn.analyses.link_sensitivities.columns_moving`).
+stop's onset, events beside laws in t, friction, controllers with states and sampled ones
+(continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
+are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
+coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
+a body frame's seeds likewise, latdyn/analyses/probe_derivatives.py ``probe_forms``, and the energies' and momenta's
+through the forward method's maps of the free columns, latdyn/analyses/energy_sensitivities.py ``probe_forms``), and
+at an event the impulse's and the
+restart's weights of the reduction, which move with the step's δv and δv̇ as well as δq (their geometric term, the
+forward method's ``rates``), are transposed along all three (:meth:`_linked_weight_transposed`).
 """
 from __future__ import annotations
 
@@ -457,13 +462,17 @@ class AdjointSensitivities(TransientSensitivities):
                 t_bar[column] += 1.0
             entry = trajectory[i]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
-                q_bar, v_bar, by_restart = self._restart_transposed(entry, q_bar, v_bar, vdot_bar + a_bar)
+                q_bar, v_bar, vdot_by_restart, by_restart = self._restart_transposed(entry, q_bar, v_bar,
+                                                                                      vdot_bar + a_bar)
                 gradient += by_restart
                 q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
-                v_bar, q_by_jump, by_jump = self._impulse_transposed(entry, v_bar)
+                v_bar, q_by_jump, vdot_by_jump, by_jump = self._impulse_transposed(entry, v_bar)
                 q_bar = q_bar + q_by_jump
                 gradient += by_jump
-                vdot_bar, a_bar = np.zeros_like(v_bar), np.zeros_like(v_bar)   # the restart set δv̇, δa afresh
+                # the restart set δv̇, δa afresh: the step's own δv̇ reaches past it only through the weights' rates
+                # (guides, rigid links: :meth:`_weight_derivative_transposed`), δa not at all
+                vdot_bar = vdot_by_jump if vdot_by_restart is None else vdot_by_jump + vdot_by_restart
+                a_bar = np.zeros_like(v_bar)
             elif "numbering" in entry:
                 self._numbered(entry["numbering"])
             h, new = entry["h"], entry["state"]
@@ -566,7 +575,9 @@ class AdjointSensitivities(TransientSensitivities):
 
             w̄ = (I − NGᵀ)v̄⁺,   v̄⁻ = w̄ − e NGᵀv̄⁺,   ū = W⁻ᵀw̄,   q̄ −= Dᵀū,   dy/dp −= Pᵀū
 
-        (:meth:`_weight_derivative_transposed`). Returns (v̄⁻, the part of q̄, (k, m) into the gradient)."""
+        (:meth:`_weight_derivative_transposed`; with guides or rigid links D moves with δv⁻ and δv̇⁻ too, the forward
+        method's ``rates``: v̄⁻ −= D_vᵀū, v̇̄⁻ −= D_v̇ᵀū). Returns (v̄⁻, the part of q̄, the part of v̇̄⁻, (k, m) into the
+        gradient)."""
         model, dt = self.model, self.scene.solve.dt
         new, (hinge, _, restitution) = entry["state"], entry["event"]
         scale = dt * dt
@@ -579,16 +590,17 @@ class AdjointSensitivities(TransientSensitivities):
         w_bar = v_bar_plus - N @ pushed
         v_bar_minus = w_bar - restitution * (N @ pushed)
         u_bar = np.asarray(solve_linear(_transposed(W), w_bar)).reshape(w_bar.shape)
-        q_part, p_part = self._weight_derivative_transposed(new, change, u_bar, scale)
-        v_bar_minus = v_bar_minus - self._stiffness_by_rates_transposed(new, change, u_bar, scale)
-        return v_bar_minus, -q_part, -p_part
+        q_part, v_part, vdot_part, p_part = self._weight_derivative_transposed(new, change, u_bar, scale)
+        return v_bar_minus - v_part, -q_part, -vdot_part, -p_part
 
     def _restart_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray) -> tuple:
         """The transpose of the forward method's :meth:`_restart` at the stored state after the event (on its
         numbering): forward δv̇ = δa = −B⁻¹(E + K δq + C δv [+ D₂δq + P₂]), B = M after a latch, after a stop
         W = M + dt²K at the accelerations before it, with D₂δq + P₂ = dt² δ(K)v̇ (:meth:`_weight_derivative`,
         ``mass=False``); for the adjoint s̄ = v̇̄ + ā: ū = −B⁻ᵀs̄, q̄ += Kᵀū [+ D₂ᵀū], v̄ += Cᵀū, dy/dp += Eᵀū
-        [+ P₂ᵀū]. Returns (q̄, v̄, (k, m) into the gradient)."""
+        [+ P₂ᵀū]; with guides or rigid links δ(K)v̇ moves with the step's δv̇ before the event too (the forward
+        method's ``rates``): v̇̄ += D₂,v̇ᵀū. Returns (q̄, v̄, v̇̄ of the step before the event (None after a latch: its
+        restart weighs with M alone), (k, m) into the gradient)."""
         model = self.model
         self._numbered(entry["numbering_end"])
         after, kind = entry["after"], entry["event"][1]
@@ -600,17 +612,18 @@ class AdjointSensitivities(TransientSensitivities):
             scale = self.scene.solve.dt ** 2
             before = after.copy()
             unpack_free(model, free_acceleration(model, entry["state"]), before.a, before.alpha, before.theta_ddot)
+            self.assembler.complete_links(before)
             matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
         u_bar = -np.asarray(solve_linear(_transposed(matrix), s_bar)).reshape(n, s_bar.shape[1])
         q_bar = q_bar + np.asarray(K.T @ u_bar)
         v_bar = v_bar + np.asarray(C.T @ u_bar)
+        vdot_bar = None   # a latch restarts with M alone
         by_restart = self.residual_transposed_product(after, u_bar)
         if kind != "latch":
-            q_part, p_part = self._weight_derivative_transposed(before, free_acceleration(model, after), u_bar,
-                                                                scale, mass=False)
-            q_bar, by_restart = q_bar + q_part, by_restart + p_part
-            v_bar = v_bar + self._stiffness_by_rates_transposed(before, free_acceleration(model, after), u_bar, scale)
-        return q_bar, v_bar, by_restart
+            q_part, v_part, vdot_bar, p_part = self._weight_derivative_transposed(
+                before, free_acceleration(model, after), u_bar, scale, mass=False)
+            q_bar, v_bar, by_restart = q_bar + q_part, v_bar + v_part, by_restart + p_part
+        return q_bar, v_bar, vdot_bar, by_restart
 
     def _stiffness_by_rates_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float) -> np.ndarray:
         """The transpose of the forward method's rates' term of the weight derivative, scale ∂(K w)/∂v δv
@@ -643,33 +656,56 @@ class AdjointSensitivities(TransientSensitivities):
 
     def _weight_derivative_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float,
                                       mass: bool = True) -> tuple:
-        """The transpose of the forward method's :meth:`_weight_derivative` (δ(W w) = D δq + P, W = M + scale·K,
-        or scale·K without ``mass``) applied to ``u_bar`` (n, m): (Dᵀū (n, m), Pᵀū (k, m)). D = ∂(W w)/∂q is the
-        forward method's matrix H (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the
-        generated elements', joint bodies' (their weight's too), hinges', loads', cables' and most couplings' parts,
-        the differences of the other couplings' blocks and the loads they drive only along the coordinates they are
-        on), Dᵀū its
-        transposed product; Pᵀū:
+        """The transpose of the forward method's :meth:`_weight_derivative` (δ(W w) = D δq + D_v δv + D_v̇ δv̇ + P,
+        W = M + scale·K, or scale·K without ``mass``; δv, δv̇ its ``rates``) applied to ``u_bar`` (n, m): (Dᵀū,
+        D_vᵀū, D_v̇ᵀū (n, m) each, Pᵀū (k, m)). Without guides and rigid links D = ∂(W w)/∂q is the forward method's
+        matrix H (:func:`latdyn.analyses.weight_derivative.configuration_tangent_of_weight`: the generated
+        elements', joint bodies' (their weight's too), hinges', loads', cables' and most couplings' parts, the differences of
+        the other couplings' blocks and the loads they drive only along the coordinates they are on), Dᵀū its transposed
+        product; D_v the rates' term where K moves with them (:meth:`_stiffness_by_rates_transposed`), D_v̇ = 0.
+        With guides or rigid links (D, D_v, D_v̇) are the forward method's own map
+        (:meth:`TransientSensitivities._linked_weight_derivative`) applied to the unit columns of δq, δv and δv̇ —
+        one call of 3n columns, its generated parts exact and its differences (the links' second derivatives, the
+        blocks not generated) the forward method's along each unit move — and transposed. Pᵀū:
         scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: the section values',
         hinges', loads', joint bodies' and cables' EA and damping parts generated, latdyn/analyses/parameter_stiffness.py,
-        the rest a difference along w of ∂r/∂p without them and the elements' gravity load), and
-        with ``mass`` the transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w
-        less at rest."""
-        H = configuration_tangent_of_weight(self.assembler, state, w, scale, mass, self.coordinate_step())
-        q_part = transposed_times(H, u_bar)
+        the rest a difference along w of ∂r/∂p without them and the elements' gravity load; with guides or rigid
+        links its reduction's geometric term, :meth:`_geometric_derivative`), and with ``mass`` the transposed
+        products (:meth:`residual_transposed_product`, exact) at the accelerations w less at rest."""
+        linked = self.model.links is not None
+        if linked:
+            q_part, v_part, vdot_part = self._linked_weight_transposed(state, w, u_bar, scale, mass)
+        else:
+            H = configuration_tangent_of_weight(self.assembler, state, w, scale, mass, self.coordinate_step())
+            q_part = transposed_times(H, u_bar)
+            v_part = self._stiffness_by_rates_transposed(state, w, u_bar, scale)
+            vdot_part = np.zeros_like(u_bar)
         p_part = np.zeros((len(self.names), u_bar.shape[1]))
         size = float(np.max(np.abs(w), initial=0.0))
         if size == 0.0:
-            return q_part, p_part
+            return q_part, v_part, vdot_part, p_part
         # the forward method's (∂K/∂p) w (n, k), transposed: the same numbers, so the difference in it (the
         # parameters not of section values alone) is the forward method's to the bit rather than a transposed
         # product's round-off over its step (1.5e-11 of the outputs beside a controller)
-        p_part += scale * (self._stiffness_derivative(state, w).T @ u_bar)
+        stiffness = self._stiffness_derivative(state, w)
+        if linked:
+            stiffness = stiffness + self._geometric_derivative(state, w)
+        p_part += scale * (stiffness.T @ u_bar)
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             p_part += (self.residual_transposed_product(accelerated, u_bar)
                        - self.residual_transposed_product(at_rest, u_bar))
-        return q_part, p_part
+        return q_part, v_part, vdot_part, p_part
+
+    def _linked_weight_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float, mass: bool) -> tuple:
+        """(Dᵀū, D_vᵀū, D_v̇ᵀū) of :meth:`_weight_derivative_transposed` with guides or rigid links: the forward
+        method's :meth:`TransientSensitivities._linked_weight_derivative` on the 3n unit moves (δq, then δv, then
+        δv̇ of one free coordinate each) gives the columns of [D | D_v | D_v̇], transposed onto ``u_bar``."""
+        n = self.model.n_dofs
+        eye, zero = np.eye(n), np.zeros((n, n))
+        moves = (np.hstack([eye, zero, zero]), np.hstack([zero, eye, zero]), np.hstack([zero, zero, eye]))
+        columns = self._linked_weight_derivative(state, w, moves[0], scale, mass, moves[1:])
+        return tuple(columns[:, part * n:(part + 1) * n].T @ u_bar for part in range(3))
 
     def _transposed_step_system(self, new, tangent, beta_p: float, gamma_p: float):
         """(Cᵀ, Kᵀ, solve_transposed, solve) at the stored state ``new``: the forward method's step matrix

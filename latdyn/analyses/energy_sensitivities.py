@@ -51,9 +51,9 @@ as −skew(f) δx), so that the forward method contracts them with δq, δq̇ (:
 discrete adjoint seeds its rows with them (:func:`probe_forms`).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
-adjoint`` naming that key): energy and momentum probes with cables, geometry parameters; with guides the
-external work of a transient run with a prescribed motion (its drive's reaction through the guides' reduction) — with
-guides the rest are computed as without: a guided body is a dependent node of the links' reduction, its δq = J δq and
+adjoint`` naming that key): energy and momentum probes with cables, geometry parameters — with guides they are
+computed as without (the external work of a prescribed motion too: its drive's reaction is the reduced residual's row
+of the prescribed coordinate, :func:`_drive_reactions`): a guided body is a dependent node of the links' reduction, its δq = J δq and
 its rates' δv_dep = J δv + ∂(J v)/∂q δq (latdyn/analyses/link_sensitivities.py ``dependent_rates``, the generated
 ``prismatic_link_edge_rates_D_q``; a load on it csrc/work_accounts.c ``dependent_node_motion``), a guide's force and
 its parameters' uses a hinge's applied torque on its slide; the
@@ -128,12 +128,6 @@ def _why_not(scene, probe) -> str | None:
     if scene.cables:
         return "energy and momentum sensitivities with cables are not computed yet"
     guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
-    if guided and probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient" and (
-            any(body.prescribed for body in scene.bodies.values())
-            or any(hinge.angle is not None for _, _, hinge in scene.hinges)
-            or any(getattr(scene.bodies[name].guide, "position", None) is not None for name in guided)):
-        return (f"the external work of a prescribed motion with guides (bodies.{guided[0]}.guide) is not "
-                "differentiated yet (the drive's reaction moves through the guides' reduction)")
     for name in _solve_names(scene):
         used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
         if used is not None:
@@ -147,11 +141,6 @@ def _why_not(scene, probe) -> str | None:
             if used is not None:
                 return (f"parameter {name!r} is a value of a rigid link's section ({used}): energy and momentum "
                         "sensitivities by a rigid link's own mass and inertia are not computed yet")
-        if probe.kind == "energy" and quantity == "external_work" and scene.solve.analysis == "transient" and (
-                any(body.prescribed for body in scene.bodies.values())
-                or any(hinge.angle is not None for _, _, hinge in scene.hinges)):
-            return (f"the external work of a prescribed motion with rigid links ({links[0]}) is not differentiated "
-                    "yet (the drive's reaction moves through the links' reduction)")
     if probe.kind == "energy" and quantity in ("strain", "total"):
         for name in _solve_names(scene):
             used = next((u for u in scene.parameters.depending_on(name) if _STOP_EXPONENT.match(u)), None)
@@ -253,7 +242,17 @@ def probe_forms(owner, probe, state, body_key) -> tuple:
     rows = ([_QUANTITIES.index(_quantity(probe))] if probe.kind == "momentum"
             else [_QUANTITIES.index(part) for part in _PARTS[probe.quantity]])
     n = owner.model.n_dofs
-    return by_q[rows].sum(axis=0)[:n], by_rates[rows].sum(axis=0)[:n], explicit[rows].sum(axis=0)
+    c_q, c_v = by_q[rows].sum(axis=0), by_rates[rows].sum(axis=0)
+    if owner.model.links is None:
+        return c_q[:n], c_v[:n], explicit[rows].sum(axis=0)
+    # with rigid links or guides the forms on all coordinates through the forward method's own maps of the free
+    # coordinates' columns (:func:`probe_derivatives` along ``_by_parameter`` and ``_rates_by_parameter``): a dependent
+    # node moves by P δq, its rates by P δv + ∂(J v)/∂q δq — on the n unit columns, transposed onto the forms
+    eye, zero = np.eye(n), np.zeros((n, n))
+    moved = forms.on_all(*owner._by_parameter(eye, state))                     # noqa: SLF001
+    turned = forms.on_all(*owner._rates_by_parameter(zero, eye, state))       # noqa: SLF001
+    rated = forms.on_all(*owner._rates_by_parameter(eye, zero, state))        # noqa: SLF001
+    return c_q @ moved + c_v @ turned, c_v @ rated, explicit[rows].sum(axis=0)
 
 
 #: the rows of :class:`_StateForms`: the three energies and the momenta's components
@@ -663,7 +662,9 @@ def _drive_reactions(owner, state, carried: dict) -> tuple:
     coordinates d (a prescribed body's six, a prescribed hinge's or guide's one; rows in the numbering at ``state``),
     δr_d = ∂r_d/∂p + K_d δq + C_d δv + M_d δv̇ with K, C, M the exact rows on d of one evaluation (as
     :meth:`latdyn.assembly.assembler.Assembler.exact_rows` scatters them) and their free columns: csrc/drive_sensitivities.c
-    ``latdyn_drive_reaction_rates``, which the loop of steps calls too. The drive's work over a step is
+    ``latdyn_drive_reaction_rates``, which the loop of steps calls too. With rigid links or guides r_d is the reduced
+    residual's row of d, with the dependent nodes' wrenches through J (its derivative:
+    :func:`latdyn.analyses.joint_force_sensitivities.reaction_forms_through_links`; the loop refuses these runs). The drive's work over a step is
     ½(r_n + r_{n+1}) Δq_d (latdyn/timeloop/progress.py drive_work), Δq_d the prescribed law's, no parameter's: its
     derivative ½(δr_n + δr_{n+1}) Δq_d (:func:`external_work_step`)."""
     from latdyn.analyses.prescribed_rates import coupling_entries, load_block_columns
@@ -673,6 +674,12 @@ def _drive_reactions(owner, state, carried: dict) -> tuple:
     rows = model.prescribed_coordinates()
     if len(rows) == 0:
         return rows, np.zeros((0, k))
+    if model.links is not None:   # the reduced residual's rows of the prescribed coordinates, with the dependent ones'
+        from latdyn.analyses.joint_force_sensitivities import reaction_forms_through_links   # through J
+
+        forms = reaction_forms_through_links(owner, state, rows)
+        return rows, np.array([c_q @ carried["dq"] + c_v @ carried["dv"] + c_vdot @ carried["dvdot"] + explicit
+                               for c_q, c_v, c_vdot, explicit in forms]).reshape(len(rows), k)
     moved = np.ascontiguousarray(owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows], np.float64)
     native = assembler.native(True)
     assembler.complete_links(state)

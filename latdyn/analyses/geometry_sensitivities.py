@@ -95,7 +95,42 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
     if scene.cables:
         return f"{where}: geometry sensitivities with cables (their attachment points move) are not computed yet"
     if getattr(scene, "controllers", None):
-        return f"{where}: geometry sensitivities with controllers are not computed yet"
+        why = _controllers_refusal(scene)
+        if why is not None:
+            return f"{where}: geometry sensitivities with controllers {why} are not computed yet"
+    return None
+
+
+def _controllers_refusal(scene) -> str | None:
+    """What of ``scene``'s controllers keeps geometry sensitivities from being exact (a phrase completing "with
+    controllers …"), or None. Taken: continuous controllers without states, in transient runs without events, that read section
+    forces (their ∂S/∂X from the generated ``beam_section_forces_D_reference`` through ∂f/∂s:
+    latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), hinge and guide angles and rates (free
+    coordinates: no reference in them), inputs and earlier controllers, and drive hinge torques or guide forces (a
+    joint's coordinate: no reference either). Other sensors (points, whose displacement and offsets hold the reference;
+    cables, joint forces), actuators (loads, placed at points) and static paths are not differentiated by geometry yet."""
+    from latdyn.analyses.sensitivities import ControllerTerms, has_events
+
+    controllers = scene.controllers
+    if scene.solve.analysis != "transient":
+        return "on a static path (transient runs take them)"
+    probes = {p.name: p for p in scene.output.probes}
+    for c in controllers.values():
+        if c.states or c.sampled:
+            return f"with states or sampled ({c.name})"
+        for read in c.reads:
+            probe = probes.get(read)
+            if probe is None:   # an input or an earlier controller
+                continue
+            joint = probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate")
+            if not (joint or probe.kind == "element"):
+                return (f"reading {probe.kind} probes ({c.name} reads {read!r}: section forces, joint angles and rates "
+                        "are taken)")
+    for key in ControllerTerms._laws_naming(scene, set(controllers)):   # noqa: SLF001
+        if not (key.endswith(".hinge.torque") or key.endswith(".guide.force")):
+            return f"driving {key} (hinge torques and guide forces are taken)"
+    if has_events(scene):
+        return "beside events (a latch, a stop)"
     return None
 
 

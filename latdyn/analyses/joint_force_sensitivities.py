@@ -147,30 +147,39 @@ def joint_force_forms(owner, state, joints=None) -> dict:
 
 
 def _held_through_links(owner, state, held: list) -> dict:
-    """:func:`joint_force_forms` of the held joints ``held`` of a model with guides (rigid links' reduction,
-    latdyn/assembly/linked.py): the reaction on the constrained coordinate d is
+    """:func:`joint_force_forms` of the held joints ``held`` of a model with guides or rigid links: the forms of the
+    reactions on their coordinates (:func:`reaction_forms_through_links`), by joint."""
+    forms = reaction_forms_through_links(owner, state, owner.model.hinge_dofs[held])
+    return dict(zip(held, forms))
+
+
+def reaction_forms_through_links(owner, state, rows: np.ndarray) -> list:
+    """[(c_q, c_v, c_v̇ (n,) each, explicit (k,))] of the reactions on the constrained coordinates ``rows`` of a model
+    with guides or rigid links (their reduction, latdyn/assembly/linked.py; a held joint's angle or slide, a prescribed
+    hinge's or guide's, a prescribed body's six): the reaction on d is the reduced residual's row of d,
 
         r_d = r_all,d + Σ_c J_c,dᵀ r_c,
 
     r_all the residual on all coordinates before the reduction, r_c the wrench at each dependent node c whose
     motion the coordinate moves (J_c,d its column of the dependent node's J: a guide's slide moves its body,
-    and the nodes below it, along the slide's axis). Its derivative along (δq, δv, δv̇):
+    and the nodes below it, along the slide's axis; a root's six move every node of its tree). Its derivative along
+    (δq, δv, δv̇):
 
         δr_d = δr_all,d + Σ_c (J_c,dᵀ δr_c + δ(J_c,d)ᵀ r_c),
 
     δr_all on rows d and c from the exact rows before the reduction (:meth:`Assembler.exact_rows`) along the
     assembled coordinates' δq_all = P δq, δv_all = P δv + ∂(J v)/∂q δq and δv̇_all = P δv̇ + ∂(J a + c)/∂q δq +
     ∂c/∂v δv (the dependent rates' derivatives, as the exact reduced K and C hold them) plus ∂r_all/∂p there;
-    δ(J_c,d)ᵀ r_c from the generated ``slide_wrench`` (the slide's generalized force a·f and its derivative by
-    the edge parent's δx, δπ and the node's δx, chained with their J), as the reduction's geometric stiffness
-    takes it on the free coordinates' rows."""
+    δ(J_c,d)ᵀ r_c as the reduction's geometric stiffness takes it on the free coordinates' rows (csrc/links.c
+    geometric_term): on a joint's coordinate from the generated ``slide_wrench`` or ``hinge_wrench``
+    (:func:`_edge_wrench_derivative`), on a root's from the generated ``root_wrench`` (:func:`_root_wrench_derivative`)."""
     from latdyn.assembly.linked import evaluate_linked
 
     model, assembler, links = owner.model, owner.assembler, owner.model.links
+    rows = np.asarray(rows, np.int64)
     ev = evaluate_linked(links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
     P, dep = ev.projection, ev.dependent_rows
     by_velocity, by_acceleration = ev.rates_tangent
-    rows = model.hinge_dofs[held]
     every = np.concatenate([rows, dep])
     M, C, K = assembler.exact_rows(state, every)
     explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[every]
@@ -180,17 +189,45 @@ def _held_through_links(owner, state, held: list) -> dict:
     c_vdot = _dense(M @ P)
     J, columns = ev.jacobian, ev.jacobian_columns
     r_dep = assembler.evaluate_assembled(state, False, 1.0, True).residual[dep]   # the wrenches r_c
-    out = {}
+    joint_of_row = {int(d): j for j, d in enumerate(model.hinge_dofs)}
+    root_of_row = {int(d): (node, i) for node in set(links.root.values()) for i, d in enumerate(model.node_dofs[node])}
+    out = []
     m = len(rows)
-    for i, j in enumerate(held):
+    for i, d in enumerate(rows):
         form = [c_q[i].copy(), c_v[i].copy(), c_vdot[i].copy(), explicit[i].copy()]
-        at = np.flatnonzero(columns == int(model.hinge_dofs[j]))
+        at = np.flatnonzero(columns == int(d))
         if len(at):
             through = J[:, at[0]]
             for part, values in zip(form, (c_q, c_v, c_vdot, explicit)):
                 part += through @ values[m:]
-            form[0] += _edge_wrench_derivative(owner, state, j, r_dep)
-        out[j] = tuple(form)
+            if int(d) in joint_of_row:
+                form[0] += _edge_wrench_derivative(owner, state, joint_of_row[int(d)], r_dep)
+            elif int(d) in root_of_row:
+                form[0] += _root_wrench_derivative(owner, state, *root_of_row[int(d)], r_dep)
+        out.append(tuple(form))
+    return out
+
+
+def _root_wrench_derivative(owner, state, root: int, i: int, r_dep: np.ndarray) -> np.ndarray:
+    """Σ_c ∂(J_c,dᵀ r_c)/∂q at fixed r_c (n,) for the coordinate ``i`` (of six) of the root node ``root`` of a links'
+    tree: the generated ``root_wrench``'s row i, (f, m + (x_c − x_r) × f), by each dependent node c's δx_c chained with
+    its J (the root's own δx_r: its own columns, as csrc/links.c geometric_term takes it on the free rows)."""
+    model, links, kernels = owner.model, owner.model.links, owner.kernels
+    native, n = owner.assembler.native().links, model.n_dofs
+    out = np.zeros(n)
+    for c_index, c in enumerate(links.dependent):
+        r = r_dep[6 * c_index:6 * c_index + 6]
+        if links.root[int(c)] != root or not np.any(r):
+            continue
+        wrench = np.concatenate([state.x[root], state.x[int(c)], r])[None]
+        D = np.asarray(kernels.root_wrench(wrench)[1]).reshape(6, 6)
+        s = native.slot_of_node[int(c)]
+        Jc = native.jacobian[s, :, :native.count[s]]
+        row = D[i, 3:] @ Jc[:3]
+        row[:3] += D[i, :3]
+        slot_columns = native.columns[s, :native.count[s]]
+        keep = slot_columns < n
+        np.add.at(out, slot_columns[keep], row[keep])
     return out
 
 

@@ -94,24 +94,52 @@ def probe_derivatives(owner, probe, state, dx, dpi, dtheta, rates=None, explicit
 def probe_forms(owner, probe, state) -> tuple:
     """(c_q, c_v, c_v̇ (n,) each, explicit (k,)) on the free coordinates: ``probe``'s derivative at ``state`` is
     c_qᵀδq + c_vᵀδv + explicit (c_v̇ = 0), for the discrete adjoint's seeds; :func:`probe_derivatives` on
-    the unit columns of the coordinates it reads, and on k zero columns for the explicit part."""
+    the unit columns of the free coordinates it moves with (:func:`_columns_read`), and on k zero columns for the
+    explicit part. With rigid links or guides a node that follows them moves with its root's and its joints'
+    coordinates, its rates by P δv + ∂(J v)/∂q δq (the forward method's ``_rates_by_parameter`` with δq)."""
     n, k = owner.model.n_dofs, len(owner.names)
-    dofs = _coordinates_read(owner, probe)
-    dofs = np.unique(dofs[dofs < n])
+    dofs = _columns_read(owner, probe)
     c_q, c_v = np.zeros(n), np.zeros(n)
     if len(dofs):
         units = np.zeros((n, len(dofs)))
         units[dofs, np.arange(len(dofs))] = 1.0
         still = np.zeros_like(units)
         c_q[dofs] = probe_derivatives(owner, probe, state, *owner._by_parameter(units, state),  # noqa: SLF001
-                                      owner._rates_by_parameter(still), explicit=False)        # noqa: SLF001
+                                      owner._rates_by_parameter(still, units, state), explicit=False)  # noqa: SLF001
         if probe.quantity in ("velocity", "tension"):
             c_v[dofs] = probe_derivatives(owner, probe, state, *owner._by_parameter(still, state),  # noqa: SLF001
-                                          owner._rates_by_parameter(units), explicit=False)        # noqa: SLF001
+                                          owner._rates_by_parameter(units, still, state), explicit=False)  # noqa: SLF001
     zero = np.zeros((n, k))
     moved = owner._by_parameter(zero, state)   # noqa: SLF001
     explicit = np.asarray(probe_derivatives(owner, probe, state, *moved, owner._rates_by_parameter(zero)), float)  # noqa: SLF001
     return c_q, c_v, np.zeros(n), explicit
+
+
+def _columns_read(owner, probe) -> np.ndarray:
+    """The free coordinates (sorted) whose sensitivities ``probe``'s derivative reads: those of its nodes and
+    hinges (:func:`_coordinates_read`) below n, and with rigid links or guides those each of its nodes moves with
+    (:func:`latdyn.analyses.link_sensitivities.columns_moving`: a dependent node's root's and joints')."""
+    from latdyn.analyses.link_sensitivities import columns_moving
+
+    model = owner.model
+    n = model.n_dofs
+    dofs = _coordinates_read(owner, probe)
+    found = [dofs[dofs < n]]
+    if model.links is not None:
+        found += [columns_moving(model, int(node)) for node in _nodes_read(owner, probe)]
+    return np.unique(np.concatenate(found).astype(np.int64))
+
+
+def _nodes_read(owner, probe) -> np.ndarray:
+    """The nodes whose motion ``probe`` reads: an element's two, a cable's, a point's and its frame body's."""
+    model = owner.model
+    if probe.kind == "element":
+        return model.element_nodes[int(model.beam_elements[probe.beam][probe.element])]
+    if probe.kind == "cable":
+        cables = model.cables
+        return cables.nodes[cables.cable == cables.names.index(probe.beam)].ravel()
+    node, _ = model.point(probe.point)
+    return np.array([node, model.body_node[probe.frame]])
 
 
 def _coordinates_read(owner, probe) -> np.ndarray:
@@ -119,12 +147,7 @@ def _coordinates_read(owner, probe) -> np.ndarray:
     model = owner.model
     if probe.kind == "element":
         return model.element_dofs[int(model.beam_elements[probe.beam][probe.element])].ravel()
-    if probe.kind == "cable":
-        cables = model.cables
-        k = cables.names.index(probe.beam)
-        return model.node_dofs[cables.nodes[cables.cable == k]].ravel()
-    node, _ = model.point(probe.point)
-    return np.concatenate([model.node_dofs[node], model.node_dofs[model.body_node[probe.frame]]])
+    return model.node_dofs[_nodes_read(owner, probe)].ravel()
 
 
 # ---------------------------------------------------------------------------------------------- section forces

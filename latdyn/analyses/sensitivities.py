@@ -218,9 +218,8 @@ def refusal(scene) -> SceneError | None:
 
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, without guides and
-    controllers with states; the forward
-    method's refusals come first, :func:`refusal`)."""
+    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides,
+    without controllers with states; the forward method's refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
     if scene.solve.analysis != "transient":
@@ -238,18 +237,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         used = next(used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
                     if GEOMETRY_KEY.match(used))
         why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
-    elif any(body.guide is not None for body in scene.bodies.values()):
-        name = next(n for n, body in scene.bodies.items() if body.guide is not None)
-        why = f"the adjoint does not differentiate guides yet (bodies.{name}.guide)"
-    elif any(beam.rigid for beam in scene.beams.values()) and any(
-            not ((p.kind == "point" and p.frame == "global") or p.kind in ("hinge", "guide"))
-            for p in scene.output.probes):
-        link = next(name for name, beam in scene.beams.items() if beam.rigid)
-        probe = next(p for p in scene.output.probes
-                     if not ((p.kind == "point" and p.frame == "global") or p.kind in ("hinge", "guide")))
-        why = (f"with rigid links (beams.{link}.rigid) the adjoint is seeded by points in the global frame and "
-               f"joints' probes, not yet by probe {probe.name!r} ({probe.kind} {probe.quantity}: its gradient "
-               "through the links' reduction)")
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
@@ -323,10 +310,10 @@ def _transient_refusal(scene) -> str | None:
 
 
 def _adjoint_event_refusal(scene) -> str | None:
-    """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's latch (``lock_at``) and rigid
-    stops (``limits`` with ``restitution``) and cables' slack and taut changes (latdyn/analyses/adjoint_sensitivities.py,
-    "Events"), not a compliant stop's onset, nor events beside laws in t, rigid links or energy and momentum probes
-    (guides and friction: their own refusals)."""
+    """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's or a guide's latch (``lock_at``)
+    and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links, guides
+    and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a compliant stop's
+    onset, nor events beside laws in t (friction: its own refusal)."""
     if not has_events(scene):
         return None
     compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
@@ -338,16 +325,11 @@ def _adjoint_event_refusal(scene) -> str | None:
     if depends_on_time(scene) or reel is not None:
         timed = reel or _timed_key(scene)
         event = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                      if hinge.lock_at is not None or hinge.limits is not None), "cables")
+                      if hinge.lock_at is not None or hinge.limits is not None), None) or next(
+            (f"bodies.{name}.guide" for name, body in scene.bodies.items()
+             if body.guide is not None and (body.guide.lock_at is not None or body.guide.limits is not None)), "cables")
         return (f"the adjoint does not differentiate events ({event}: lock_at, limits, a cable's slack and taut "
                 f"changes) beside laws in t yet ({timed} depends on t, so it moves with the event's time)")
-    rigid = next((name for name, beam in scene.beams.items() if beam.rigid), None)
-    if rigid is not None:
-        return f"the adjoint does not differentiate events beside rigid links yet (beams.{rigid}.rigid)"
-    probe = next((p for p in scene.output.probes if p.kind in ("energy", "momentum")), None)
-    if probe is not None:
-        return (f"the adjoint is not seeded by energy and momentum probes beside events yet (probe {probe.name!r}); "
-                "the forward method differentiates them")
     return None
 
 
@@ -1270,8 +1252,8 @@ def _force_sensor_refusal(scene) -> str | None:
     hinge_force: csrc/evaluate.c ``sensor_jacobian``), and the controller's ∂f/∂p is read at the sensor's value (the
     evaluation's, :meth:`ControllerTerms.sensed_in_c`); the force's own explicit dependence on a parameter (∂F/∂p of
     the cable's EA, damping or rest length, the element's section values, the joint's laws) enters through ∂f/∂s
-    (:meth:`ControllerTerms.sensed_force_slopes`). Refused: a geometry parameter that moves a sensed section force,
-    a sensed law of t in a run with events (∂F/∂t δt is not taken through the controller), and readers with states
+    (:meth:`ControllerTerms.sensed_force_slopes`; a geometry parameter's through the section force's generated
+    ∂S/∂X, :func:`moved_forces`). Refused: a sensed law of t in a run with events (∂F/∂t δt is not taken through the controller), and readers with states
     (their δs along δq)."""
     forces = {p.name: p for p in scene.output.probes if (p.kind == "cable" and p.quantity == "tension")
               or p.kind == "element" or (p.kind in ("hinge", "guide") and p.quantity in ("torque", "force"))}
@@ -1287,11 +1269,6 @@ def _force_sensor_refusal(scene) -> str | None:
                     "coordinates (a cable's length, an angle, a point), or a controller without states")
         for name in read:
             _, laws = _sensed_force_laws(scene, forces[name])
-            moved = sorted(used for used in uses if forces[name].kind == "element" and GEOMETRY_KEY.match(used))
-            if moved:
-                return (f"controller {c.name!r} reads the force {name!r}, which the geometry parameter "
-                        f"{uses[moved[0]]!r} moves ({moved[0]}): its derivative by a geometry parameter is not taken "
-                        "through a controller yet; expected the parameters elsewhere")
             if has_events(scene) and any(timed(law) for law in laws):
                 return (f"controller {c.name!r} reads the force {name!r}, whose law depends on t, in a run with "
                         "events (a latch, a stop, a cable's change): its rate in t is not taken through a controller "
@@ -1301,12 +1278,15 @@ def _force_sensor_refusal(scene) -> str | None:
 
 def moved_forces(scene) -> dict:
     """The force probes (a cable's tension, an element's section force, a joint's torque or force) that a continuous
-    controller reads and whose own laws a parameter of ``solve.sensitivities`` moves, by name."""
+    controller reads and whose own laws a parameter of ``solve.sensitivities`` moves, by name; a section force by any
+    geometry parameter too (its element's reference: ``beam_section_forces_D_reference``, zero where it does not move)."""
     uses = {used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)}
     read = {r for c in scene.controllers.values() if not c.sampled for r in c.reads}
+    placed = any(GEOMETRY_KEY.match(used) for used in uses)   # a section force moves with its element's reference
     return {p.name: p for p in scene.output.probes if p.name in read
             and ((p.kind == "cable" and p.quantity == "tension") or p.kind == "element" or is_joint_force(p))
-            and any(used.startswith(_sensed_force_laws(scene, p)[0]) for used in uses)}
+            and (any(used.startswith(_sensed_force_laws(scene, p)[0]) for used in uses)
+                 or (placed and p.kind == "element"))}
 
 
 def _sensed_force_laws(scene, probe) -> tuple:

@@ -374,7 +374,8 @@ def _account_refusal(owner, quantity: str) -> str | None:
     hinge's θ, θ̇, t): for the dissipated energy every hinge's damping law and the damping parameters' derivative laws,
     for the external work the loads' values and their derivative laws, every hinge's applied torque, a spring that is
     not conservative, the torque's, stiffness's and rest angle's parameters' derivative laws; a prescribed motion's
-    drive by csrc/drive_sensitivities.c, which the Python path calls too."""
+    drive by csrc/drive_sensitivities.c, which the Python path calls too — not with rigid links or guides, whose drive's
+    reaction is the reduced residual's row (joint_force_sensitivities.reaction_forms_through_links, Python)."""
     from latdyn.analyses.energy_sensitivities import account_laws, applied_torque_uses, damping_uses
 
     model = owner.model
@@ -388,6 +389,9 @@ def _account_refusal(owner, quantity: str) -> str | None:
         if any(not hasattr(c, "value") and not isinstance(c, (int, float))
                for load in owner.scene.loads for c in (load.force or []) + (load.moment or [])):
             return f"{what} with a load value that is not a law of t (carried per step in Python)"
+    if quantity != "dissipated" and model.links is not None and len(model.prescribed_coordinates()):
+        return (f"{what} of a prescribed motion with rigid links or guides (the drive's reaction through the reduction, "
+                "energy_sensitivities._drive_reactions, carried per step in Python)")
     compiled = account_laws(owner)   # the laws of the state, compiled: the C both paths call
     if not all(_in_time_alone(law) or (compiled is not None and compiled.index(law) >= 0) for law in laws):
         return (f"{what} with a law in theta, theta_dot or an input that did not compile (a work account carried per "

@@ -510,7 +510,9 @@ class TransientSensitivities(ParameterDerivatives):
             return {**carried, "h": h}
         if n == 0:   # nothing free (all latched): no event can end the step; the step's time still moves with p
             dh = -carried["dt"] if lands else np.zeros(k)   # landing on the grid, or the nominal step after a restart
-            return {**carried, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh, "h": h}
+            # the work accounts still move: a prescribed motion's drive reaction with its ∂r_d/∂p
+            return external_work_step(self, carried, {**carried, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh,
+                                                      "h": h}, old, new, h)
         columns, states = self.step_columns(carried, old, new, h, a_old, a_new)
         event = self._event(old, new)
         cable = self._cable_event(old, new, event)
