@@ -50,6 +50,7 @@ import re
 
 import numpy as np
 
+from latdyn.analyses.parameter_keys import has_events, laws_naming
 from latdyn.model.model import FIXED, FREE, PRESCRIBED
 
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "model_refusal", "ReferenceGeometry"]
@@ -109,7 +110,6 @@ def _controllers_refusal(scene) -> str | None:
     coordinates: no reference in them), inputs and earlier controllers, and drive hinge torques or guide forces (a
     joint's coordinate: no reference either). Other sensors (points, whose displacement and offsets hold the reference;
     cables, joint forces), actuators (loads, placed at points) and static paths are not differentiated by geometry yet."""
-    from latdyn.analyses.sensitivities import ControllerTerms, has_events
 
     controllers = scene.controllers
     if scene.solve.analysis != "transient":
@@ -126,7 +126,7 @@ def _controllers_refusal(scene) -> str | None:
             if not (joint or probe.kind == "element"):
                 return (f"reading {probe.kind} probes ({c.name} reads {read!r}: section forces, joint angles and rates "
                         "are taken)")
-    for key in ControllerTerms._laws_naming(scene, set(controllers)):   # noqa: SLF001
+    for key in laws_naming(scene, set(controllers)):
         if not (key.endswith(".hinge.torque") or key.endswith(".guide.force")):
             return f"driving {key} (hinge torques and guide forces are taken)"
     if has_events(scene):

@@ -2,11 +2,13 @@
 a load component, a section value, a body's mass, centre of mass or inertia, the initial velocity, a
 guide's, cable's, hinge's or compliant stop's law, a controller's output or state rate. Each pattern's
 groups name the parts the derivative needs; the tables map a key's word to its slot in the generated
-kernels' blocks; and whether a scene prescribes a motion (:func:`prescribed_motion`). Read by every sensitivity module (latdyn/analyses/sensitivities.py and those it
+kernels' blocks; whether a scene prescribes a motion (:func:`prescribed_motion`), has events the sensitivities land
+on (:func:`has_events`) and which of its laws name a controller (:func:`laws_naming`). Read by every sensitivity module (latdyn/analyses/sensitivities.py and those it
 calls), so kept below them all."""
 from __future__ import annotations
 
 import re
+from dataclasses import fields, is_dataclass
 
 LOAD_KEY = re.compile(r"^loads\[(?P<load>\d+)\]\.(?P<kind>force|moment)\[(?P<axis>[0-2])\]$")
 SECTION_KEY = re.compile(r"^sections\.(?P<section>[^.]+)\.(?P<value>EA|EIy|EIz|GJ|rhoA|rhoIy|rhoIz|GAy|GAz)$")
@@ -57,3 +59,34 @@ def prescribed_motion(scene) -> bool:
     """Whether a body's translation or rotation, a hinge's angle or a guide's slide is prescribed in ``scene``."""
     return any(body.prescribed or (body.guide is not None and body.guide.position is not None)
                for body in scene.bodies.values()) or any(hinge.angle is not None for _, _, hinge in scene.hinges)
+
+
+def has_events(scene) -> bool:
+    """Whether ``scene`` has anything whose time the sensitivities land on: a hinge's or guide's latch or
+    stops (rigid or compliant: the onset), a cable (its slack/taut changes)."""
+    joints = [hinge for _, _, hinge in scene.hinges] + [b.guide for b in scene.bodies.values() if b.guide is not None]
+    return bool(scene.cables) or any(j.lock_at is not None or j.limits is not None for j in joints)
+
+
+def laws_naming(scene, controllers: set) -> dict[str, list]:
+    """The scene's parsed laws (hinge, guide and cable laws, load components, prescribed motions:
+    latdyn.scene.expressions laws, each carrying the key path it was read at) that name one of
+    ``controllers``, by key path -> the controllers named: the names the parser found
+    (``input_names``), never the text's words (a controller ``e5`` is not read by ``"2e5*k"``)."""
+    found, seen, pending = {}, set(), [scene]
+    while pending:
+        item = pending.pop()
+        if id(item) in seen:
+            continue
+        seen.add(id(item))
+        if hasattr(item, "input_names") and hasattr(item, "key"):
+            named = [n for n in item.input_names if n in controllers]
+            if named and not item.key.startswith("controllers."):
+                found[item.key] = named
+        elif is_dataclass(item) and not isinstance(item, type):
+            pending.extend(getattr(item, f.name) for f in fields(item))
+        elif isinstance(item, (list, tuple)):
+            pending.extend(item)
+        elif isinstance(item, dict):
+            pending.extend(item.values())
+    return found

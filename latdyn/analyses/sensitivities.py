@@ -83,7 +83,7 @@ beams with mass are differentiated exactly there too. docs/parameters.md.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, is_dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -116,7 +116,7 @@ from latdyn.analyses.parameter_keys import (  # noqa: F401  re-exported under th
     LOAD_KEY as _LOAD_KEY, SECTION_KEY as _SECTION_KEY, SECTION_COLUMN as _SECTION_COLUMN, BODY_KEY as
     _BODY_KEY, INITIAL_VELOCITY_KEY as _INITIAL_VELOCITY_KEY, GUIDE_KEY as _GUIDE_KEY, GUIDE_LAW as
     _GUIDE_LAW, CABLE_KEY as _CABLE_KEY, HINGE_KEY as _HINGE_KEY, CONTACT_KEY as _CONTACT_KEY,
-    CONTROLLER_KEY as _CONTROLLER_KEY, FRICTION_SLOT, joint_law)
+    CONTROLLER_KEY as _CONTROLLER_KEY, FRICTION_SLOT, has_events, joint_law, laws_naming)
 
 
 def refusal(scene) -> SceneError | None:
@@ -355,13 +355,6 @@ def _timed_key(scene) -> str | None:
             if (key == "position" and law is not None) or (key != "position" and timed(law)):
                 return f"bodies.{name}.guide.{key}"
     return next((f"bodies.{name}.motion" for name, body in scene.bodies.items() if body.prescribed), None)
-
-
-def has_events(scene) -> bool:
-    """Whether ``scene`` has anything whose time the sensitivities land on: a hinge's or guide's latch or
-    stops (rigid or compliant: the onset), a cable (its slack/taut changes)."""
-    joints = [hinge for _, _, hinge in scene.hinges] + [b.guide for b in scene.bodies.values() if b.guide is not None]
-    return bool(scene.cables) or any(j.lock_at is not None or j.limits is not None for j in joints)
 
 
 def _cable_use(scene, used: str) -> bool:
@@ -1466,29 +1459,7 @@ class ControllerTerms:
                                                          owner._rates_by_parameter(zero)), float)
         return out
 
-    @staticmethod
-    def _laws_naming(scene, controllers: set) -> dict[str, list]:
-        """The scene's parsed laws (hinge, guide and cable laws, load components, prescribed motions:
-        latdyn.scene.expressions laws, each carrying the key path it was read at) that name one of
-        ``controllers``, by key path -> the controllers named: the names the parser found
-        (``input_names``), never the text's words (a controller ``e5`` is not read by ``"2e5*k"``)."""
-        found, seen, pending = {}, set(), [scene]
-        while pending:
-            item = pending.pop()
-            if id(item) in seen:
-                continue
-            seen.add(id(item))
-            if hasattr(item, "input_names") and hasattr(item, "key"):
-                named = [n for n in item.input_names if n in controllers]
-                if named and not item.key.startswith("controllers."):
-                    found[item.key] = named
-            elif is_dataclass(item) and not isinstance(item, type):
-                pending.extend(getattr(item, f.name) for f in fields(item))
-            elif isinstance(item, (list, tuple)):
-                pending.extend(item)
-            elif isinstance(item, dict):
-                pending.extend(item.values())
-        return found
+    _laws_naming = staticmethod(laws_naming)
 
     def state_values(self, c) -> list:
         """The accepted states S of controller ``c`` (their values in ``scene.controller_states``)."""
