@@ -647,8 +647,9 @@ class AdjointSensitivities(TransientSensitivities):
         of the couplings' blocks and the loads they drive only along the coordinates they are on), Dᵀū its
         transposed product; Pᵀū:
         scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: the section values',
-        hinges', loads', joint bodies' and cables' EA and damping parts generated, latdyn/analyses/parameter_stiffness.py,
-        the rest a difference along w of ∂r/∂p without them and the elements' gravity load), and
+        hinges', loads', joint bodies', cables', compliant stops' and friction's parts generated,
+        latdyn/analyses/parameter_stiffness.py, controllers' terms differenced apart, the rest a difference along w
+        of ∂r/∂p without them and the elements' gravity load), and
         with ``mass`` the transposed products (:meth:`residual_transposed_product`, exact) at the accelerations w
         less at rest."""
         H = configuration_tangent_of_weight(self.assembler, state, w, scale, mass, self.coordinate_step())
