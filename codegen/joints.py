@@ -595,43 +595,43 @@ def _hinge_stiffness_by_angle_kernel() -> KernelSpec:
                       "twice by the angle; Hunt-Crossley contact", intermediates=branch_free.intermediates)
 
 
+def _stop_law_kernel(name: str, by_angle: bool, description: str, doc: str) -> KernelSpec:
+    """∂/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇), or with ``by_angle`` of
+    its ∂/∂θ at fixed θ̇, differentiated from the same expression as the force the residual holds."""
+    state, contact = HINGE_STATE.symbols(), JOINT_CONTACT.symbols()
+    branch_free = _BranchFree()
+    force, _, _ = joint_contact(state[0], state[1], contact)
+    differentiated = sp.diff(force, state[0]) if by_angle else force
+    law = [contact[2], contact[3], contact[4]]   # stiffness exponent damping
+    outputs = [Output(name, (3,), [branch_free(sp.diff(differentiated, symbol)) for symbol in law], description)]
+    return KernelSpec(name=name, doc=doc, inputs=[HINGE_STATE, JOINT_CONTACT], outputs=outputs, variant="joints",
+                      equations="Hunt-Crossley contact", intermediates=branch_free.intermediates)
+
+
 def _contact_law_derivative_kernel() -> KernelSpec:
     """∂f/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇): the
     right-hand sides of sensitivities by the stop's stiffness, exponent and damping
     (latdyn/analyses/transient_sensitivities.py), differentiated from the same expression as the
     force the residual holds."""
-    state, contact = HINGE_STATE.symbols(), JOINT_CONTACT.symbols()
-    branch_free = _BranchFree()
-    force, _, _ = joint_contact(state[0], state[1], contact)
-    law = [contact[2], contact[3], contact[4]]   # stiffness exponent damping
-    outputs = [Output("contact_force_D_law", (3,), [branch_free(sp.diff(force, symbol)) for symbol in law],
-                      "∂f_contact/∂(k, n, c): the compliant stops' force F_u − F_l by their stiffness, exponent "
-                      "and damping (the friction depends on none of them)")]
-    return KernelSpec(name="contact_force_D_law", doc="The derivatives of a joint's compliant-stop force "
-                      "(Hunt-Crossley) by its law's stiffness, exponent and damping",
-                      inputs=[HINGE_STATE, JOINT_CONTACT], outputs=outputs, variant="joints",
-                      equations="Hunt-Crossley contact", intermediates=branch_free.intermediates)
+    return _stop_law_kernel("contact_force_D_law", False,
+                            "∂f_contact/∂(k, n, c): the compliant stops' force F_u − F_l by their stiffness, exponent "
+                            "and damping (the friction depends on none of them)",
+                            "The derivatives of a joint's compliant-stop force (Hunt-Crossley) by its law's stiffness, "
+                            "exponent and damping")
 
 
 def _contact_stiffness_law_derivative_kernel() -> KernelSpec:
     """∂(∂f_contact/∂θ)/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇), fixed θ̇:
     how a parameter of the stop's stiffness, exponent or damping moves the joint's K = ∂f/∂θ (``hinge_force``'s
     ``hinge_stiffness``), a parameter's part of an event's impulse weight derivative (∂K/∂p) w
-    (latdyn/analyses/parameter_stiffness.py); differentiated from the same expression as the force the residual holds.
-    F_u = ⟨δ_u⟩ⁿ ⟨k + c θ̇⟩ is not linear in n, nor in (k, c) across the clip, so no value fed to ``hinge_force`` in the
-    law's place gives it. The friction's force depends on θ̇ alone: its part of K is 0, and so is its derivative."""
-    state, contact = HINGE_STATE.symbols(), JOINT_CONTACT.symbols()
-    branch_free = _BranchFree()
-    force, _, _ = joint_contact(state[0], state[1], contact)
-    stiffness = sp.diff(force, state[0])
-    law = [contact[2], contact[3], contact[4]]   # stiffness exponent damping
-    outputs = [Output("contact_stiffness_D_law", (3,), [branch_free(sp.diff(stiffness, symbol)) for symbol in law],
-                      "∂(∂f_contact/∂θ)/∂(k, n, c): the compliant stops' part of the joint's stiffness by their "
-                      "law's stiffness, exponent and damping")]
-    return KernelSpec(name="contact_stiffness_D_law", doc="The derivatives of a joint's compliant-stop stiffness "
-                      "∂f_contact/∂θ (Hunt-Crossley) by its law's stiffness, exponent and damping",
-                      inputs=[HINGE_STATE, JOINT_CONTACT], outputs=outputs, variant="joints",
-                      equations="Hunt-Crossley contact", intermediates=branch_free.intermediates)
+    (latdyn/analyses/parameter_stiffness.py). F_u = ⟨δ_u⟩ⁿ ⟨k + c θ̇⟩ is not linear in n, nor in (k, c) across the
+    clip, so no value fed to ``hinge_force`` in the law's place gives it. The friction's force depends on θ̇ alone: its
+    part of K is 0, and so is its derivative."""
+    return _stop_law_kernel("contact_stiffness_D_law", True,
+                            "∂(∂f_contact/∂θ)/∂(k, n, c): the compliant stops' part of the joint's stiffness by their "
+                            "law's stiffness, exponent and damping",
+                            "The derivatives of a joint's compliant-stop stiffness ∂f_contact/∂θ (Hunt-Crossley) by "
+                            "its law's stiffness, exponent and damping")
 
 
 def _friction_law_derivative_kernel() -> KernelSpec:

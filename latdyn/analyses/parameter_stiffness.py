@@ -35,10 +35,17 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
 * friction's laws: its force depends on θ̇ alone, so its part of K is 0, and its (∂K/∂p) w too;
 * initial velocities: no ∂r/∂p.
 
-Not generated, differenced along w by the caller (:func:`exact_parameters` False): geometry parameters,
-controllers' outputs and states, a hinge law that names an input (its value is the runtime's), and every parameter
-of a run whose ∂r/∂p holds more than the parameters' own terms (:meth:`TransientSensitivities.by_sections_only`'s
-conditions: a state moved in time, held angles, controllers, rigid links or guides).
+Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
+outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
+parameters' own parts are generated as above and the caller differences those terms along w apart
+(``TransientSensitivities._terms_beside_stiffness_along``; a parameter a controller's output alone uses has that part
+only). Not generated, the whole static ∂r/∂p differenced along w by the caller (:func:`exact_parameters` False):
+geometry parameters (no kernel holds ∂(K w)/∂X: ``beam_internal_force_D_reference`` is ∂F/∂X alone), a hinge law
+that names an input or a controller (its value is the runtime's), and every parameter of a run with rigid links or
+guides (the reduction's geometric term ∂Pᵀ/∂q[w] · ∂r_all/∂p moves with the static ∂r/∂p: the generated parts would
+be taken at P w on the assembled coordinates, and that term of each column by ``geometric_product``, not done) or
+whose state an event moved in time through a prescribed motion, a reel or a controller's output in t
+(:func:`time_generated`).
 """
 from __future__ import annotations
 
@@ -80,12 +87,11 @@ def _slopes_known(law) -> bool:
 
 
 def exact_parameters(owner) -> np.ndarray:
-    """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring); none where
-    ``owner.by_sections_only`` finds ∂r/∂p holding more than the parameters' own terms (checked per call: the state's
-    time shift and held angles change at each event)."""
+    """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring; beside controllers
+    and held angles the caller adds their terms' difference); none with rigid links or guides or where the state's
+    time shift is not generated (checked per call: the time shift changes at each event)."""
     shifted = owner.time_shift is not None and owner.explicit_time is not None and np.any(owner.time_shift)
-    held = owner.held is not None and np.any(owner.held)
-    if (shifted and not time_generated(owner)) or held or owner.model.links is not None:
+    if (shifted and not time_generated(owner)) or owner.model.links is not None:
         return np.zeros(len(owner.names), bool)
     found = owner.__dict__.get("_parameter_stiffness_exact")
     if found is None:

@@ -936,13 +936,13 @@ class TransientSensitivities(ParameterDerivatives):
         values' part generated for every parameter (``beam_stiffness_D_section``, :meth:`_section_stiffness_along`),
         the hinges', loads', joint bodies', cables' (EA, damping, rest length, ρA), compliant stops' and friction's
         parts (and the event's time shift's through loads' and hinges' laws in t) generated for the parameters whose
-        every use has one (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), beside controllers with
-        the controllers' terms of ∂r/∂p differenced apart (:meth:`_controllers_stiffness_along`), and for the others
+        every use has one (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), beside controllers and held
+        angles with their terms of ∂r/∂p differenced apart (:meth:`_terms_beside_stiffness_along`), and for the others
         a central difference along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section
         values' element forces and without the elements' gravity load (``sections``, ``element_gravity`` of
         :meth:`residual_derivatives`): geometry parameters' internal forces, a hinge law naming an input, and all of
-        them where a prescribed motion, a reel or a controller's output in t moves the state in time or where
-        friction holds angles. With rigid links or guides the difference
+        them where a prescribed motion, a reel or a controller's output in t moves the state in time. With rigid
+        links or guides the difference
         of the static ∂r/∂p without the elements' gravity load along w (the reduction's projection moves with it;
         :meth:`_geometric_derivative` adds the rest of its geometric term)."""
         model = self.model
@@ -957,8 +957,8 @@ class TransientSensitivities(ParameterDerivatives):
                 if shifted:   # the state moved in time by δt_e: ∂(∂r/∂t)/∂q w δt_e, the laws' rates in t generated
                     along += np.outer(time_stiffness_along(self, state, w), self.time_shift)
                 out[:, exact] += self._on_free_coordinates(state, along)[:, exact]
-                if self.controllers is not None:   # the controllers' terms of ∂r/∂p, apart: differenced along w
-                    out[:, exact] += self._controllers_stiffness_along(state, w)[:, exact]
+                if self.controllers is not None or (self.held is not None and np.any(self.held)):
+                    out[:, exact] += self._terms_beside_stiffness_along(state, w)[:, exact]
         if not np.all(exact):
             assembler = self.assembler
             eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
@@ -970,22 +970,28 @@ class TransientSensitivities(ParameterDerivatives):
             out[:, ~exact] += moved[:, ~exact]
         return out
 
-    def _controllers_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
-        """(n, k): the derivative along w of the continuous and sampled controllers' terms of the static ∂r/∂p alone
-        (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`: their outputs' explicit ∂y/∂p, the chained and
-        held outputs' and the states' terms on the actuators' rows), a central difference (step :data:`WEIGHT_STEP`
-        ℓ/|w|_∞, two evaluations of those terms): the part of (∂K/∂p) w that the controllers' couplings in K make,
-        whose second derivatives through the sensors no kernel holds. The parameters' own terms beside it are
-        generated (latdyn/analyses/parameter_stiffness.py); before, the whole static ∂r/∂p was differenced with them."""
+    def _terms_beside_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(n, k): the derivative along w of the static ∂r/∂p's terms beside the parameters' own, alone — the
+        continuous and sampled controllers' (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`: their
+        outputs' explicit ∂y/∂p, the chained and held outputs' and the states' terms on the actuators' rows) and the
+        angles friction holds (:meth:`_held_forces`: K's columns of them times their δθ) —, a central difference
+        (step :data:`WEIGHT_STEP` ℓ/|w|_∞, two evaluations of those terms): the part of (∂K/∂p) w whose second
+        derivatives (the couplings' through the sensors, K's along a held angle) no kernel holds. The parameters' own
+        terms beside them are generated (latdyn/analyses/parameter_stiffness.py); before, the whole static ∂r/∂p
+        was differenced with them."""
         model, assembler = self.model, self.assembler
         eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
 
-        def controllers(moved):
+        def beside(moved):
             total = np.zeros((model.n_total + 1, len(self.names)))
-            self.controllers.add(moved, total)
+            if self.controllers is not None:
+                self.controllers.add(moved, total)
+            held = self._held_forces(moved, False)
+            if held is not None:
+                total += held
             return self._on_free_coordinates(moved, total)
 
-        return (controllers(assembler.advance(state, eta * w)) - controllers(assembler.advance(state, -eta * w))) / (2 * eta)
+        return (beside(assembler.advance(state, eta * w)) - beside(assembler.advance(state, -eta * w))) / (2 * eta)
 
     def coordinate_step(self) -> float:
         """The configuration step of the central differences along one coordinate (H_rest's columns,
