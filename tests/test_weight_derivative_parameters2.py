@@ -8,7 +8,9 @@ difference along w, and each column agrees with Richardson differences *in the p
 difference along w of the static ∂r/∂p left the cable's masses' weight out of K (the static ∂r/∂p holds no cable
 weight): ρA's column was 0 (1.0 off) and a rest length's 0.05–0.3 off; through the latch the whole runs'
 sensitivities by them were 2.1e-6 and 3.1e-6 off Richardson differences of whole runs, now ≤ 5.3e-9; the loop of
-steps on and off (API and ``latdyn run``) give the same bits."""
+steps on and off (API and ``latdyn run``) give the same bits. Beside a PD controller and beside an angle friction
+holds, the parameters' own parts are generated too, the controllers' and the held angle's terms of ∂r/∂p differenced
+apart (before, such a run differenced the whole static ∂r/∂p for every parameter)."""
 from __future__ import annotations
 
 import csv
