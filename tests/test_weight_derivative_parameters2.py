@@ -10,7 +10,8 @@ weight): ρA's column was 0 (1.0 off) and a rest length's 0.05–0.3 off; throug
 sensitivities by them were 2.1e-6 and 3.1e-6 off Richardson differences of whole runs, now ≤ 5.3e-9; the loop of
 steps on and off (API and ``latdyn run``) give the same bits. Beside a PD controller and beside an angle friction
 holds, the parameters' own parts are generated too, the controllers' and the held angle's terms of ∂r/∂p differenced
-apart (before, such a run differenced the whole static ∂r/∂p for every parameter)."""
+apart, and with rigid links through the reduction, its geometric term exact (before, such a run differenced the
+whole static ∂r/∂p for every parameter)."""
 from __future__ import annotations
 
 import csv
@@ -314,3 +315,42 @@ def test_beside_a_held_angle_the_parameters_own_part_is_generated_and_the_held_t
     assert len(seen) == 1
     exact, errors = seen[0]
     assert exact.all() and errors.max() <= 2e-10, errors
+
+
+def test_with_rigid_links_the_parameters_part_is_generated_through_the_reduction(monkeypatch):
+    """The 3D gimbal of rigid links on skew hinges (tests/test_sensitivities_rigid_links.py, tethered by a cable with
+    mass, under a skew gravity) latching: every parameter takes the generated path — its parts along P w, reduced,
+    and the reduction's geometric term of its static ∂r_all/∂p, a rigid link's ρA through its body's weight stiffness
+    (before, with rigid links or guides, all took the difference of the whole reduced static ∂r/∂p along w) —, each
+    column within 2e-10 of Richardson differences of the reduced static ∂r/∂p along w (measured ≤ 5.4e-11; the
+    difference it replaces 5.3e-12 – 3.0e-9)."""
+    from tests.test_sensitivities_rigid_links import TETHER
+
+    text = (TETHER.replace('damping: "c2"}}}', 'damping: "c2", lock_at: 0.15}}}').replace("t_end: 0.3", "t_end: 0.1")
+            .replace("parameters: {L: 0.5,", "parameters: {L: 0.5, EA: 300.0, rA: 0.2,")
+            .replace('EA: 300.0, rest_length: "L"', 'EA: "EA", rhoA: "rA", rest_length: "L"')
+            .replace("sensitivities: [L, k1]", "sensitivities: [L, EA, rA, k1, m, P, EI, rho]")
+            .replace("solve:", "gravity: [0.5, -1.0, -9.81]\nsolve:", 1))
+    seen = []
+    original = TransientSensitivities._stiffness_derivative
+
+    def checked(self, state, w):
+        out = original(self, state, w)
+        step = 1e-3 * (self.length or 1.0) / float(np.max(np.abs(w)))
+
+        def static(moved):
+            return self.residual_derivatives(moved, 1.0, sections=True, element_gravity=False)
+
+        advance = self.assembler.advance
+        central = [(static(advance(state, h * w)) - static(advance(state, -h * w))) / (2 * h) for h in (step, step / 2)]
+        reference = (4 * central[1] - central[0]) / 3
+        moved = np.abs(reference).max(axis=0) > 0.0
+        seen.append((exact_parameters(self).copy(), moved,
+                     np.abs(out - reference).max(axis=0)[moved] / np.abs(reference).max(axis=0)[moved]))
+        return out
+
+    monkeypatch.setattr(TransientSensitivities, "_stiffness_derivative", checked)
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"] and len(seen) == 1
+    exact, moved, errors = seen[0]
+    assert exact.all() and moved.sum() >= 4 and errors.max() <= 2e-10, errors

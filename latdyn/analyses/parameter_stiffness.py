@@ -39,13 +39,15 @@ Beside continuous or sampled controllers and angles friction holds, ∂r/∂p ho
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
 parameters' own parts are generated as above and the caller differences those terms along w apart
 (``TransientSensitivities._terms_beside_stiffness_along``; a parameter a controller's output alone uses has that part
-only). Not generated, the whole static ∂r/∂p differenced along w by the caller (:func:`exact_parameters` False):
-geometry parameters (no kernel holds ∂(K w)/∂X: ``beam_internal_force_D_reference`` is ∂F/∂X alone), a hinge law
-that names an input or a controller (its value is the runtime's), and every parameter of a run with rigid links or
-guides (the reduction's geometric term ∂Pᵀ/∂q[w] · ∂r_all/∂p moves with the static ∂r/∂p: the generated parts would
-be taken at P w on the assembled coordinates, and that term of each column by ``geometric_product``, not done) or
-whose state an event moved in time through a prescribed motion, a reel or a controller's output in t
-(:func:`time_generated`).
+only). With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
+the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
+stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
+added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
+differenced along w by the caller (:func:`exact_parameters` False): geometry parameters (no kernel holds ∂(K w)/∂X:
+``beam_internal_force_D_reference`` is ∂F/∂X alone), a hinge law that names an input or a controller (its value is
+the runtime's), every parameter of a run whose state an event moved in time through a prescribed motion, a reel or
+a controller's output in t (:func:`time_generated`), and with rigid links or guides every parameter beside
+controllers, held angles or a time shift (their terms through the reduction are not separated).
 """
 from __future__ import annotations
 
@@ -55,7 +57,7 @@ from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["exact_parameters", "stiffness_along", "time_generated", "time_stiffness_along"]
+__all__ = ["exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -88,10 +90,13 @@ def _slopes_known(law) -> bool:
 
 def exact_parameters(owner) -> np.ndarray:
     """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring; beside controllers
-    and held angles the caller adds their terms' difference); none with rigid links or guides or where the state's
-    time shift is not generated (checked per call: the time shift changes at each event)."""
+    and held angles the caller adds their terms' difference); none where the state's time shift is not generated,
+    nor with rigid links or guides beside controllers, held angles or a time shift (checked per call: the time shift
+    and held angles change at each event)."""
     shifted = owner.time_shift is not None and owner.explicit_time is not None and np.any(owner.time_shift)
-    if (shifted and not time_generated(owner)) or owner.model.links is not None:
+    linked = owner.model.links is not None and (shifted or owner.controllers is not None
+                                                or (owner.held is not None and np.any(owner.held)))
+    if (shifted and not time_generated(owner)) or linked:
         return np.zeros(len(owner.names), bool)
     found = owner.__dict__.get("_parameter_stiffness_exact")
     if found is None:
@@ -128,9 +133,15 @@ def stiffness_along(owner, state, w: np.ndarray, cables: bool = True) -> np.ndar
     """(∂K/∂p) w (n_total + 1, k) of the hinges', loads', joint bodies' and cables' uses of the parameters
     (module docstring; the section values' are :meth:`ParameterDerivatives.add_section_stiffness_along`'s), w on the
     free coordinates; every column, exact or not (the caller takes the exact ones)."""
+    full = np.zeros(owner.model.n_total + 1)
+    full[:owner.model.n_dofs] = w
+    return stiffness_along_all(owner, state, full, cables)
+
+
+def stiffness_along_all(owner, state, full: np.ndarray, cables: bool = True) -> np.ndarray:
+    """:func:`stiffness_along` with the direction ``full`` (n_total + 1,) on all coordinates (with rigid links or
+    guides P w: the dependent nodes moving with the free ones)."""
     model = owner.model
-    full = np.zeros(model.n_total + 1)
-    full[:model.n_dofs] = w
     total = np.zeros((model.n_total + 1, len(owner.names)))
     _hinges(owner, state, full, total)
     _loads(owner, state, full, total)
@@ -139,6 +150,7 @@ def stiffness_along(owner, state, w: np.ndarray, cables: bool = True) -> np.ndar
         _cables(owner, state, full, total)
         _cable_masses(owner, state, full, total)
         _stops(owner, state, full, total)
+        _link_masses(owner, state, full, total)
     return total
 
 
@@ -299,6 +311,35 @@ def _cable_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
                                                                np.ascontiguousarray(block[on]),
                                                                np.ascontiguousarray(weight[on]))[0]
         np.add.at(total[:, column], dofs[on], np.asarray(along).reshape(len(on), 6))
+
+
+def _link_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """A rigid link's section ρA (and ρIy, ρIz, which weigh nothing) moves its joint body's mass: its weight's stiffness
+    along w on the link's node, ``joint_body_gravity_stiffness_D_q`` at the block ∂r/∂p takes
+    (latdyn/analyses/link_sensitivities.py ``add_link_section_forces``: (L ∂ρA/∂p, c, ∂I/∂p), linear in m)."""
+    from latdyn.analyses.link_sensitivities import link_section_uses
+    from latdyn.model.model import rigid_link_inertia
+
+    uses = link_section_uses(owner) if owner.model.links is not None else None
+    gravity = np.asarray(owner.assembler.gravity, float)
+    if not uses or not np.any(gravity):
+        return
+    model, t = owner.model, float(state.t)
+    for beam, b, node, value, laws in uses:
+        dofs = _scattered(model.node_dofs[node], model.n_total)
+        moving = full[dofs]
+        if not np.any(moving[3:6]):
+            continue
+        frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
+        for column, law in laws.items():
+            moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
+            moved[value] = law.value(0.0, 0.0, t)
+            mass, _, turning = rigid_link_inertia(beam, **moved)
+            block = np.zeros((1, 13))
+            block[0, 0], block[0, 1:4], block[0, 4:13] = mass, model.body_com[b], turning.reshape(9)
+            along = owner.kernels.joint_body_gravity_stiffness_D_q(frame, np.ascontiguousarray(moving[None]), block,
+                                                                   np.ascontiguousarray(gravity[None]))[0]
+            total[dofs, column] += np.asarray(along).reshape(6)
 
 
 def _stops(owner, state, full: np.ndarray, total: np.ndarray) -> None:

@@ -130,6 +130,7 @@ from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_stiffness import (exact_parameters, stiffness_along as parameter_stiffness_along,
+                                                 stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
@@ -942,13 +943,16 @@ class TransientSensitivities(ParameterDerivatives):
         values' element forces and without the elements' gravity load (``sections``, ``element_gravity`` of
         :meth:`residual_derivatives`): geometry parameters' internal forces, a hinge law naming an input, and all of
         them where a prescribed motion, a reel or a controller's output in t moves the state in time. With rigid
-        links or guides the difference
-        of the static ∂r/∂p without the elements' gravity load along w (the reduction's projection moves with it;
-        :meth:`_geometric_derivative` adds the rest of its geometric term)."""
+        links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`) where no controller,
+        held angle or time shift adds terms, else the difference of the static ∂r/∂p without the elements' gravity
+        load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia
+        forces' geometric term."""
         model = self.model
         out = np.zeros((model.n_dofs, len(self.names)))
         linked = model.links is not None
-        exact = np.zeros(len(self.names), bool) if linked else exact_parameters(self)
+        exact = exact_parameters(self)
+        if linked and np.any(exact):   # the parameters' own parts through P w, the reduction's geometric term exact
+            out[:, exact] += self._linked_stiffness_along(state, w)[:, exact]
         if not linked:
             out += self._section_stiffness_along(state, w)
             if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
@@ -968,6 +972,30 @@ class TransientSensitivities(ParameterDerivatives):
 
             moved = (static(assembler.advance(state, eta * w)) - static(assembler.advance(state, -eta * w))) / (2 * eta)
             out[:, ~exact] += moved[:, ~exact]
+        return out
+
+    def _linked_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(∂K/∂p) w (n, k) with rigid links or guides (no controllers, held angles or time shift: their terms are in
+        the static ∂r/∂p too) for the parameters of ``exact_parameters``: K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all, so
+        (∂K_red/∂p) w = Pᵀ (∂K_all/∂p)(P w) + ∂Pᵀ/∂q[w] · ∂r_all/∂p — the generated parts (the section values' and
+        latdyn/analyses/parameter_stiffness.py's) along P w on the assembled coordinates, reduced, and the forward
+        step's geometric term of each column of the static ∂r_all/∂p (without the elements' gravity load) times w
+        (:func:`latdyn.analyses.weight_derivative.geometric_product`, exact; :meth:`_geometric_derivative` adds the
+        inertia forces'). Before, the difference of the whole reduced static ∂r/∂p along w."""
+        model, assembler = self.model, self.assembler
+        n_asm = model.n_assembled
+        assembler.complete_links(state)
+        projection = assembler.evaluate(state, matrices=True).projection
+        full = np.zeros(model.n_total + 1)
+        full[:n_asm] = np.asarray(projection @ w).reshape(-1)
+        total = parameter_stiffness_along_all(self, state, full)
+        self.add_section_stiffness_along(state, full, total)
+        out = self._on_free_coordinates(state, total)
+        static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
+        assembler.complete_links(state)   # J of the state in the links' buffers
+        for c in range(len(self.names)):
+            if np.any(static[:, c]):
+                out[:, c] += geometric_product(assembler, state, static[:, c], w)
         return out
 
     def _terms_beside_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
