@@ -233,19 +233,34 @@ def _bodies(owner, state, full: np.ndarray, total: np.ndarray) -> None:
         found = np.flatnonzero(model.body_nodes == node)
         if not len(found):
             continue
-        dofs = _scattered(model.node_dofs[node], model.n_total)
-        moving = full[dofs]
-        if not np.any(moving[3:6]):
+        dofs, moving, frame = _node_along(owner, state, full, node)
+        if dofs is None:
             continue
-        frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
         for column, law in laws.items():
             block, com = owner.body_block(body, int(found[0]), law.value(0.0, 0.0, t))
             if com is not None:   # ∂f/∂c along ∂c/∂p: the weight at the centre of mass ∂c/∂p
                 block = block.copy()
                 block[0, 1:4] = com
-            along = owner.kernels.joint_body_gravity_stiffness_D_q(frame, np.ascontiguousarray(moving[None]), block,
-                                                                   np.ascontiguousarray(gravity[None]))[0]
-            total[dofs, column] += np.asarray(along).reshape(6)
+            total[dofs, column] += _weight_stiffness_along(owner, frame, moving, block, gravity)
+
+
+def _node_along(owner, state, full: np.ndarray, node: int) -> tuple:
+    """(its rows (6,), w on them, its frame (1, 9)) of a joint body's node, or (None, None, None) where w does not turn
+    it (a weight's stiffness is on its turns alone)."""
+    model = owner.model
+    dofs = _scattered(model.node_dofs[node], model.n_total)
+    moving = full[dofs]
+    if not np.any(moving[3:6]):
+        return None, None, None
+    return dofs, moving, np.ascontiguousarray(state.T[node].reshape(1, 9))
+
+
+def _weight_stiffness_along(owner, frame: np.ndarray, moving: np.ndarray, block: np.ndarray,
+                            gravity: np.ndarray) -> np.ndarray:
+    """(6,) a joint body's weight's stiffness along w on its node, ``joint_body_gravity_stiffness_D_q`` at ``block``."""
+    along = owner.kernels.joint_body_gravity_stiffness_D_q(frame, np.ascontiguousarray(moving[None]), block,
+                                                           np.ascontiguousarray(gravity[None]))[0]
+    return np.asarray(along).reshape(6)
 
 
 def _cables(owner, state, full: np.ndarray, total: np.ndarray) -> None:
@@ -326,20 +341,16 @@ def _link_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
         return
     model, t = owner.model, float(state.t)
     for beam, b, node, value, laws in uses:
-        dofs = _scattered(model.node_dofs[node], model.n_total)
-        moving = full[dofs]
-        if not np.any(moving[3:6]):
+        dofs, moving, frame = _node_along(owner, state, full, node)
+        if dofs is None:
             continue
-        frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
         for column, law in laws.items():
             moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
             moved[value] = law.value(0.0, 0.0, t)
             mass, _, turning = rigid_link_inertia(beam, **moved)
             block = np.zeros((1, 13))
             block[0, 0], block[0, 1:4], block[0, 4:13] = mass, model.body_com[b], turning.reshape(9)
-            along = owner.kernels.joint_body_gravity_stiffness_D_q(frame, np.ascontiguousarray(moving[None]), block,
-                                                                   np.ascontiguousarray(gravity[None]))[0]
-            total[dofs, column] += np.asarray(along).reshape(6)
+            total[dofs, column] += _weight_stiffness_along(owner, frame, moving, block, gravity)
 
 
 def _stops(owner, state, full: np.ndarray, total: np.ndarray) -> None:

@@ -992,10 +992,16 @@ class TransientSensitivities(ParameterDerivatives):
         self.add_section_stiffness_along(state, full, total)
         out = self._on_free_coordinates(state, total)
         static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
-        assembler.complete_links(state)   # J of the state in the links' buffers
+        return out + self._geometric_products(state, static, w)
+
+    def _geometric_products(self, state, columns: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """(n, k): ∂(Pᵀ y)/∂q[w] at fixed y for each column y of ``columns`` (on the assembled coordinates), the
+        forward step's geometric term of y times w (:func:`latdyn.analyses.weight_derivative.geometric_product`)."""
+        out = np.zeros((self.model.n_dofs, len(self.names)))
+        self.assembler.complete_links(state)   # J of the state in the links' buffers
         for c in range(len(self.names)):
-            if np.any(static[:, c]):
-                out[:, c] += geometric_product(assembler, state, static[:, c], w)
+            if np.any(columns[:, c]):
+                out[:, c] += geometric_product(self.assembler, state, columns[:, c], w)
         return out
 
     def _terms_beside_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
@@ -1094,11 +1100,7 @@ class TransientSensitivities(ParameterDerivatives):
         out = self._geometric_rate_in_time(state, w)
         if not np.any(inertial):
             return out
-        assembler.complete_links(state)   # J of the state in the links' buffers
-        for c in range(len(self.names)):
-            if np.any(inertial[:, c]):
-                out[:, c] += geometric_product(assembler, state, inertial[:, c], w)
-        return out
+        return out + self._geometric_products(state, inertial, w)
 
     def _geometric_rate_in_time(self, state, w: np.ndarray) -> np.ndarray:
         """(n, k): at an event moved in time (``time_shift`` δt_e) on a model with rigid links or guides and
