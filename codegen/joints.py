@@ -631,22 +631,43 @@ def _hinge_stiffness_by_rate_kernel() -> KernelSpec:
                       "the angle and its rate; Hunt-Crossley contact", intermediates=branch_free.intermediates)
 
 
+def _stop_law_kernel(name: str, by_angle: bool, description: str, doc: str) -> KernelSpec:
+    """∂/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇), or with ``by_angle`` of
+    its ∂/∂θ at fixed θ̇, differentiated from the same expression as the force the residual holds."""
+    state, contact = HINGE_STATE.symbols(), JOINT_CONTACT.symbols()
+    branch_free = _BranchFree()
+    force, _, _ = joint_contact(state[0], state[1], contact)
+    differentiated = sp.diff(force, state[0]) if by_angle else force
+    law = [contact[2], contact[3], contact[4]]   # stiffness exponent damping
+    outputs = [Output(name, (3,), [branch_free(sp.diff(differentiated, symbol)) for symbol in law], description)]
+    return KernelSpec(name=name, doc=doc, inputs=[HINGE_STATE, JOINT_CONTACT], outputs=outputs, variant="joints",
+                      equations="Hunt-Crossley contact", intermediates=branch_free.intermediates)
+
+
 def _contact_law_derivative_kernel() -> KernelSpec:
     """∂f/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇): the
     right-hand sides of sensitivities by the stop's stiffness, exponent and damping
     (latdyn/analyses/transient_sensitivities.py), differentiated from the same expression as the
     force the residual holds."""
-    state, contact = HINGE_STATE.symbols(), JOINT_CONTACT.symbols()
-    branch_free = _BranchFree()
-    force, _, _ = joint_contact(state[0], state[1], contact)
-    law = [contact[2], contact[3], contact[4]]   # stiffness exponent damping
-    outputs = [Output("contact_force_D_law", (3,), [branch_free(sp.diff(force, symbol)) for symbol in law],
-                      "∂f_contact/∂(k, n, c): the compliant stops' force F_u − F_l by their stiffness, exponent "
-                      "and damping (the friction depends on none of them)")]
-    return KernelSpec(name="contact_force_D_law", doc="The derivatives of a joint's compliant-stop force "
-                      "(Hunt-Crossley) by its law's stiffness, exponent and damping",
-                      inputs=[HINGE_STATE, JOINT_CONTACT], outputs=outputs, variant="joints",
-                      equations="Hunt-Crossley contact", intermediates=branch_free.intermediates)
+    return _stop_law_kernel("contact_force_D_law", False,
+                            "∂f_contact/∂(k, n, c): the compliant stops' force F_u − F_l by their stiffness, exponent "
+                            "and damping (the friction depends on none of them)",
+                            "The derivatives of a joint's compliant-stop force (Hunt-Crossley) by its law's stiffness, "
+                            "exponent and damping")
+
+
+def _contact_stiffness_law_derivative_kernel() -> KernelSpec:
+    """∂(∂f_contact/∂θ)/∂(k, n, c) of a compliant stop's force (:func:`joint_contact`) at a joint's (θ, θ̇), fixed θ̇:
+    how a parameter of the stop's stiffness, exponent or damping moves the joint's K = ∂f/∂θ (``hinge_force``'s
+    ``hinge_stiffness``), a parameter's part of an event's impulse weight derivative (∂K/∂p) w
+    (latdyn/analyses/parameter_stiffness.py). F_u = ⟨δ_u⟩ⁿ ⟨k + c θ̇⟩ is not linear in n, nor in (k, c) across the
+    clip, so no value fed to ``hinge_force`` in the law's place gives it. The friction's force depends on θ̇ alone: its
+    part of K is 0, and so is its derivative."""
+    return _stop_law_kernel("contact_stiffness_D_law", True,
+                            "∂(∂f_contact/∂θ)/∂(k, n, c): the compliant stops' part of the joint's stiffness by their "
+                            "law's stiffness, exponent and damping",
+                            "The derivatives of a joint's compliant-stop stiffness ∂f_contact/∂θ (Hunt-Crossley) by "
+                            "its law's stiffness, exponent and damping")
 
 
 def _friction_law_derivative_kernel() -> KernelSpec:
@@ -746,6 +767,13 @@ def _cable_moved(geometry, delta):
     return moved
 
 
+def cable_stiffness_along(geometry, velocity, section, direction):
+    """K w of a taut cable element (K = ``cable_stiffness`` of :func:`_cable_force_kernel`, the damper's c ℓ̇ included,
+    at fixed rates): the derivative of :func:`cable_terms`' force along the configuration update τ w at τ = 0."""
+    tau = sp.Symbol("tau")
+    return sp.diff(cable_terms(_cable_moved(geometry, tau * direction), velocity, section)[0], tau).xreplace({tau: 0})
+
+
 def _cable_stiffness_D_q_kernel() -> KernelSpec:
     """A taut cable element's stiffness along a direction, K w (K = ``cable_stiffness`` of :func:`_cable_force_kernel`,
     the damper's c ℓ̇ included, at fixed rates), and its exact derivative by the end coordinates at fixed w and rates
@@ -755,13 +783,10 @@ def _cable_stiffness_D_q_kernel() -> KernelSpec:
     too."""
     geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
     direction = _vector(CABLE_DIRECTION.symbols())
-    tau, second = sp.Symbol("tau"), sp.Matrix(sp.symbols("epsilon_0:12"))
-
-    def stiffness_along(where):
-        return sp.diff(cable_terms(_cable_moved(where, tau * direction), velocity, section)[0], tau).xreplace({tau: 0})
-
-    along = stiffness_along(list(geometry))
-    by_q = _jacobian(stiffness_along(_cable_moved(list(geometry), second)), second, {e: 0 for e in second})
+    second = sp.Matrix(sp.symbols("epsilon_0:12"))
+    along = cable_stiffness_along(list(geometry), velocity, section, direction)
+    by_q = _jacobian(cable_stiffness_along(_cable_moved(list(geometry), second), velocity, section, direction), second,
+                     {e: 0 for e in second})
     outputs = [Output("cable_stiffness_along", (12,), _rows(along), "(∂cable_force/∂[d1, π1, d2, π2]) w"),
                Output("cable_stiffness_along_D_q", (12, 12), _rows(by_q),
                       "∂(cable_stiffness_along)/∂[d1, π1, d2, π2] at fixed w and rates (spatial update)")]
@@ -788,6 +813,23 @@ def _cable_rest_length_kernel() -> KernelSpec:
     return KernelSpec(name="cable_force_D_rest_length", doc="The derivatives of a taut cable element's force and "
                       "state by its rest length share L0 (a rest length parameter, a reel)",
                       inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION], outputs=outputs, variant="joints",
+                      equations="Eq. 2 (the end points); cables, issue 32; their sensitivities, issue 34")
+
+
+def _cable_stiffness_D_rest_length_kernel() -> KernelSpec:
+    """∂(K w)/∂L0 of a taut cable element at fixed ends, rates, EA, c and w (K w of :func:`cable_stiffness_along`): a
+    rest length parameter's part of an event's impulse weight derivative, (∂K/∂p) w
+    (latdyn/analyses/parameter_stiffness.py). K is not linear in L0 (N_el = EA (ℓ/L0 − 1)), so no value fed to
+    ``cable_stiffness_D_q`` in L0's place gives it."""
+    geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
+    direction = _vector(CABLE_DIRECTION.symbols())
+    along = cable_stiffness_along(list(geometry), velocity, section, direction)
+    outputs = [Output("cable_stiffness_along_D_rest_length", (12,), _rows(sp.diff(along, section[0])),
+                      "∂((∂cable_force/∂[d1, π1, d2, π2]) w)/∂L0 at fixed ends, rates and w")]
+    return KernelSpec(name="cable_stiffness_D_rest_length", doc="The derivative of a taut cable element's stiffness "
+                      "along a direction by its rest length share L0 (an event's impulse weight with a rest length "
+                      "parameter)", inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION, CABLE_DIRECTION],
+                      outputs=outputs, variant="joints",
                       equations="Eq. 2 (the end points); cables, issue 32; their sensitivities, issue 34")
 
 
@@ -1253,11 +1295,12 @@ def build_kernels() -> list[KernelSpec]:
             _point_load_stiffness_D_q_kernel(), _hinged_end_kernel(),
             _reference_variation_kernel(), _hinge_force_kernel(), _hinge_stiffness_by_angle_kernel(),
             _hinge_stiffness_by_rate_kernel(),
-            _contact_law_derivative_kernel(), _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
+            _contact_law_derivative_kernel(), _contact_stiffness_law_derivative_kernel(),
+            _friction_law_derivative_kernel(), _so3_exp_kernel(), _so3_dexp_kernel(),
             _so3_log_increment_kernel(), _link_edge_kernel(),
             _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
-            _cable_stiffness_D_q_kernel(), _cable_rest_length_kernel(),
+            _cable_stiffness_D_q_kernel(), _cable_rest_length_kernel(), _cable_stiffness_D_rest_length_kernel(),
             _cable_tension_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),

@@ -668,10 +668,11 @@ class AdjointSensitivities(TransientSensitivities):
         one call of 3n columns, its generated parts exact and its differences (the links' second derivatives, the
         blocks not generated) the forward method's along each unit move — and transposed. Pᵀū:
         scale·((∂K/∂p) w)ᵀū with the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`: the section values',
-        hinges', loads', joint bodies' and cables' EA and damping parts generated, latdyn/analyses/parameter_stiffness.py,
-        the rest a difference along w of ∂r/∂p without them and the elements' gravity load; with guides or rigid
-        links its reduction's geometric term, :meth:`_geometric_derivative`), and with ``mass`` the transposed
-        products (:meth:`residual_transposed_product`, exact) at the accelerations w less at rest."""
+        hinges', loads', joint bodies', cables', compliant stops' and friction's parts generated,
+        latdyn/analyses/parameter_stiffness.py, controllers' terms differenced apart, the rest a difference along w
+        of ∂r/∂p without them and the elements' gravity load; with guides or rigid links its reduction's geometric
+        term, :meth:`_geometric_derivative`), and with ``mass`` the transposed products
+        (:meth:`residual_transposed_product`, exact) at the accelerations w less at rest."""
         linked = self.model.links is not None
         if linked:
             q_part, v_part, vdot_part = self._linked_weight_transposed(state, w, u_bar, scale, mass)

@@ -2,8 +2,8 @@
 weight's derivative"; latdyn/analyses/transient_sensitivities.py ``_stiffness_derivative``).
 
 At an event the forward sensitivities need δ(W w) = H δq + (∂W/∂p) w, W = M + s K, and the adjoint its transpose.
-(∂K/∂p) w is the derivative along w of the static ∂r/∂p (the evaluation's K is ∂r/∂q without the elements' gravity
-tangent). Each use of a parameter whose ∂r/∂p comes from a generated kernel with the derivative values in the
+(∂K/∂p) w is ∂(K w)/∂p, K the evaluation's (∂r/∂q without the elements' gravity tangent): the derivative along w of
+the static ∂r/∂p wherever that holds every term K differentiates (not a cable's masses' weight, below). Each use of a parameter whose ∂r/∂p comes from a generated kernel with the derivative values in the
 parameter's place has the same kernel's stiffness with them there, so (∂K/∂p) w is that stiffness along w:
 
 * section values: ``beam_stiffness_D_section`` (:meth:`ParameterDerivatives.add_section_stiffness_along`, before);
@@ -21,13 +21,33 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
 * a cable's EA and damping: the taut law is linear in (EA, c) at a fixed rest length
   (latdyn/analyses/cable_sensitivities.py), so ``cable_stiffness_D_q``'s ``cable_stiffness_along`` at (∂EA/∂p,
   ∂c/∂p) for the elements taut at the state;
+* a cable's rest length: K_c is not linear in L0 (N_el = EA (ℓ/L0 − 1)), so its own kernel,
+  ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 (codegen/joints.py, beside ``cable_stiffness_D_q``), times the
+  element's share of ∂L0/∂p;
+* a cable's ρA and rest length move its lumped point masses (½ ρA L0/elements at each end of each element, at the
+  end's offset from its node): their weight's stiffness in K, ``joint_body_gravity_stiffness_D_q`` at the masses'
+  ∂m/∂p (:func:`_cable_masses`). The static ∂r/∂p holds no cable weight (the cables' part adds the masses' forces
+  with the inertia forces alone), so the difference along w this replaced left it out: ρA's column was 0, a rest
+  length's 0.05–0.3 off (tests/test_weight_derivative_parameters2.py);
+* a compliant stop's stiffness, exponent and damping: F = ⟨δ⟩ⁿ ⟨k ± c θ̇⟩ is not linear in n, nor in (k, c) across
+  its clip, so its own kernel, ``contact_stiffness_D_law``'s ∂(∂f_contact/∂θ)/∂(k, n, c) at the joint's (θ, θ̇),
+  times the law's derivative and w_j (:func:`_stops`);
+* friction's laws: its force depends on θ̇ alone, so its part of K is 0, and its (∂K/∂p) w too;
 * initial velocities: no ∂r/∂p.
 
-Not generated, differenced along w by the caller (:func:`exact_parameters` False): a cable's rest length and ρA
-(K is not linear in L0; no kernel holds ∂(K w)/∂L0), compliant stops' and friction's laws, geometry parameters,
-controllers' outputs and states, a hinge law that names an input (its value is the runtime's), and every parameter
-of a run whose ∂r/∂p holds more than the parameters' own terms (:meth:`TransientSensitivities.by_sections_only`'s
-conditions: a state moved in time, held angles, controllers, rigid links or guides).
+Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
+outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
+parameters' own parts are generated as above and the caller differences those terms along w apart
+(``TransientSensitivities._terms_beside_stiffness_along``; a parameter a controller's output alone uses has that part
+only). With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
+the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
+stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
+added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
+differenced along w by the caller (:func:`exact_parameters` False): geometry parameters (no kernel holds ∂(K w)/∂X:
+``beam_internal_force_D_reference`` is ∂F/∂X alone), a hinge law that names an input or a controller (its value is
+the runtime's), every parameter of a run whose state an event moved in time through a prescribed motion, a reel or
+a controller's output in t (:func:`time_generated`), and with rigid links or guides every parameter beside
+controllers, held angles or a time shift (their terms through the reduction are not separated).
 
 The weight's move along the rates, ∂(K w)/∂v δv, is not a parameter's part: latdyn/analyses/weight_derivative.py
 "Along the rates" (the hinges' ∂²f/∂θ∂θ̇, controllers' couplings and loads of angles and rates, damped cables).
@@ -36,11 +56,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY_KEY, SECTION_KEY
+from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY_KEY, SECTION_KEY, joint_law
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["exact_parameters", "stiffness_along", "time_generated", "time_stiffness_along"]
+__all__ = ["exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -48,9 +68,8 @@ def _generated_use(owner, key: str, laws: dict) -> bool:
     (module docstring)."""
     if SECTION_KEY.match(key) or INITIAL_VELOCITY_KEY.match(key) or BODY_KEY.match(key):
         return True
-    cable = CABLE_KEY.match(key)
-    if cable:
-        return cable["value"] in ("EA", "damping")
+    if CABLE_KEY.match(key) or joint_law(key) is not None:   # EA, damping, rest length, ρA; stops, friction
+        return True
     load, hinge = owner._key_kinds(key)
     if load:
         return True
@@ -73,12 +92,14 @@ def _slopes_known(law) -> bool:
 
 
 def exact_parameters(owner) -> np.ndarray:
-    """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring); none where
-    ``owner.by_sections_only`` finds ∂r/∂p holding more than the parameters' own terms (checked per call: the state's
-    time shift and held angles change at each event)."""
+    """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring; beside controllers
+    and held angles the caller adds their terms' difference); none where the state's time shift is not generated,
+    nor with rigid links or guides beside controllers, held angles or a time shift (checked per call: the time shift
+    and held angles change at each event)."""
     shifted = owner.time_shift is not None and owner.explicit_time is not None and np.any(owner.time_shift)
-    held = owner.held is not None and np.any(owner.held)
-    if (shifted and not time_generated(owner)) or held or owner.scene.controllers or owner.model.links is not None:
+    linked = owner.model.links is not None and (shifted or owner.controllers is not None
+                                                or (owner.held is not None and np.any(owner.held)))
+    if (shifted and not time_generated(owner)) or linked:
         return np.zeros(len(owner.names), bool)
     found = owner.__dict__.get("_parameter_stiffness_exact")
     if found is None:
@@ -115,15 +136,24 @@ def stiffness_along(owner, state, w: np.ndarray, cables: bool = True) -> np.ndar
     """(∂K/∂p) w (n_total + 1, k) of the hinges', loads', joint bodies' and cables' uses of the parameters
     (module docstring; the section values' are :meth:`ParameterDerivatives.add_section_stiffness_along`'s), w on the
     free coordinates; every column, exact or not (the caller takes the exact ones)."""
+    full = np.zeros(owner.model.n_total + 1)
+    full[:owner.model.n_dofs] = w
+    return stiffness_along_all(owner, state, full, cables)
+
+
+def stiffness_along_all(owner, state, full: np.ndarray, cables: bool = True) -> np.ndarray:
+    """:func:`stiffness_along` with the direction ``full`` (n_total + 1,) on all coordinates (with rigid links or
+    guides P w: the dependent nodes moving with the free ones)."""
     model = owner.model
-    full = np.zeros(model.n_total + 1)
-    full[:model.n_dofs] = w
     total = np.zeros((model.n_total + 1, len(owner.names)))
     _hinges(owner, state, full, total)
     _loads(owner, state, full, total)
     _bodies(owner, state, full, total)
     if cables:   # (ExplicitTime's laws in t have none: its reels are not generated here)
         _cables(owner, state, full, total)
+        _cable_masses(owner, state, full, total)
+        _stops(owner, state, full, total)
+        _link_masses(owner, state, full, total)
     return total
 
 
@@ -206,28 +236,44 @@ def _bodies(owner, state, full: np.ndarray, total: np.ndarray) -> None:
         found = np.flatnonzero(model.body_nodes == node)
         if not len(found):
             continue
-        dofs = _scattered(model.node_dofs[node], model.n_total)
-        moving = full[dofs]
-        if not np.any(moving[3:6]):
+        dofs, moving, frame = _node_along(owner, state, full, node)
+        if dofs is None:
             continue
-        frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
         for column, law in laws.items():
             block, com = owner.body_block(body, int(found[0]), law.value(0.0, 0.0, t))
             if com is not None:   # ∂f/∂c along ∂c/∂p: the weight at the centre of mass ∂c/∂p
                 block = block.copy()
                 block[0, 1:4] = com
-            along = owner.kernels.joint_body_gravity_stiffness_D_q(frame, np.ascontiguousarray(moving[None]), block,
-                                                                   np.ascontiguousarray(gravity[None]))[0]
-            total[dofs, column] += np.asarray(along).reshape(6)
+            total[dofs, column] += _weight_stiffness_along(owner, frame, moving, block, gravity)
+
+
+def _node_along(owner, state, full: np.ndarray, node: int) -> tuple:
+    """(its rows (6,), w on them, its frame (1, 9)) of a joint body's node, or (None, None, None) where w does not turn
+    it (a weight's stiffness is on its turns alone)."""
+    model = owner.model
+    dofs = _scattered(model.node_dofs[node], model.n_total)
+    moving = full[dofs]
+    if not np.any(moving[3:6]):
+        return None, None, None
+    return dofs, moving, np.ascontiguousarray(state.T[node].reshape(1, 9))
+
+
+def _weight_stiffness_along(owner, frame: np.ndarray, moving: np.ndarray, block: np.ndarray,
+                            gravity: np.ndarray) -> np.ndarray:
+    """(6,) a joint body's weight's stiffness along w on its node, ``joint_body_gravity_stiffness_D_q`` at ``block``."""
+    along = owner.kernels.joint_body_gravity_stiffness_D_q(frame, np.ascontiguousarray(moving[None]), block,
+                                                           np.ascontiguousarray(gravity[None]))[0]
+    return np.asarray(along).reshape(6)
 
 
 def _cables(owner, state, full: np.ndarray, total: np.ndarray) -> None:
-    """The cables' EA and damping: ``cable_stiffness_D_q``'s K_c w at (∂EA/∂p, 0) or (0, ∂c/∂p) for the elements
-    taut at the state (:meth:`CableSensitivities.taut`)."""
+    """The cables' EA, damping and rest length, for the elements taut at the state (:meth:`CableSensitivities.taut`):
+    ``cable_stiffness_D_q``'s K_c w at (∂EA/∂p, 0) or (0, ∂c/∂p) (the taut law is linear in them), and
+    ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 times the element's share of ∂L0/∂p (K_c is not linear in L0)."""
     cables = getattr(owner, "cables", None)
     if cables is None or not cables.uses:
         return
-    uses = [use for use in cables.uses if use[1] in ("EA", "damping")]
+    uses = [use for use in cables.uses if use[1] in ("EA", "damping", "rest_length")]
     if not uses:
         return
     taut = cables.taut(state)
@@ -241,8 +287,91 @@ def _cables(owner, state, full: np.ndarray, total: np.ndarray) -> None:
             along = full[rows]
             if not np.any(along):
                 continue
-            moved = {"EA": derivative, "c": 0.0} if value == "EA" else {"EA": 0.0, "c": derivative}
-            inputs = cables.inputs(state, e, **moved)
-            out = owner.kernels.cable_stiffness_D_q(*(np.ascontiguousarray(a[None]) for a in inputs),
-                                                    np.ascontiguousarray(along[None]))[0]
+            if value == "rest_length":
+                inputs = cables.inputs(state, e)
+                out = derivative * cables.cables.share[e] * np.asarray(owner.kernels.cable_stiffness_D_rest_length(
+                    *(np.ascontiguousarray(a[None]) for a in inputs), np.ascontiguousarray(along[None]))[0])
+            else:
+                moved = {"EA": derivative, "c": 0.0} if value == "EA" else {"EA": 0.0, "c": derivative}
+                inputs = cables.inputs(state, e, **moved)
+                out = owner.kernels.cable_stiffness_D_q(*(np.ascontiguousarray(a[None]) for a in inputs),
+                                                        np.ascontiguousarray(along[None]))[0]
             np.add.at(total[:, column], rows, np.asarray(out).reshape(12))
+
+
+def _cable_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """A cable's ρA and rest length move its lumped point masses, ½ ρA L0/elements at each end of each element at
+    an offset from its node (latdyn/model/cables.py), and so their weight and its stiffness in K (the joint bodies'
+    G_b): ``joint_body_gravity_stiffness_D_q`` along w at the masses' ∂m/∂p
+    (:meth:`CableSensitivities.mass_blocks`, the blocks ∂r/∂p's inertia forces take; the weight is linear in m).
+    The static ∂r/∂p holds no cable's weight (:meth:`CableSensitivities.residual_derivatives` adds the masses' forces
+    with the inertia forces alone), so its difference along w, the path before, left this part out: 1.0 of ρA's
+    column and 0.05 of a rest length's on the 3D boom of tests/test_weight_derivative_parameters2.py."""
+    cables = getattr(owner, "cables", None)
+    if cables is None or not cables.uses:
+        return
+    gravity = np.asarray(owner.assembler.gravity, float)
+    if not np.any(gravity):
+        return
+    model = owner.model
+    for k, value, column, law in cables.uses:
+        if value not in ("rhoA", "rest_length") or k not in cables.mass_rows:
+            continue
+        rows, block, weight = cables.mass_blocks(k, value, law)
+        nodes = model.body_nodes[rows]
+        dofs = _scattered(model.node_dofs[nodes], model.n_total)
+        moving = full[dofs]
+        on = np.flatnonzero(np.any(moving[:, 3:6] != 0.0, axis=1))
+        if not len(on) or not np.any(block[:, 0]):
+            continue
+        frames = np.ascontiguousarray(state.T[nodes[on]].reshape(-1, 9))
+        along = owner.kernels.joint_body_gravity_stiffness_D_q(frames, np.ascontiguousarray(moving[on]),
+                                                               np.ascontiguousarray(block[on]),
+                                                               np.ascontiguousarray(weight[on]))[0]
+        np.add.at(total[:, column], dofs[on], np.asarray(along).reshape(len(on), 6))
+
+
+def _link_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """A rigid link's section ρA (and ρIy, ρIz, which weigh nothing) moves its joint body's mass: its weight's stiffness
+    along w on the link's node, ``joint_body_gravity_stiffness_D_q`` at the block ∂r/∂p takes
+    (latdyn/analyses/link_sensitivities.py ``add_link_section_forces``: (L ∂ρA/∂p, c, ∂I/∂p), linear in m)."""
+    from latdyn.analyses.link_sensitivities import link_section_uses
+    from latdyn.model.model import rigid_link_inertia
+
+    uses = link_section_uses(owner) if owner.model.links is not None else None
+    gravity = np.asarray(owner.assembler.gravity, float)
+    if not uses or not np.any(gravity):
+        return
+    model, t = owner.model, float(state.t)
+    for beam, b, node, value, laws in uses:
+        dofs, moving, frame = _node_along(owner, state, full, node)
+        if dofs is None:
+            continue
+        for column, law in laws.items():
+            moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
+            moved[value] = law.value(0.0, 0.0, t)
+            mass, _, turning = rigid_link_inertia(beam, **moved)
+            block = np.zeros((1, 13))
+            block[0, 0], block[0, 1:4], block[0, 4:13] = mass, model.body_com[b], turning.reshape(9)
+            total[dofs, column] += _weight_stiffness_along(owner, frame, moving, block, gravity)
+
+
+def _stops(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """The hinges' (and guides') compliant stops' stiffness, exponent and damping: ``contact_stiffness_D_law``'s
+    ∂(∂f_contact/∂θ)/∂(k, n, c) at the joint's (θ, θ̇) times the law's derivative by the parameter, times w_j (the
+    force is not linear in n, nor in (k, c) across its clip). Friction's force depends on θ̇ alone: its part of K,
+    and of (∂K/∂p) w, is 0."""
+    model = owner.model
+    t = float(state.t)
+    for (beam, end, kind, slot), laws in owner.joint_law_uses():
+        if kind != "contact":
+            continue
+        j = model.hinge_index(beam, end)
+        d = int(_scattered(np.asarray(model.hinge_dofs[j]), model.n_total))
+        along = full[d]
+        if along == 0.0:
+            continue
+        at = np.array([[float(state.theta[j]), float(state.theta_dot[j]), model.hinges[j].rest_angle, 1.0]])
+        slope = float(np.asarray(owner.kernels.contact_stiffness_D_law(at, owner.contact_row(j))[0]).reshape(-1)[slot])
+        for column, derivative in laws.items():
+            total[d, column] += derivative.value(0.0, 0.0, t) * slope * along

@@ -130,6 +130,7 @@ from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_stiffness import (exact_parameters, stiffness_along as parameter_stiffness_along,
+                                                 stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
@@ -944,20 +945,24 @@ class TransientSensitivities(ParameterDerivatives):
         force tangent, the joint bodies' weight, hinges, loads, cables, contact (the elements' gravity tangent is
         not in it: csrc/evaluate.c holds it in the inertia tangent). Without rigid links or guides: the section
         values' part generated for every parameter (``beam_stiffness_D_section``, :meth:`_section_stiffness_along`),
-        the hinges', loads', joint bodies' and cables' EA and damping parts (and the event's time shift's through
-        loads' and hinges' laws in t) generated for the parameters whose every use has one
-        (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), and for the others a central difference along w
-        (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element forces and
-        without the elements' gravity load (``sections``, ``element_gravity`` of :meth:`residual_derivatives`): a
-        cable's rest length and ρA, contact and friction laws, geometry parameters' internal forces, a hinge law
-        naming an input, and all of them where a prescribed motion, a reel or a controller's output in t moves the
-        state in time, where friction holds angles, or with controllers. With rigid links or guides the difference
-        of the static ∂r/∂p without the elements' gravity load along w (the reduction's projection moves with it;
-        :meth:`_geometric_derivative` adds the rest of its geometric term)."""
+        the hinges', loads', joint bodies', cables' (EA, damping, rest length, ρA), compliant stops' and friction's
+        parts (and the event's time shift's through loads' and hinges' laws in t) generated for the parameters whose
+        every use has one (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), beside controllers and held
+        angles with their terms of ∂r/∂p differenced apart (:meth:`_terms_beside_stiffness_along`), and for the others
+        a central difference along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section
+        values' element forces and without the elements' gravity load (``sections``, ``element_gravity`` of
+        :meth:`residual_derivatives`): geometry parameters' internal forces, a hinge law naming an input, and all of
+        them where a prescribed motion, a reel or a controller's output in t moves the state in time. With rigid
+        links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`) where no controller,
+        held angle or time shift adds terms, else the difference of the static ∂r/∂p without the elements' gravity
+        load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia
+        forces' geometric term."""
         model = self.model
         out = np.zeros((model.n_dofs, len(self.names)))
         linked = model.links is not None
-        exact = np.zeros(len(self.names), bool) if linked else exact_parameters(self)
+        exact = exact_parameters(self)
+        if linked and np.any(exact):   # the parameters' own parts through P w, the reduction's geometric term exact
+            out[:, exact] += self._linked_stiffness_along(state, w)[:, exact]
         if not linked:
             out += self._section_stiffness_along(state, w)
             if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
@@ -966,6 +971,8 @@ class TransientSensitivities(ParameterDerivatives):
                 if shifted:   # the state moved in time by δt_e: ∂(∂r/∂t)/∂q w δt_e, the laws' rates in t generated
                     along += np.outer(time_stiffness_along(self, state, w), self.time_shift)
                 out[:, exact] += self._on_free_coordinates(state, along)[:, exact]
+                if self.controllers is not None or (self.held is not None and np.any(self.held)):
+                    out[:, exact] += self._terms_beside_stiffness_along(state, w)[:, exact]
         if not np.all(exact):
             assembler = self.assembler
             eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
@@ -976,6 +983,59 @@ class TransientSensitivities(ParameterDerivatives):
             moved = (static(assembler.advance(state, eta * w)) - static(assembler.advance(state, -eta * w))) / (2 * eta)
             out[:, ~exact] += moved[:, ~exact]
         return out
+
+    def _linked_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(∂K/∂p) w (n, k) with rigid links or guides (no controllers, held angles or time shift: their terms are in
+        the static ∂r/∂p too) for the parameters of ``exact_parameters``: K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all, so
+        (∂K_red/∂p) w = Pᵀ (∂K_all/∂p)(P w) + ∂Pᵀ/∂q[w] · ∂r_all/∂p — the generated parts (the section values' and
+        latdyn/analyses/parameter_stiffness.py's) along P w on the assembled coordinates, reduced, and the forward
+        step's geometric term of each column of the static ∂r_all/∂p (without the elements' gravity load) times w
+        (:func:`latdyn.analyses.weight_derivative.geometric_product`, exact; :meth:`_geometric_derivative` adds the
+        inertia forces'). Before, the difference of the whole reduced static ∂r/∂p along w."""
+        model, assembler = self.model, self.assembler
+        n_asm = model.n_assembled
+        assembler.complete_links(state)
+        projection = assembler.evaluate(state, matrices=True).projection
+        full = np.zeros(model.n_total + 1)
+        full[:n_asm] = np.asarray(projection @ w).reshape(-1)
+        total = parameter_stiffness_along_all(self, state, full)
+        self.add_section_stiffness_along(state, full, total)
+        out = self._on_free_coordinates(state, total)
+        static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
+        return out + self._geometric_products(state, static, w)
+
+    def _geometric_products(self, state, columns: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """(n, k): ∂(Pᵀ y)/∂q[w] at fixed y for each column y of ``columns`` (on the assembled coordinates), the
+        forward step's geometric term of y times w (:func:`latdyn.analyses.weight_derivative.geometric_product`)."""
+        out = np.zeros((self.model.n_dofs, len(self.names)))
+        self.assembler.complete_links(state)   # J of the state in the links' buffers
+        for c in range(len(self.names)):
+            if np.any(columns[:, c]):
+                out[:, c] += geometric_product(self.assembler, state, columns[:, c], w)
+        return out
+
+    def _terms_beside_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(n, k): the derivative along w of the static ∂r/∂p's terms beside the parameters' own, alone — the
+        continuous and sampled controllers' (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`: their
+        outputs' explicit ∂y/∂p, the chained and held outputs' and the states' terms on the actuators' rows) and the
+        angles friction holds (:meth:`_held_forces`: K's columns of them times their δθ) —, a central difference
+        (step :data:`WEIGHT_STEP` ℓ/|w|_∞, two evaluations of those terms): the part of (∂K/∂p) w whose second
+        derivatives (the couplings' through the sensors, K's along a held angle) no kernel holds. The parameters' own
+        terms beside them are generated (latdyn/analyses/parameter_stiffness.py); before, the whole static ∂r/∂p
+        was differenced with them."""
+        model, assembler = self.model, self.assembler
+        eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
+
+        def beside(moved):
+            total = np.zeros((model.n_total + 1, len(self.names)))
+            if self.controllers is not None:
+                self.controllers.add(moved, total)
+            held = self._held_forces(moved, False)
+            if held is not None:
+                total += held
+            return self._on_free_coordinates(moved, total)
+
+        return (beside(assembler.advance(state, eta * w)) - beside(assembler.advance(state, -eta * w))) / (2 * eta)
 
     def coordinate_step(self) -> float:
         """The configuration step of the central differences along one coordinate (H_rest's columns,
@@ -1055,11 +1115,7 @@ class TransientSensitivities(ParameterDerivatives):
         out = self._geometric_rate_in_time(state, w)
         if not np.any(inertial):
             return out
-        assembler.complete_links(state)   # J of the state in the links' buffers
-        for c in range(len(self.names)):
-            if np.any(inertial[:, c]):
-                out[:, c] += geometric_product(assembler, state, inertial[:, c], w)
-        return out
+        return out + self._geometric_products(state, inertial, w)
 
     def _geometric_rate_in_time(self, state, w: np.ndarray) -> np.ndarray:
         """(n, k): at an event moved in time (``time_shift`` δt_e) on a model with rigid links or guides and

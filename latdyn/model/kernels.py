@@ -393,11 +393,14 @@ def optimisation(ops: int) -> str:
 #: in a section value (docs/parameters.md, "Section values"); the stiffness's derivative along a direction by the
 #: coordinates only at an event's impulse with sensitivities (latdyn/analyses/weight_derivative.py), the point loads'
 #: and the cable elements' likewise (codegen/joints.py; the cable's 5 240 operations 0.5 s of the joints unit's first
-#: compile, docs/performance.md "The rest of the impulse weight's derivative generated").
+#: compile, docs/performance.md "The rest of the impulse weight's derivative generated"); the cable's stiffness by its
+#: rest length and a compliant stop's by its law only at an event with such a parameter
+#: (latdyn/analyses/parameter_stiffness.py).
 ON_DEMAND = ("beam_inertia_tangent", "beam_section_forces_D_q", "beam_internal_force_D_reference",
              "beam_inertia_force_D_reference", "beam_section_forces_D_reference", "beam_internal_force_D_section",
              "beam_inertia_force_D_section", "beam_section_forces_D_section", "beam_energies_D_section",
-             "beam_stiffness_D_section", "beam_stiffness_D_q", "point_load_stiffness_D_q", "cable_stiffness_D_q")
+             "beam_stiffness_D_section", "beam_stiffness_D_q", "point_load_stiffness_D_q", "cable_stiffness_D_q",
+             "cable_stiffness_D_rest_length", "contact_stiffness_D_law")
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
