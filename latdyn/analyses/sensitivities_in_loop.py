@@ -81,9 +81,14 @@ and sampled controllers between their samples (the loop hands each sample
 instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
 differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
-``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) on a model without
-rigid links or guides that read hinge and guide angles and nodes' positions and displacements in global axes (not
-beside geometry parameters) and drive hinge torques, guide forces and load components (the step size's column
+``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) that read hinge
+and guide angles and points' positions and displacements in global or a body's axes, at a node or offset from it (not
+beside geometry parameters; their values the evaluation's sensor_value, a point's δs at an offset or in a body's axes
+its gradient times δq, csrc/controller_states.c ``controller_state_sensed``, which the per-step path calls too; a
+prescribed body's or hinge's beside events too: δt is 0 at every step the loop takes), on a model with rigid links or
+guides too where no sensor of theirs is on a rigid link's body or a guided body (the matrices condensed inside
+``latdyn_linked_exact_values``, the step size's column reduced by Pᵀ, tests/test_sensitivities_in_loop_states_more.py),
+and drive hinge torques, guide forces and load components (the step size's column
 through the states reaching the loads by csrc/sensitivity_loop.c ``controller_states_load_step_size``), read by
 no other controller (the package runs no such chain: latdyn/assembly/control.py), beside sampled controllers too
 (``_states_refusal``), and probes recording their states and outputs (each recorded row's δS and accepted S kept in C,
@@ -126,9 +131,9 @@ after it is the Python path's, energy_sensitivities.external_work_after_event). 
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
-that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
-its node, in a body's axes, a rate —, a prescribed body's position or a prescribed hinge's angle beside events (their
-∂s/∂t δt after an event, ControllerStates._sensed), rigid links or guides, or whose laws did not compile),
+that ``_states_refusal`` names (a sensor other than joint angles and points' positions and displacements — a rate,
+which the package refuses for states on both paths —, a point on a rigid link's body or a guided body (its δs P δq,
+the per-step path's NumPy), beside geometry parameters, or whose laws did not compile),
 controllers reading a
 section force or a cable's tension whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in
 C) or a joint's torque or force whose compliant stop's or friction's law a parameter moves,
@@ -474,57 +479,47 @@ def _read_joint(model, probe) -> int:
 def _states_refusal(owner) -> str | None:
     """Why the continuous controllers with states of ``owner`` keep the run on the Python path, or None: the loop
     carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step and
-    after_step) where each reads hinge or guide angles and the global components of nodes' positions and displacements
-    alone (δs their rows of δq; not beside geometry parameters, which move a point) through its step law
+    after_step) where each reads hinge or guide angles and the components of points' positions and displacements in
+    global or a body's axes alone (not beside geometry parameters, which move a point; δs a row of δq for an angle or a
+    node's coordinate, and for a point offset from its node or in a body's axes the gradient the evaluation's
+    sensor_value leaves times δq, csrc/controller_states.c ``controller_state_sensed``, which ControllerStates._sensed
+    calls too, the values the evaluation's) through its step law
     (ControllerStates ``place``), drives hinge torques, guide forces or loads, is read by no other controller (a probe
     may record its states and output: each row's δS and S are kept, :meth:`SensitivityLoop.record_rows`), its states'
     rates' partials and (with limits) its output compiled (derivative_laws.ControllerPartials), on a model without
     rigid links or guides (beside sampled controllers too: their held δy are added first, SampledTerms.add, on both
-    paths); not where, beside events, its states' rates read a prescribed body's position or a prescribed hinge's
-    angle (after an event their ∂s/∂t δt enters δs: ControllerStates._sensed, not in C)."""
-    from latdyn.analyses.sensitivities import has_events
-    from latdyn.assembly.control import ANGLE, POSITION
+    paths). A sensor on a prescribed body or hinge beside events too: after an event the Python path moves it by
+    ∂s/∂t δt (ControllerStates._sensed, TransientSensitivities._prescribed_in_time), and at every step the loop takes
+    δt_{n+1} = δt_n + δh is 0 exactly (the step lands on the grid, δh = −δt_n: csrc/sensitivity_loop.c), where that
+    term is nothing on the Python path as well (tests/test_sensitivities_in_loop_states_more.py)."""
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION, POSITION
+
+    from latdyn.analyses.sensitivities import senses_dependent
 
     terms, states = owner.controllers, owner.controllers.states
-    if owner.model.links is not None:
-        return "controllers with states on a model with rigid links or guides"
     wiring = owner.assembler.control
     stated = {c.name for c in states.controllers}
     for c in terms.continuous:
         if stated & set(c.reads):
             return f"controller {c.name} reads a controller with states"
     compiled = terms.compiled
-    moving_in_time = has_events(owner.scene)   # the steps after an event end at t + δt_e
     for c in states.controllers:
         k = next(k for k, d in enumerate(wiring.controllers) if d.name == c.name)
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
         kinds = {int(wiring.sensor_kind[i]) for i in sensors}
-        if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k) or not kinds <= {ANGLE, POSITION}
-                or (POSITION in kinds and owner.geometry is not None)):
-            return (f"controller {c.name}: states, and it reads other than hinge and guide angles and nodes' positions "
-                    "and displacements in global axes (or those beside geometry parameters)")
-        rated = {name for name, symbol in zip(c.reads, c.symbols[1:1 + len(c.reads)])
-                 if any(symbol in f.free_symbols for f in c.state_exprs)}   # the sensors its states' rates read
-        if moving_in_time and any(_on_prescribed(owner.model, int(wiring.sensor_kind[i]), int(wiring.sensor_index[i]))
-                                  for i, name in zip(sensors, wiring.sensor_names(k)) if name in rated):
-            return (f"controller {c.name}: states reading a prescribed body's position or a prescribed hinge's angle "
-                    "beside events (their ∂s/∂t δt after an event: ControllerStates._sensed, the Python path's)")
+        points = {POSITION, OFFSET_POSITION, BODY_FRAME}
+        if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k)
+                or not kinds <= {ANGLE} | points or (kinds & points and owner.geometry is not None)):
+            return (f"controller {c.name}: states, and it reads other than hinge and guide angles and points' "
+                    "positions and displacements in global or a body's axes (or those beside geometry parameters)")
+        if senses_dependent(owner.model, wiring, k):
+            return (f"controller {c.name}: states reading a point on a rigid link's body or a guided body (its δs P δq, "
+                    "the per-step path's NumPy: ParameterDerivatives._dependent_motion)")
         if c.name in terms.rate_partials and compiled is None:
             return f"controller {c.name}: its states' rates' parameters' derivatives did not compile"
         if c.limits is not None and (compiled is None or c.name not in compiled.outputs):
             return f"controller {c.name}: states and limits, its output's law did not compile"
     return None
-
-
-def _on_prescribed(model, kind: int, index: int) -> bool:
-    """Whether a controller's sensor (``kind``, ``index`` of the wiring: a joint's angle, or a node's coordinate
-    3 node + component) reads a prescribed hinge's angle or a prescribed body's position."""
-    from latdyn.assembly.control import ANGLE
-    from latdyn.model.model import PRESCRIBED
-
-    if kind == ANGLE:
-        return model.hinges[index].angle is not None
-    return model.nodes[index // 3].kind == PRESCRIBED
 
 
 def _time_refusal(owner) -> str | None:
@@ -1028,6 +1023,7 @@ class SensitivityLoop:
         within the free coordinates, −1: δθ = 0, as ParameterDerivatives._on_free_nodes_and_hinges), the states' rates'
         compiled partials (ControllerPartials.rate_uses: controller, state, column, law number), the carried δS, δf,
         (S, f) filled before each call (:meth:`prepared`) and read back after it (:meth:`carried_after`), scratch."""
+        from latdyn.analyses.sensitivities import sensor_rows
         from latdyn.assembly.library import ControllerStatesLoopData
 
         owner, d = self.owner, self.data
@@ -1039,17 +1035,8 @@ class SensitivityLoop:
         t.n = len(controllers)
         t.place = ints([place[c.name] for c in controllers])
         t.first = ints([states.first[c.name] for c in controllers] + [len(states.slots)])
-        from latdyn.assembly.control import ANGLE
-
-        hinges, nodes = set(int(j) for j in model.free_hinges), set(int(i) for i in model.free_nodes)
-
-        def row(kind: int, index: int) -> int:   # a joint's angle, or a node's coordinate 3 node + component
-            dof, free = ((int(model.hinge_dofs[index]), index in hinges) if kind == ANGLE else
-                         (int(model.node_dofs[index // 3, index % 3]), index // 3 in nodes))
-            return dof if free and dof < model.n_dofs else -1
-
-        t.sensor_dof = ints([row(int(kind), int(index)) for kind, index in
-                             zip(wiring.sensor_kind[:wiring.n_sensors], wiring.sensor_index[:wiring.n_sensors])])
+        sensor_dof, column_dof = sensor_rows(model, wiring)   # the per-step path's own (ControllerStates._sensed)
+        t.sensor_dof, t.column_dof = ints(sensor_dof), ints(column_dof)
         rate_uses = (owner.controllers.compiled.rate_uses if owner.controllers.compiled is not None else [])
         first_law = (len(owner.controllers.compiled.uses) + len(owner.controllers.compiled.outputs)
                      if owner.controllers.compiled is not None else 0)

@@ -276,7 +276,10 @@ class ControllerStatesLoopData(ctypes.Structure):
                 ("law_args", P), ("law_out", P), ("by_step", P), ("width_s", I64), ("width_S", I64),
                 ("half_kept", ctypes.c_double),
                 # the rows recorded on the way: per row δS (P × k) then S (P); NULL: none (controller probes)
-                ("row_states", P)]
+                ("row_states", P),
+                # sensors of points offset from their node or in a body's axes: each sensor gradient column's row in
+                # δq, −1: 0 (controller_state_sensed; SensitivityLoop._controller_states, ControllerStates._sensed)
+                ("column_dof", P)]
 
 
 class WorkAccountsData(ctypes.Structure):
@@ -505,6 +508,9 @@ def native_library() -> ctypes.CDLL:
         # the continuous controllers' states through the sensitivities' step (csrc/controller_states.c)
         library.latdyn_controller_states_begin.restype = I64
         library.latdyn_controller_states_begin.argtypes = [I64, I64, ctypes.c_double, P, P, P, P, P, P, P, P, P, P]
+        library.latdyn_controller_states_sensed.restype = None
+        library.latdyn_controller_states_sensed.argtypes = [model, work, configuration, ctypes.c_double, I64, I64, P, P,
+                                                            I64, P, P]
         library.latdyn_controller_states_after.restype = None
         library.latdyn_controller_states_after.argtypes = [I64, I64, I64, ctypes.c_double, P, P, P, P, P, P, P, P, P,
                                                            P, P, P]

@@ -584,7 +584,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
     if (s->states != NULL) {   /* ControllerStates.begin_step; the matrices with the states condensed from (S_n, f_n) */
-        const int64_t info = controller_states_begin_loop(m, c, s->states, s->controller_partials, s->read_start, k,
+        const int64_t info = controller_states_begin_loop(m, w, c, s->states, s->controller_partials, s->read_start, k,
                                                           t, h);
         if (info) return s->info = info;
         controller_states_condensed(m, w, s->states, h, 1);
@@ -618,11 +618,12 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         s->explicit_[i * cols + k] = 0.0;
     }
     if (s->states != NULL) {   /* the states' derivative by the step size (ControllerStates.by_step_size) */
-        controller_states_step_size_column(m, c, s->states, s->controller_partials, s->read_start, s->output_law,
+        controller_states_step_size_column(m, w, c, s->states, s->controller_partials, s->read_start, s->output_law,
                                            s->output_limited, s->output_limits, s->n_hinge_actuators,
                                            s->actuator_hinge, s->actuator_of, s->actuator_factor, t,
                                            s->n_partial_controllers, s->controller_slopes);
         if (s->n_load_actuators) controller_states_load_step_size(m, c, s);
+        if (s->linked) latdyn_linked_reduce_columns(m, s->states->by_step, 1, s->states->by_step);   /* Pᵀ */
         controller_states_step_size_add(m, s->states, cols, s->explicit_);
     }
     if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t, h);
@@ -650,7 +651,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
             for (int64_t col = 0; col < k; ++col) to[i * k + col] = x[i * cols + col] + x[i * cols + k] * s->dh[col];
     }
     for (int64_t col = 0; col < k; ++col) s->dt[col] = s->dt[col] + s->dh[col];
-    if (s->states != NULL) controller_states_after_loop(m, s->states, s->read_start, k, h, s->dq, s->dh);
+    if (s->states != NULL) controller_states_after_loop(m, w, c, s->states, s->read_start, k, t, h, s->dq, s->dh);
     if (s->accounts != NULL) work_accounts_step(m, w, c, s->accounts, k, s->dq, s->dv, s->dvdot, s->dh, h, grid, t);
     s->steps += 1;
     s->h = h;
