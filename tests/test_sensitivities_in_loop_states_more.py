@@ -3,8 +3,11 @@ sensitivities_in_loop.py ``_states_refusal``, csrc/controller_states.c ``control
 point offset from its node or a point in a body's axes (its value the evaluation's sensor_value, its δs that
 sensor's gradient times δq — the C the per-step Python path's ControllerStates._sensed calls too), and a state
 reading a prescribed body's position or a point in its axes beside an event (δt is 0 at every step the loop takes,
-so the sensors' ∂s/∂t δt is nothing there on either path). The loop's results are the Python path's (the private
-switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, through the API and the CLI, and agree with Richardson differences."""
+so the sensors' ∂s/∂t δt is nothing there on either path), states on models with rigid links or guides whose sensors
+are not on a rigid link's body or a guided body, and a controller reading a joint's torque whose compliant stops' law a
+parameter moves (its ∂F/∂p the joint's row of the hinge laws' and the stops' ∂r/∂p: csrc/sensitivity_loop.c
+``joint_law_force_slopes``). The loop's results are the Python path's (the private switch ``SENSITIVITIES_IN_LOOP``
+off) to the bit, through the API and the CLI, and agree with Richardson differences."""
 from __future__ import annotations
 
 import pytest
@@ -13,6 +16,7 @@ from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_fuzz_run_findings5 import _rows_against_richardson
 from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_in_loop_controller_integral import BOOM
+from tests.test_sensitivities_in_loop_controller_reads import ARM_TORQUE
 from tests.test_sensitivities_in_loop_linked_controllers import _GAINS, BEAD
 from tests.test_sensitivities_in_loop_moving_sensors import BASE_STATE
 from tests.test_sensitivities_in_loop_state_laws import _run
@@ -58,6 +62,20 @@ BEAD_PI = (BEAD.replace("ref: 0.02}", "ref: 0.02, Ki: 20.0}")
            .replace('ctl: {output: "tau + Kp*(ref - slide) - Kd*vs - 0.5*Kp*py"}',
                     'ctl: {output: "tau + Kp*(ref - slide) + Ki*E", states: {E: "ref - slide + 0.2*crank"}}')
            .replace("sensitivities: [Kp, Kd, ref, tau, m, k]", "sensitivities: [Kp, ref, Ki, tau, m, k]"))
+#: tests/test_sensitivities_in_loop_controller_reads.py's 3D arm whose skew hinge's torque a clipped controller reads,
+#: the hinge now on compliant stops at [−0.03, 0.05] whose stiffness and damping are parameters (a joint's force whose
+#: compliant stop's law a parameter moves)
+TORQUE_STOPS = (ARM_TORQUE.replace("Kt: 0.4}", "Kt: 0.4, kc: 200.0, cc: 0.5}")
+                .replace("stiffness: 30.0, damping: 0.2}",
+                         'stiffness: 30.0, damping: 0.2, limits: [-0.03, 0.05], '
+                         'contact: {stiffness: "kc", exponent: 1.5, damping: "cc"}}')
+                .replace("sensitivities: [E, F, Kt]", "sensitivities: [kc, cc, Kt, F]"))
+#: the same with the stops' exponent a parameter, the stops at [−0.035, 0.04], HHT-α
+TORQUE_STOPS_N = (TORQUE_STOPS.replace("cc: 0.5}", "cc: 0.5, ne: 1.5}").replace("exponent: 1.5", 'exponent: "ne"')
+                  .replace("limits: [-0.03, 0.05]", "limits: [-0.035, 0.04]")
+                  .replace("dt: 0.005,", "dt: 0.005, method: hht-alpha,")
+                  .replace("sensitivities: [kc, cc, Kt, F]", "sensitivities: [ne, kc, E]"))
+assert 'contact: {stiffness: "kc"' in TORQUE_STOPS and "hht-alpha" in TORQUE_STOPS_N and '"ne"' in TORQUE_STOPS_N
 assert "tip_o - 0.45" in BOOM_OFFSET and "offset: [0.05" in BOOM_OFFSET and "frame: elbow" in BOOM_BODY
 assert "H: " in BOOM_BOTH and "limits: [-0.5, 1.5]}" in BOTH_CLIPPED and "hht-alpha" in BOTH_CLIPPED
 assert "rotation: {axis" in BASE_FRAME and "wf*(n2b - Sf)" in BASE_FRAME
@@ -137,3 +155,28 @@ def test_a_state_reading_a_rigid_links_body_keeps_the_python_path(monkeypatch):
     assert text != GIMBAL_PI
     result = _run(text, monkeypatch, True)
     assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
+
+
+@pytest.mark.parametrize("text", [TORQUE_STOPS, TORQUE_STOPS_N], ids=["stops' stiffness and damping", "exponent, HHT"])
+def test_a_joints_torque_whose_stops_law_a_parameter_moves_takes_the_loop(text, monkeypatch):
+    """A controller reading the 3D arm's hinge torque, the hinge on compliant stops whose stiffness, damping or exponent
+    is a parameter: the torque's ∂F/∂p is its row of the hinge laws' and of the stops' ∂r/∂p (the generated
+    hinge_force and contact_force_D_law; csrc/sensitivity_loop.c ``joint_law_force_slopes``), as
+    ControllerTerms.sensed_force_slopes sums them. All but the four steps at the stops' onsets in the loop (measured
+    58 of 62), the Python path's to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert native.summary["steps"] - 4 <= native.summary["sensitivity_steps_in_loop"] < native.summary["steps"]
+    assert_same_sensitivities(native, python, python_path=True, nonzero="each", events_may_be_absent=True)
+
+
+def test_the_stops_stiffness_read_through_the_torque_agrees_with_richardson_differences(monkeypatch):
+    """The stops' stiffness in the loop against Richardson central differences of whole runs (measured 2.6e-8; the
+    exponent 8.5e-9; the stops' damping 1.8e-5 on both paths, the damper's clip at a rate pulling away)."""
+    import yaml
+
+    data = yaml.safe_load(TORQUE_STOPS)
+    data["solve"]["sensitivities"] = ["kc"]
+    result = _run(yaml.safe_dump(data), monkeypatch, True)
+    assert result.summary["sensitivity_steps_in_loop"] >= result.summary["steps"] - 4
+    assert _agree(result, TORQUE_STOPS, "kc", tolerance=1e-6) <= 1e-6

@@ -71,9 +71,11 @@ displacements and velocities (global, or in a body's axes) and cables' lengths a
 evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
 δq, δv is in the exact K and C on both paths; where a parameter moves a free joint's own laws — its stiffness,
-damping, rest angle or torque — its ∂F/∂p through ∂f/∂s as ControllerTerms.sensed_force_slopes takes it: −(the
-joint's row of the hinge laws' ∂r/∂p, the generated hinge_force's, as ``hinge_parameter_forces`` leaves it) times the
-reader's compiled output's ∂f/∂s, SensitivityLoop._sensed_force_slopes), that read earlier
+damping, rest angle or torque, its compliant stops' laws — its ∂F/∂p through ∂f/∂s as
+ControllerTerms.sensed_force_slopes takes it: −(the joint's row of the hinge laws' ∂r/∂p, the generated hinge_force's,
+as ``hinge_parameter_forces`` leaves it, plus its row of the stops' and friction's, the generated contact_force_D_law's
+and friction_force_D_law's: csrc/sensitivity_loop.c ``joint_law_force_slopes``) times the reader's compiled output's
+∂f/∂s, SensitivityLoop._sensed_force_slopes), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -136,7 +138,7 @@ which the package refuses for states on both paths —, a point on a rigid link'
 the per-step path's NumPy), beside geometry parameters, or whose laws did not compile),
 controllers reading a
 section force or a cable's tension whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in
-C) or a joint's torque or force whose compliant stop's or friction's law a parameter moves,
+C),
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
@@ -410,8 +412,8 @@ def _controller_refusal(owner) -> str | None:
     velocity and their components in a body's axes, cables' lengths and tensions, elements' section forces and free
     joints' forces (the values the evaluation computes in C, which the Python path reads too:
     ControllerTerms.sensed_in_c; where a parameter moves a free joint's own laws, its ∂F/∂p the joint's row of the hinge
-    laws' ∂r/∂p, :meth:`SensitivityLoop._sensed_force_slopes`; a section force's or a cable's tension's keeps the
-    Python path, as does a joint's whose compliant stop's or friction's law a parameter moves) and earlier
+    laws' ∂r/∂p and of its compliant stops' and friction's, :meth:`SensitivityLoop._sensed_force_slopes`; a section
+    force's or a cable's tension's keeps the Python path) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add).
@@ -439,14 +441,8 @@ def _controller_refusal(owner) -> str | None:
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
     if readers and (terms.compiled is None or any(name not in terms.compiled.outputs for name in readers)):
         return "controllers reading a force whose own laws a parameter moves, whose outputs did not compile"
-    stopped = {owner.model.hinge_index(beam, end) for (beam, end, *_), _ in owner.joint_law_uses()}
-    for name, reads in getattr(terms, "forces_read", {}).items():
-        for read in reads:
-            probe = terms.moved_forces[read]
-            if _read_joint(owner.model, probe) in stopped:   # (C takes its row of the hinge laws' alone)
-                return (f"controller {name} reads the force {read!r}, whose compliant stop's or friction's law a "
-                        "parameter moves")
-    # (a free joint's ∂F/∂p: its row of ∂r/∂p before the controllers', SensitivityLoop._sensed_force_slopes)
+    # (a free joint's ∂F/∂p: its row of the hinge laws' ∂r/∂p and of its compliant stops' and friction's, the generated
+    # hinge_force and contact_force_D_law, friction_force_D_law: SensitivityLoop._sensed_force_slopes)
     continuous = {c.name for c in terms.continuous} & (set(terms.partials) | readers)   # (the sampled ones': Python's)
     if continuous and terms.compiled is None:
         return "controllers' parameters whose derivatives did not compile"
@@ -1003,9 +999,9 @@ class SensitivityLoop:
     def _sensed_force_slopes(self, terms, place: dict, start: list) -> None:
         """The forces a controller reads whose own laws a parameter moves (ControllerTerms.forces_read; free joints'
         torques and forces alone, :func:`_controller_refusal`): each read's slot among the laws' arguments
-        (:func:`_reads`: the reads' order) and its joint's row, whose ∂r/∂p before the controllers' is −∂F/∂p (the
-        hinge laws' alone where no parameter moves the joint's compliant stop or friction, :func:`_controller_refusal`,
-        as ControllerTerms.sensed_force_slopes sums them)."""
+        (:func:`_reads`: the reads' order) and its joint's row, whose ∂r/∂p of the hinge laws and then of its compliant
+        stops' and friction's laws is −∂F/∂p (csrc/sensitivity_loop.c ``joint_law_force_slopes``), as
+        ControllerTerms.sensed_force_slopes sums them."""
         d, model = self.data, self.owner.model
         reads = [(int(start[place[name]]) + i, probe) for name, forces in terms.forces_read.items()
                  for probe, i in forces.items()]

@@ -347,6 +347,29 @@ static void joint_law_parameter_forces(const Model *m, const Configuration *c, c
     }
 }
 
+/* The compliant stops' and friction's part of a read joint's ∂f/∂p (ControllerTerms.sensed_force_slopes: its row of
+ * ParameterDerivatives._contact_forces after the hinge laws'): per (use, column) of a joint a controller reads, in
+ * joint_law_parameter_forces's order, the same product added to that read's force_slopes. */
+static void joint_law_force_slopes(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
+{
+    const int64_t U = s->n_law_uses, k = s->k;
+    const double *table = s->law_values + U * (grid - s->values_from);
+    for (int64_t u = 0; u < U; ++u) {
+        const int64_t j = s->law_joint[u];
+        int read = 0;
+        for (int64_t f = 0; f < s->n_force_reads; ++f) read |= s->force_row[f] == m->hinge_dofs[j];
+        if (!read) continue;
+        double at[4], out[5];
+        memcpy(at, s->law_at + 4 * u, 4 * sizeof(double));
+        at[0] = c->theta[j];
+        at[1] = c->theta_dot[j];
+        (s->law_kind[u] ? s->friction_kernel : s->contact_kernel)(1, at, s->law_rows + 11 * u, out);
+        const double slope = out[s->law_slot[u]] * s->law_factor[u];
+        for (int64_t f = 0; f < s->n_force_reads; ++f)
+            if (s->force_row[f] == m->hinge_dofs[j]) s->force_slopes[f * k + s->law_column[u]] += table[u] * slope;
+    }
+}
+
 /* The load actuators' part of ControllerTerms.add (and of SampledTerms.add): per actuated load (in its first
  * actuator's order) its six components' derivatives (each actuator's factor times its controller's slope, summed in
  * the order of the actuators), then one call of the generated point_load for the columns where any is nonzero, added at
@@ -599,8 +622,10 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
      * geometry parameters', the joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
     if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid, t);
-    for (int64_t f = 0; f < s->n_force_reads; ++f)   /* a read joint's ∂F/∂p: −(its row of the hinge laws' alone) */
-        for (int64_t col = 0; col < k; ++col) s->force_slopes[f * k + col] = -s->total[s->force_row[f] * k + col];
+    for (int64_t f = 0; f < s->n_force_reads; ++f)   /* a read joint's ∂F/∂p: its row of the hinge laws' alone, */
+        for (int64_t col = 0; col < k; ++col) s->force_slopes[f * k + col] = s->total[s->force_row[f] * k + col];
+    if (s->n_law_uses && s->n_force_reads) joint_law_force_slopes(m, c, s, grid);   /* + its stops' and friction's */
+    for (int64_t i = 0; i < s->n_force_reads * k; ++i) s->force_slopes[i] = -s->force_slopes[i];   /* −∂f/∂p */
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
