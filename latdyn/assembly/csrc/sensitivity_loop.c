@@ -327,24 +327,28 @@ static void body_parameter_forces(const Model *m, const Configuration *c, const 
     }
 }
 
-/* ∂r/∂p of the hinges' compliant stops' and friction's laws at c into total: per (use, column) the generated
- * contact_force_D_law or friction_force_D_law at the hinge's (θ, θ̇), its slot times the factor (the Stribeck rate's
- * −(1/v_s)²) times the derivative law's value, added at the hinge's coordinate in the Python path's order
+/* Use u's slope of a hinge's compliant stop's or friction's law at c: the generated contact_force_D_law or
+ * friction_force_D_law at the hinge's (θ, θ̇), its slot times the factor (the Stribeck rate's −(1/v_s)²). */
+static double joint_law_slope(const Configuration *c, const SensitivityLoop *s, int64_t u)
+{
+    const int64_t j = s->law_joint[u];
+    double at[4], out[5];
+    memcpy(at, s->law_at + 4 * u, 4 * sizeof(double));
+    at[0] = c->theta[j];
+    at[1] = c->theta_dot[j];
+    (s->law_kind[u] ? s->friction_kernel : s->contact_kernel)(1, at, s->law_rows + 11 * u, out);
+    return out[s->law_slot[u]] * s->law_factor[u];
+}
+
+/* ∂r/∂p of the hinges' compliant stops' and friction's laws at c into total: per (use, column) its slope
+ * (joint_law_slope) times the derivative law's value, added at the hinge's coordinate in the Python path's order
  * (ParameterDerivatives._contact_forces). */
 static void joint_law_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
 {
     const int64_t U = s->n_law_uses, k = s->k;
     const double *table = s->law_values + U * (grid - s->values_from);
-    for (int64_t u = 0; u < U; ++u) {
-        const int64_t j = s->law_joint[u];
-        double at[4], out[5];
-        memcpy(at, s->law_at + 4 * u, 4 * sizeof(double));
-        at[0] = c->theta[j];
-        at[1] = c->theta_dot[j];
-        (s->law_kind[u] ? s->friction_kernel : s->contact_kernel)(1, at, s->law_rows + 11 * u, out);
-        const double slope = out[s->law_slot[u]] * s->law_factor[u];
-        s->total[m->hinge_dofs[j] * k + s->law_column[u]] += table[u] * slope;
-    }
+    for (int64_t u = 0; u < U; ++u)
+        s->total[m->hinge_dofs[s->law_joint[u]] * k + s->law_column[u]] += table[u] * joint_law_slope(c, s, u);
 }
 
 /* The compliant stops' and friction's part of a read joint's ∂f/∂p (ControllerTerms.sensed_force_slopes: its row of
@@ -355,18 +359,14 @@ static void joint_law_force_slopes(const Model *m, const Configuration *c, const
     const int64_t U = s->n_law_uses, k = s->k;
     const double *table = s->law_values + U * (grid - s->values_from);
     for (int64_t u = 0; u < U; ++u) {
-        const int64_t j = s->law_joint[u];
+        const int64_t row = m->hinge_dofs[s->law_joint[u]];
+        double slope = 0.0;
         int read = 0;
-        for (int64_t f = 0; f < s->n_force_reads; ++f) read |= s->force_row[f] == m->hinge_dofs[j];
-        if (!read) continue;
-        double at[4], out[5];
-        memcpy(at, s->law_at + 4 * u, 4 * sizeof(double));
-        at[0] = c->theta[j];
-        at[1] = c->theta_dot[j];
-        (s->law_kind[u] ? s->friction_kernel : s->contact_kernel)(1, at, s->law_rows + 11 * u, out);
-        const double slope = out[s->law_slot[u]] * s->law_factor[u];
-        for (int64_t f = 0; f < s->n_force_reads; ++f)
-            if (s->force_row[f] == m->hinge_dofs[j]) s->force_slopes[f * k + s->law_column[u]] += table[u] * slope;
+        for (int64_t f = 0; f < s->n_force_reads; ++f) {
+            if (s->force_row[f] != row) continue;
+            if (!read++) slope = joint_law_slope(c, s, u);
+            s->force_slopes[f * k + s->law_column[u]] += table[u] * slope;
+        }
     }
 }
 
