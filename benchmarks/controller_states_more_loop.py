@@ -2,7 +2,7 @@
 in a body's axes, a prescribed body's beside an event, on models with rigid links or guides): what a gradient run
 costs, and its equality (benchmarks/hinge_sensitivities_loop.py's three modes on these scenes).
 
-    python benchmarks/controller_states_more_loop.py [--scene both|frame|gimbal|bead|stops] [--repeats 5]
+    python benchmarks/controller_states_more_loop.py [--scene both|frame|gimbal|bead|stops|moment] [--repeats 5]
     python benchmarks/controller_states_more_loop.py --scene both --check DIR
     python benchmarks/controller_states_more_loop.py --scene both --user 5 [--trees ROOT_A,ROOT_B]
 
@@ -13,7 +13,9 @@ filter reads a point in the turning prescribed base's axes through a cable's tau
 gimbal`` GIMBAL_PI_LOAD, the 3D gimbal of two rigid rings whose PI drives the inner hinge and pushes the inner ring
 (0.3 s, ``[Kp, Ki, a, k1, m, EI]``); ``--scene bead`` BEAD_PI, the slider-crank's guided bead driven by a PI beside
 its stops (0.22 s, ``[Kp, ref, Ki, tau, m, k]``); ``--scene stops`` TORQUE_STOPS, a controller reading the 3D
-arm's hinge torque, the hinge on compliant stops whose law's parameters move it (0.3 s, ``[kc, cc, Kt, F]``). The modes, the times and the ratios printed:
+arm's hinge torque, the hinge on compliant stops whose law's parameters move it (0.3 s, ``[kc, cc, Kt, F]``);
+``--scene moment`` MOMENT_E, a controller on the 3D arm reading a moment and a torque of elements whose section values
+E moves (0.3 s, ``[F, Ka, E]``). The modes, the times and the ratios printed:
 benchmarks/hinge_sensitivities_loop.py's docstring (the same functions).
 """
 from __future__ import annotations
@@ -30,5 +32,5 @@ if __name__ == "__main__":
 
     tests = "test_sensitivities_in_loop_states_more"
     scenes = {"both": "BOOM_BOTH", "frame": "BASE_FRAME", "gimbal": "GIMBAL_PI_LOAD", "bead": "BEAD_PI",
-              "stops": "TORQUE_STOPS"}
+              "stops": "TORQUE_STOPS", "moment": "MOMENT_E"}
     main({name: _from_tests(tests, constant) for name, constant in scenes.items()}, "both", __doc__)

@@ -169,15 +169,20 @@ CABLE_EA = CABLE_LIMIT.replace("[Kp, Kt, EI, m]", "[Kp, Kt, EA, c]")
 assert 'stiffness: "30*E"' in TORQUE_K and "[F, Ka, E]" in AXIAL_E and "[Kp, Kt, EA, c]" in CABLE_EA
 
 
-@pytest.mark.parametrize("text, name", [(AXIAL_E, "E"), (CABLE_EA, "EA")], ids=["section values", "cable EA"])
-def test_a_parameter_in_the_sensed_forces_laws_is_differentiated_on_the_python_path(text, name, monkeypatch):
-    """The force's own ∂F/∂p through ∂f/∂s (ControllerTerms.sensed_force_slopes: the probes' explicit parts, the
-    generated beam_section_forces_D_section, cable_force): every step from Python (the loop refuses it: not in C yet),
-    the same bits with the switch either way, and agreement with Richardson differences (measured 1.1e-9–5.6e-8, the
-    cable's damping c too, 3.3e-8). The hinge's (TORQUE_K) takes the loop:
+@pytest.mark.parametrize("text, name, in_loop", [(AXIAL_E, "E", True), (CABLE_EA, "EA", False)],
+                         ids=["section values", "cable EA"])
+def test_a_parameter_in_the_sensed_forces_laws_is_differentiated(text, name, in_loop, monkeypatch):
+    """The force's own ∂F/∂p through ∂f/∂s (ControllerTerms.sensed_force_slopes: the generated
+    beam_section_forces_D_section through csrc/parameter_forces.c section_force_slope, the cable probe's explicit part
+    from cable_force): a section force's in the loop of steps (every step), a cable's tension's every step from Python
+    (the loop refuses it: not in C yet), the same bits with the switch either way, and agreement with Richardson
+    differences (measured 1.1e-9–5.6e-8, the cable's damping c too, 3.3e-8). The hinge's (TORQUE_K) takes the loop:
     tests/test_sensitivities_in_loop_controller_reads2.py."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
-    assert native.summary["sensitivity_steps_in_loop"] == 0 and native.summary["time_loop"] == "python"
+    if in_loop:
+        assert native.summary["sensitivity_steps_in_loop"] == native.summary["steps"] > 0
+    else:
+        assert native.summary["sensitivity_steps_in_loop"] == 0 and native.summary["time_loop"] == "python"
     _same(native, python)
     result = latdyn.run(_scene(text, name))
     _agree(result, text, name)

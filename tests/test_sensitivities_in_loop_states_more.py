@@ -6,7 +6,8 @@ reading a prescribed body's position or a point in its axes beside an event (δt
 so the sensors' ∂s/∂t δt is nothing there on either path), states on models with rigid links or guides whose sensors
 are not on a rigid link's body or a guided body, and a controller reading a joint's torque whose compliant stops' law a
 parameter moves (its ∂F/∂p the joint's row of the hinge laws' and the stops' ∂r/∂p: csrc/sensitivity_loop.c
-``joint_law_force_slopes``). The loop's results are the Python path's (the private switch ``SENSITIVITIES_IN_LOOP``
+``joint_law_force_slopes``) or an element's section force whose section values a parameter moves (its ∂S/∂p
+csrc/parameter_forces.c ``section_force_slope``, on both paths). The loop's results are the Python path's (the private switch ``SENSITIVITIES_IN_LOOP``
 off) to the bit, through the API and the CLI, and agree with Richardson differences."""
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_fuzz_run_findings5 import _rows_against_richardson
 from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_in_loop_controller_integral import BOOM
-from tests.test_sensitivities_in_loop_controller_reads import ARM_TORQUE
+from tests.test_sensitivities_in_loop_controller_reads import AXIAL_E, ARM_TORQUE
 from tests.test_sensitivities_in_loop_linked_controllers import _GAINS, BEAD
 from tests.test_sensitivities_in_loop_moving_sensors import BASE_STATE
 from tests.test_sensitivities_in_loop_state_laws import _run
@@ -75,6 +76,15 @@ TORQUE_STOPS_N = (TORQUE_STOPS.replace("cc: 0.5}", "cc: 0.5, ne: 1.5}").replace(
                   .replace("limits: [-0.03, 0.05]", "limits: [-0.035, 0.04]")
                   .replace("dt: 0.005,", "dt: 0.005, method: hht-alpha,")
                   .replace("sensitivities: [kc, cc, Kt, F]", "sensitivities: [ne, kc, E]"))
+#: tests/test_sensitivities_in_loop_controller_reads.py's 3D arm whose skew hinge a controller drives from the first
+#: element's axial force, reading the second's moment_z and the b beam's first element's torque too, all by E, which
+#: moves every section value (an element's section force whose section values a parameter moves)
+MOMENT_E = (AXIAL_E.replace('ax: {element: "a.element[0]", quantity: axial_force}',
+                            'ax: {element: "a.element[1]", quantity: moment_z}')
+            .replace('"-Ka*ax - 2*hinge"', '"-Ka*ax - 2*hinge + 0.5*Ka*tz"')
+            .replace("    hinge: {hinge: b.start, quantity: angle}\n",
+                     '    hinge: {hinge: b.start, quantity: angle}\n    tz: {element: "b.element[0]", quantity: torque}\n'))
+assert "moment_z" in MOMENT_E and "0.5*Ka*tz" in MOMENT_E
 assert 'contact: {stiffness: "kc"' in TORQUE_STOPS and "hht-alpha" in TORQUE_STOPS_N and '"ne"' in TORQUE_STOPS_N
 assert "tip_o - 0.45" in BOOM_OFFSET and "offset: [0.05" in BOOM_OFFSET and "frame: elbow" in BOOM_BODY
 assert "H: " in BOOM_BOTH and "limits: [-0.5, 1.5]}" in BOTH_CLIPPED and "hht-alpha" in BOTH_CLIPPED
@@ -180,3 +190,27 @@ def test_the_stops_stiffness_read_through_the_torque_agrees_with_richardson_diff
     result = _run(yaml.safe_dump(data), monkeypatch, True)
     assert result.summary["sensitivity_steps_in_loop"] >= result.summary["steps"] - 4
     assert _agree(result, TORQUE_STOPS, "kc", tolerance=1e-6) <= 1e-6
+
+
+@pytest.mark.parametrize("text", [AXIAL_E, MOMENT_E], ids=["axial force", "a moment and a torque"])
+def test_section_forces_whose_section_values_a_parameter_moves_take_the_loop(text, monkeypatch):
+    """A controller on the 3D arm reading an element's axial force, or a moment and another element's torque, all of
+    whose section values E moves: the force's ∂S/∂p (the generated beam_section_forces_D_section contracted with the
+    section uses' rows, csrc/parameter_forces.c ``section_force_slope``, the C ControllerTerms.sensed_force_slopes
+    calls) through the reader's ∂f/∂s. Every step in the loop (measured 60 of 60), the Python path's to the bit."""
+    native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
+    assert native.summary["time_loop"] == "compiled"
+    assert_same_sensitivities(native, python, python_path=True, nonzero="each", in_loop_but=0,
+                              events_may_be_absent=True)
+
+
+def test_the_moment_read_by_e_agrees_with_richardson_differences(monkeypatch):
+    """The arm reading a moment and a torque, by E, in the loop against Richardson central differences of whole runs
+    (measured 4.9e-8; the axial force's 3.0e-8)."""
+    import yaml
+
+    data = yaml.safe_load(MOMENT_E)
+    data["solve"]["sensitivities"] = ["E"]
+    result = _run(yaml.safe_dump(data), monkeypatch, True)
+    assert result.summary["sensitivity_steps_in_loop"] == result.summary["steps"] > 0
+    assert _agree(result, MOMENT_E, "E", tolerance=1e-6) <= 1e-6

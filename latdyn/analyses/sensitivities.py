@@ -1480,10 +1480,37 @@ class ControllerTerms:
                             laws[d, column] += owner._hinge_force(state, j, hinge["law"], law, 1.0)
                 owner._contact_forces(state, laws)
                 out[name] = -laws[d]
+            elif probe.kind == "element" and owner.geometry is None and \
+                    owner.kernels.address("beam_section_forces_D_section") is not None:
+                out[name] = self._section_force_slope(state, probe)
             else:
                 moved = owner._by_parameter(zero, state)
                 out[name] = np.asarray(probe_derivatives(owner, probe, state, *moved,
                                                          owner._rates_by_parameter(zero)), float)
+        return out
+
+    def _section_force_slope(self, state, probe) -> np.ndarray:
+        """∂S/∂p (k,) at ``state`` of the element's section force ``probe`` a controller reads, its section values moved
+        by parameters: the generated beam_section_forces_D_section contracted with the section uses' rows
+        (ParameterDerivatives._section_derivative_blocks) and weighed as the controller's sensor weighs the forces
+        (csrc/parameter_forces.c ``latdyn_section_force_slope``, the C the loop of steps calls)."""
+        import ctypes
+
+        from latdyn.assembly.control import _section_sensor
+
+        owner, k = self.owner, self.k
+        out = np.zeros(k)
+        blocks = owner._section_derivative_blocks(state)
+        if blocks is None:
+            return out
+        elements, columns, rows = (np.ascontiguousarray(a, t) for a, t in zip(blocks, (np.int64, np.int64, float)))
+        _, index, _, _, weights, _ = _section_sensor(self.model, probe)
+        weights = np.ascontiguousarray(weights[:2], float)
+        native = self.assembler.native(inertia_tangent=True)
+        _native_library().latdyn_section_force_slope(
+            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)),
+            owner.kernels.address("beam_section_forces_D_section"), index // 4, index % 4, weights.ctypes.data,
+            len(elements), elements.ctypes.data, columns.ctypes.data, rows.ctypes.data, k, out.ctypes.data)
         return out
 
     @staticmethod

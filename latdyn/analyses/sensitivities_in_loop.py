@@ -75,7 +75,9 @@ damping, rest angle or torque, its compliant stops' laws — its ∂F/∂p throu
 ControllerTerms.sensed_force_slopes takes it: −(the joint's row of the hinge laws' ∂r/∂p, the generated hinge_force's,
 as ``hinge_parameter_forces`` leaves it, plus its row of the stops' and friction's, the generated contact_force_D_law's
 and friction_force_D_law's: csrc/sensitivity_loop.c ``joint_law_force_slopes``) times the reader's compiled output's
-∂f/∂s, SensitivityLoop._sensed_force_slopes), that read earlier
+∂f/∂s, SensitivityLoop._sensed_force_slopes; where a parameter moves a read element's section values, its ∂S/∂p
+from the generated beam_section_forces_D_section contracted with the section uses' rows, csrc/parameter_forces.c
+``section_force_slope``, which ControllerTerms.sensed_force_slopes calls too), that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -137,8 +139,8 @@ that ``_states_refusal`` names (a sensor other than joint angles and points' pos
 which the package refuses for states on both paths —, a point on a rigid link's body or a guided body (its δs P δq,
 the per-step path's NumPy), beside geometry parameters, or whose laws did not compile),
 controllers reading a
-section force or a cable's tension whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in
-C),
+cable's tension whose own laws a parameter moves (its ∂F/∂p: the probe's NumPy and kernels, not in C) or a section
+force beside geometry parameters (refused on both paths),
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
@@ -413,7 +415,8 @@ def _controller_refusal(owner) -> str | None:
     joints' forces (the values the evaluation computes in C, which the Python path reads too:
     ControllerTerms.sensed_in_c; where a parameter moves a free joint's own laws, its ∂F/∂p the joint's row of the hinge
     laws' ∂r/∂p and of its compliant stops' and friction's, :meth:`SensitivityLoop._sensed_force_slopes`; a section
-    force's or a cable's tension's keeps the Python path) and earlier
+    force's ∂S/∂p by its section values csrc/parameter_forces.c ``section_force_slope``; a cable's tension's keeps the
+    Python path) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add).
@@ -436,8 +439,11 @@ def _controller_refusal(owner) -> str | None:
             return why
     readers = {name for name, reads in getattr(terms, "forces_read", {}).items() if reads}
     moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads
-                   if not is_joint_force(terms.moved_forces[read]))
-    if moved:   # ∂f/∂s ∂F/∂p of a section force or a cable's tension (the probes' NumPy and kernels): not in C yet
+                   if not is_joint_force(terms.moved_forces[read]) and (
+                       terms.moved_forces[read].kind != "element" or getattr(owner, "geometry", None) is not None
+                       or getattr(owner, "kernels", None) is None
+                       or owner.kernels.address("beam_section_forces_D_section") is None))
+    if moved:   # ∂f/∂s ∂F/∂p of a cable's tension (the probe's NumPy and kernels): not in C yet
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
     if readers and (terms.compiled is None or any(name not in terms.compiled.outputs for name in readers)):
         return "controllers reading a force whose own laws a parameter moves, whose outputs did not compile"
@@ -1001,17 +1007,30 @@ class SensitivityLoop:
         torques and forces alone, :func:`_controller_refusal`): each read's slot among the laws' arguments
         (:func:`_reads`: the reads' order) and its joint's row, whose ∂r/∂p of the hinge laws and then of its compliant
         stops' and friction's laws is −∂F/∂p (csrc/sensitivity_loop.c ``joint_law_force_slopes``), as
-        ControllerTerms.sensed_force_slopes sums them."""
+        ControllerTerms.sensed_force_slopes sums them; an element's section force (row −1) its element, its sensor's
+        first force and weights and the generated beam_section_forces_D_section, whose ∂S/∂p by the section uses
+        csrc/parameter_forces.c ``section_force_slope`` takes (the C ControllerTerms.sensed_force_slopes calls)."""
+        from latdyn.analyses.joint_force_sensitivities import is_joint_force
+        from latdyn.assembly.control import _section_sensor
+
         d, model = self.data, self.owner.model
         reads = [(int(start[place[name]]) + i, probe) for name, forces in terms.forces_read.items()
                  for probe, i in forces.items()]
-        d.n_force_reads = len(reads)
+        d.n_force_reads, d.force_element = len(reads), None
         if not reads:
             return
-        rows = [int(model.hinge_dofs[_read_joint(model, terms.moved_forces[name])]) for _, name in reads]
+        probes = [terms.moved_forces[name] for _, name in reads]
+        rows = [int(model.hinge_dofs[_read_joint(model, probe)]) if is_joint_force(probe) else -1 for probe in probes]
         d.force_read = self._pointer(np.array([slot for slot, _ in reads], np.int64))
         d.force_row = self._pointer(np.array(rows, np.int64))
         d.force_slopes = self._pointer(np.zeros(len(reads) * len(self.owner.names)))
+        if all(is_joint_force(probe) for probe in probes):
+            return
+        sensors = [None if is_joint_force(probe) else _section_sensor(model, probe) for probe in probes]
+        d.force_element = self._pointer(np.array([-1 if x is None else x[1] // 4 for x in sensors], np.int64))
+        d.force_first = self._pointer(np.array([-1 if x is None else x[1] % 4 for x in sensors], np.int64))
+        d.force_weights = self._pointer(np.array([(0.0, 0.0) if x is None else x[4][:2] for x in sensors], float))
+        d.section_forces_D_section = self.owner.kernels.address("beam_section_forces_D_section")
 
     def _controller_states(self, states, place: dict) -> None:
         """The controllers with states' part (csrc/controller_states.c ControllerStatesLoop): each one's place in the

@@ -263,7 +263,10 @@ class SensitivityLoopData(ctypes.Structure):
                 ("states", P),
                 # controllers reading a free joint's torque or force whose own laws a parameter moves: each read's
                 # slot, its joint's row, their ∂F/∂p (n_force_reads × k; ControllerTerms.sensed_force_slopes)
-                ("n_force_reads", I64), ("force_read", P), ("force_row", P), ("force_slopes", P)]
+                ("n_force_reads", I64), ("force_read", P), ("force_row", P), ("force_slopes", P),
+                # controllers reading a section force whose section values a parameter moves: each read's element (−1:
+                # a joint's), its sensor's first force and two weights, the generated beam_section_forces_D_section
+                ("force_element", P), ("force_first", P), ("force_weights", P), ("section_forces_D_section", P)]
 
 
 class ControllerStatesLoopData(ctypes.Structure):
@@ -508,6 +511,8 @@ def native_library() -> ctypes.CDLL:
         # the continuous controllers' states through the sensitivities' step (csrc/controller_states.c)
         library.latdyn_controller_states_begin.restype = I64
         library.latdyn_controller_states_begin.argtypes = [I64, I64, ctypes.c_double, P, P, P, P, P, P, P, P, P, P]
+        library.latdyn_section_force_slope.restype = None
+        library.latdyn_section_force_slope.argtypes = [model, work, configuration, P, I64, I64, P, I64, P, P, P, I64, P]
         library.latdyn_controller_states_sensed.restype = None
         library.latdyn_controller_states_sensed.argtypes = [model, work, configuration, ctypes.c_double, I64, I64, P, P,
                                                             I64, P, P]

@@ -226,6 +226,14 @@ typedef struct SensitivityLoopTag {
     int64_t n_force_reads;
     const int64_t *force_read, *force_row;
     double *force_slopes;
+    /* controllers reading an element's section force whose section values a parameter moves (their force_row −1):
+     * per force read its element (−1: a joint's force), the first of the section forces its sensor weighs and the two
+     * weights (the sensor's, evaluate.c sensor_value kind 12); ∂S/∂p by the section uses (n_uses, elements, columns,
+     * rows) from the generated beam_section_forces_D_section (section_force_slope, csrc/parameter_forces.c, which
+     * ControllerTerms.sensed_force_slopes calls too); NULL: none */
+    const int64_t *force_element, *force_first;
+    const double *force_weights;
+    kernel_2_2 section_forces_D_section;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -368,6 +376,18 @@ static void joint_law_force_slopes(const Model *m, const Configuration *c, const
             s->force_slopes[f * k + s->law_column[u]] += table[u] * slope;
         }
     }
+}
+
+/* The read section forces' ∂S/∂p at c into their force_slopes (ControllerTerms.sensed_force_slopes): the elements'
+ * inputs at c, then section_force_slope per read of an element. */
+static void section_force_slopes(const Model *m, Work *w, const Configuration *c, const SensitivityLoop *s)
+{
+    element_inputs(m, c, w, 0, m->n_elements);
+    for (int64_t f = 0; f < s->n_force_reads; ++f)
+        if (s->force_element[f] >= 0)
+            section_force_slope(m, w, s->section_forces_D_section, s->force_element[f], s->force_first[f],
+                                s->force_weights + 2 * f, s->n_uses, s->elements, s->columns, s->rows, s->k,
+                                s->force_slopes + f * s->k);
 }
 
 /* The load actuators' part of ControllerTerms.add (and of SampledTerms.add): per actuated load (in its first
@@ -623,9 +643,11 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
     if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid, t);
     for (int64_t f = 0; f < s->n_force_reads; ++f)   /* a read joint's ∂F/∂p: its row of the hinge laws' alone, */
-        for (int64_t col = 0; col < k; ++col) s->force_slopes[f * k + col] = s->total[s->force_row[f] * k + col];
+        for (int64_t col = 0; col < k; ++col)
+            s->force_slopes[f * k + col] = s->force_row[f] >= 0 ? s->total[s->force_row[f] * k + col] : 0.0;
     if (s->n_law_uses && s->n_force_reads) joint_law_force_slopes(m, c, s, grid);   /* + its stops' and friction's */
     for (int64_t i = 0; i < s->n_force_reads * k; ++i) s->force_slopes[i] = -s->force_slopes[i];   /* −∂f/∂p */
+    if (s->force_element != NULL) section_force_slopes(m, w, c, s);   /* a section force's ∂S/∂p */
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
