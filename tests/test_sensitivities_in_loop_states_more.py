@@ -7,7 +7,8 @@ so the sensors' ∂s/∂t δt is nothing there on either path), states on models
 are not on a rigid link's body or a guided body, and a controller reading a joint's torque whose compliant stops' law a
 parameter moves (its ∂F/∂p the joint's row of the hinge laws' and the stops' ∂r/∂p: csrc/sensitivity_loop.c
 ``joint_law_force_slopes``) or an element's section force whose section values a parameter moves (its ∂S/∂p
-csrc/parameter_forces.c ``section_force_slope``, on both paths). The loop's results are the Python path's (the private switch ``SENSITIVITIES_IN_LOOP``
+csrc/parameter_forces.c ``section_force_slope``, on both paths) or a cable's tension whose laws a parameter moves
+(csrc/cable_forces.c ``cable_tension_slope``). The loop's results are the Python path's (the private switch ``SENSITIVITIES_IN_LOOP``
 off) to the bit, through the API and the CLI, and agree with Richardson differences."""
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_fuzz_run_findings5 import _rows_against_richardson
 from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_in_loop_controller_integral import BOOM
-from tests.test_sensitivities_in_loop_controller_reads import AXIAL_E, ARM_TORQUE
+from tests.test_sensitivities_in_loop_controller_reads import AXIAL_E, ARM_TORQUE, CABLE_LIMIT
 from tests.test_sensitivities_in_loop_linked_controllers import _GAINS, BEAD
 from tests.test_sensitivities_in_loop_moving_sensors import BASE_STATE
 from tests.test_sensitivities_in_loop_state_laws import _run
@@ -85,6 +86,10 @@ MOMENT_E = (AXIAL_E.replace('ax: {element: "a.element[0]", quantity: axial_force
             .replace("    hinge: {hinge: b.start, quantity: angle}\n",
                      '    hinge: {hinge: b.start, quantity: angle}\n    tz: {element: "b.element[0]", quantity: torque}\n'))
 assert "moment_z" in MOMENT_E and "0.5*Ka*tz" in MOMENT_E
+#: tests/test_sensitivities_in_loop_controller_reads.py's skew cable catching the 3D arm's tip, a clipped controller
+#: reading its tension, by the cable's rest length and EA (a cable's tension whose laws a parameter moves)
+CABLE_L = CABLE_LIMIT.replace("[Kp, Kt, EI, m]", "[L, Kt, EA]")
+assert "[L, Kt, EA]" in CABLE_L
 assert 'contact: {stiffness: "kc"' in TORQUE_STOPS and "hht-alpha" in TORQUE_STOPS_N and '"ne"' in TORQUE_STOPS_N
 assert "tip_o - 0.45" in BOOM_OFFSET and "offset: [0.05" in BOOM_OFFSET and "frame: elbow" in BOOM_BODY
 assert "H: " in BOOM_BOTH and "limits: [-0.5, 1.5]}" in BOTH_CLIPPED and "hht-alpha" in BOTH_CLIPPED
@@ -192,15 +197,19 @@ def test_the_stops_stiffness_read_through_the_torque_agrees_with_richardson_diff
     assert _agree(result, TORQUE_STOPS, "kc", tolerance=1e-6) <= 1e-6
 
 
-@pytest.mark.parametrize("text", [AXIAL_E, MOMENT_E], ids=["axial force", "a moment and a torque"])
-def test_section_forces_whose_section_values_a_parameter_moves_take_the_loop(text, monkeypatch):
+@pytest.mark.parametrize("text, in_python", [(AXIAL_E, 0), (MOMENT_E, 0), (CABLE_L, 24)],
+                         ids=["axial force", "a moment and a torque", "a cable's tension by L and EA"])
+def test_forces_whose_own_laws_a_parameter_moves_take_the_loop(text, in_python, monkeypatch):
     """A controller on the 3D arm reading an element's axial force, or a moment and another element's torque, all of
     whose section values E moves: the force's ∂S/∂p (the generated beam_section_forces_D_section contracted with the
     section uses' rows, csrc/parameter_forces.c ``section_force_slope``, the C ControllerTerms.sensed_force_slopes
-    calls) through the reader's ∂f/∂s. Every step in the loop (measured 60 of 60), the Python path's to the bit."""
+    calls) through the reader's ∂f/∂s; and one reading a skew cable's tension by its rest length and EA (its ∂N/∂p
+    from the generated cable_force and cable_force_D_rest_length, csrc/cable_forces.c ``cable_tension_slope``, as
+    probe_derivatives._tension_by_parameters forms it). Every smooth step in the loop (measured 60 of 60; the cable's
+    45 of 69, the rest at and after its five changes), the Python path's to the bit."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
     assert native.summary["time_loop"] == "compiled"
-    assert_same_sensitivities(native, python, python_path=True, nonzero="each", in_loop_but=0,
+    assert_same_sensitivities(native, python, python_path=True, nonzero="each", in_loop_but=in_python,
                               events_may_be_absent=True)
 
 

@@ -77,7 +77,10 @@ as ``hinge_parameter_forces`` leaves it, plus its row of the stops' and friction
 and friction_force_D_law's: csrc/sensitivity_loop.c ``joint_law_force_slopes``) times the reader's compiled output's
 ∂f/∂s, SensitivityLoop._sensed_force_slopes; where a parameter moves a read element's section values, its ∂S/∂p
 from the generated beam_section_forces_D_section contracted with the section uses' rows, csrc/parameter_forces.c
-``section_force_slope``, which ControllerTerms.sensed_force_slopes calls too), that read earlier
+``section_force_slope``, which ControllerTerms.sensed_force_slopes calls too; where a parameter moves a read cable's
+EA, damping or rest length, its tension's ∂N/∂p from the generated cable_force and cable_force_D_rest_length at the
+element's inputs, csrc/cable_forces.c ``cable_tension_slope``, as probe_derivatives._tension_by_parameters forms it),
+that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -139,8 +142,7 @@ that ``_states_refusal`` names (a sensor other than joint angles and points' pos
 which the package refuses for states on both paths —, a point on a rigid link's body or a guided body (its δs P δq,
 the per-step path's NumPy), beside geometry parameters, or whose laws did not compile),
 controllers reading a
-cable's tension whose own laws a parameter moves (its ∂F/∂p: the probe's NumPy and kernels, not in C) or a section
-force beside geometry parameters (refused on both paths),
+section force whose section values a parameter moves beside geometry parameters (refused on both paths),
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
@@ -415,8 +417,8 @@ def _controller_refusal(owner) -> str | None:
     joints' forces (the values the evaluation computes in C, which the Python path reads too:
     ControllerTerms.sensed_in_c; where a parameter moves a free joint's own laws, its ∂F/∂p the joint's row of the hinge
     laws' ∂r/∂p and of its compliant stops' and friction's, :meth:`SensitivityLoop._sensed_force_slopes`; a section
-    force's ∂S/∂p by its section values csrc/parameter_forces.c ``section_force_slope``; a cable's tension's keeps the
-    Python path) and earlier
+    force's ∂S/∂p by its section values csrc/parameter_forces.c ``section_force_slope``; a cable's tension's by its
+    cable's laws csrc/cable_forces.c ``cable_tension_slope``) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add).
@@ -428,7 +430,6 @@ def _controller_refusal(owner) -> str | None:
     (``latdyn_linked_reduce_columns``), the C the per-step Python path calls too (``_on_free_coordinates``,
     sensitivities.reduced_columns): tests/test_sensitivities_in_loop_linked_controllers.py."""
     from latdyn.analyses.derivative_laws import chained_outputs
-    from latdyn.analyses.joint_force_sensitivities import is_joint_force
     from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_LENGTH, CABLE_TENSION, CONTROLLER, \
         JOINT_FORCE, OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
 
@@ -439,12 +440,15 @@ def _controller_refusal(owner) -> str | None:
             return why
     readers = {name for name, reads in getattr(terms, "forces_read", {}).items() if reads}
     moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads
-                   if not is_joint_force(terms.moved_forces[read]) and (
-                       terms.moved_forces[read].kind != "element" or getattr(owner, "geometry", None) is not None
-                       or getattr(owner, "kernels", None) is None
+                   if terms.moved_forces[read].kind == "element" and (
+                       getattr(owner, "geometry", None) is not None or getattr(owner, "kernels", None) is None
                        or owner.kernels.address("beam_section_forces_D_section") is None))
-    if moved:   # ∂f/∂s ∂F/∂p of a cable's tension (the probe's NumPy and kernels): not in C yet
+    if moved:   # a section force's ∂S/∂p beside geometry parameters, or without the kernel's C
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
+    tensions = [read for reads in getattr(terms, "forces_read", {}).values() for read in reads
+                if terms.moved_forces[read].kind == "cable"]
+    if tensions and getattr(owner, "cables", None) is None:   # (its ∂N/∂p from the cables' uses, cable_forces.c)
+        return f"a controller reads the tension {tensions[0]!r}, whose cable's laws a parameter moves"
     if readers and (terms.compiled is None or any(name not in terms.compiled.outputs for name in readers)):
         return "controllers reading a force whose own laws a parameter moves, whose outputs did not compile"
     # (a free joint's ∂F/∂p: its row of the hinge laws' ∂r/∂p and of its compliant stops' and friction's, the generated
@@ -1016,7 +1020,7 @@ class SensitivityLoop:
         d, model = self.data, self.owner.model
         reads = [(int(start[place[name]]) + i, probe) for name, forces in terms.forces_read.items()
                  for probe, i in forces.items()]
-        d.n_force_reads, d.force_element = len(reads), None
+        d.n_force_reads, d.force_element, d.force_cable_element = len(reads), None, None
         if not reads:
             return
         probes = [terms.moved_forces[name] for _, name in reads]
@@ -1024,9 +1028,14 @@ class SensitivityLoop:
         d.force_read = self._pointer(np.array([slot for slot, _ in reads], np.int64))
         d.force_row = self._pointer(np.array(rows, np.int64))
         d.force_slopes = self._pointer(np.zeros(len(reads) * len(self.owner.names)))
-        if all(is_joint_force(probe) for probe in probes):
+        if any(probe.kind == "cable" for probe in probes):   # a tension: its cable's first element
+            cables = model.cables
+            d.force_cable_element = self._pointer(np.array(
+                [int(cables.first[cables.names.index(probe.beam)]) if probe.kind == "cable" else -1 for probe in probes],
+                np.int64))
+        if all(probe.kind != "element" for probe in probes):
             return
-        sensors = [None if is_joint_force(probe) else _section_sensor(model, probe) for probe in probes]
+        sensors = [_section_sensor(model, probe) if probe.kind == "element" else None for probe in probes]
         d.force_element = self._pointer(np.array([-1 if x is None else x[1] // 4 for x in sensors], np.int64))
         d.force_first = self._pointer(np.array([-1 if x is None else x[1] % 4 for x in sensors], np.int64))
         d.force_weights = self._pointer(np.array([(0.0, 0.0) if x is None else x[4][:2] for x in sensors], float))

@@ -266,7 +266,10 @@ class SensitivityLoopData(ctypes.Structure):
                 ("n_force_reads", I64), ("force_read", P), ("force_row", P), ("force_slopes", P),
                 # controllers reading a section force whose section values a parameter moves: each read's element (−1:
                 # a joint's), its sensor's first force and two weights, the generated beam_section_forces_D_section
-                ("force_element", P), ("force_first", P), ("force_weights", P), ("section_forces_D_section", P)]
+                ("force_element", P), ("force_first", P), ("force_weights", P), ("section_forces_D_section", P),
+                # controllers reading a cable's tension whose laws a parameter moves: each read's cable's first
+                # element (−1: not a tension), cable_tension_slope
+                ("force_cable_element", P)]
 
 
 class ControllerStatesLoopData(ctypes.Structure):

@@ -234,6 +234,10 @@ typedef struct SensitivityLoopTag {
     const int64_t *force_element, *force_first;
     const double *force_weights;
     kernel_2_2 section_forces_D_section;
+    /* controllers reading a cable's tension whose EA, damping or rest length a parameter moves: per force read the
+     * cable's first element (−1: not a tension), whose ∂N/∂p cable_tension_slope (cable_forces.c) takes from the
+     * cables' uses (the cables struct), as CableSensitivities and probe_derivatives._tension_by_parameters form it */
+    const int64_t *force_cable_element;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -648,6 +652,9 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     if (s->n_law_uses && s->n_force_reads) joint_law_force_slopes(m, c, s, grid);   /* + its stops' and friction's */
     for (int64_t i = 0; i < s->n_force_reads * k; ++i) s->force_slopes[i] = -s->force_slopes[i];   /* −∂f/∂p */
     if (s->force_element != NULL) section_force_slopes(m, w, c, s);   /* a section force's ∂S/∂p */
+    for (int64_t f = 0; s->force_cable_element != NULL && f < s->n_force_reads; ++f)   /* a cable's tension's ∂N/∂p */
+        if (s->force_cable_element[f] >= 0)
+            cable_tension_slope(m, w, c, s->cables, grid, s->force_cable_element[f], k, s->force_slopes + f * k);
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
