@@ -2,7 +2,7 @@
 in a body's axes, a prescribed body's beside an event, on models with rigid links or guides): what a gradient run
 costs, and its equality (benchmarks/hinge_sensitivities_loop.py's three modes on these scenes).
 
-    python benchmarks/controller_states_more_loop.py [--scene both|frame|gimbal|bead|stops|moment] [--repeats 5]
+    python benchmarks/controller_states_more_loop.py [--scene both|frame|gimbal|bead|stops|moment|tension] [--repeats 5]
     python benchmarks/controller_states_more_loop.py --scene both --check DIR
     python benchmarks/controller_states_more_loop.py --scene both --user 5 [--trees ROOT_A,ROOT_B]
 
@@ -15,7 +15,8 @@ gimbal`` GIMBAL_PI_LOAD, the 3D gimbal of two rigid rings whose PI drives the in
 its stops (0.22 s, ``[Kp, ref, Ki, tau, m, k]``); ``--scene stops`` TORQUE_STOPS, a controller reading the 3D
 arm's hinge torque, the hinge on compliant stops whose law's parameters move it (0.3 s, ``[kc, cc, Kt, F]``);
 ``--scene moment`` MOMENT_E, a controller on the 3D arm reading a moment and a torque of elements whose section values
-E moves (0.3 s, ``[F, Ka, E]``). The modes, the times and the ratios printed:
+E moves (0.3 s, ``[F, Ka, E]``); ``--scene tension`` CABLE_L, a clipped controller reading a skew cable's
+tension, by its rest length and EA (five cable changes, ``[L, Kt, EA]``). The modes, the times and the ratios printed:
 benchmarks/hinge_sensitivities_loop.py's docstring (the same functions).
 """
 from __future__ import annotations
@@ -32,5 +33,6 @@ if __name__ == "__main__":
 
     tests = "test_sensitivities_in_loop_states_more"
     scenes = {"both": "BOOM_BOTH", "frame": "BASE_FRAME", "gimbal": "GIMBAL_PI_LOAD", "bead": "BEAD_PI",
-              "stops": "TORQUE_STOPS", "moment": "MOMENT_E"}
+              "stops": "TORQUE_STOPS", "moment": "MOMENT_E",
+              "tension": "CABLE_L"}
     main({name: _from_tests(tests, constant) for name, constant in scenes.items()}, "both", __doc__)
