@@ -124,13 +124,3 @@ def test_the_boom_agrees_with_richardson_differences(name, monkeypatch):
     result = _run(yaml.safe_dump(data), monkeypatch, True)
     assert result.summary["sensitivity_steps_in_loop"] > 0
     assert _agree(result, BOOM, name, tolerance=1e-6) <= 1e-6
-
-
-def test_what_the_loop_does_not_take_keeps_the_python_path(monkeypatch):
-    """A state reading a point's position in a body's axes (its δs is not a row of δq) keeps every step on the Python
-    path (a probe of the state is taken since: tests/test_sensitivities_in_loop_controller_integral2.py)."""
-    text = (BOOM.replace('E: "a*(0.6 - elbow)"', 'E: "a*(0.6 - elbow) + 0.1*(tip_e - 0.4)"').replace(
-        "  probes:\n", "  probes:\n    tip_e: {point: tip, quantity: position, frame: elbow, component: z}\n"))
-    assert text != BOOM
-    result = _run(text, monkeypatch, True)
-    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"

@@ -7,8 +7,8 @@ on the Python path; csrc/sensitivity_loop.c ``controller_parameter_forces`` with
 whose skew hinge's torque a clipped controller reads; the loop's sensitivities are the per-step Python path's (the
 private switch ``SENSITIVITIES_IN_LOOP`` off) to the bit, and they agree with Richardson-extrapolated central
 differences. On a model with rigid links too: the gimbal's PD on a force between a dependent and a free node and on a
-rigid ring's hinge torque. A section force or a cable's tension whose laws a parameter moves keeps the Python path
-(tests/test_sensitivities_in_loop_controller_reads.py)."""
+rigid ring's hinge torque. A cable's tension whose laws a parameter moves keeps the Python path; a section force's
+takes the loop (tests/test_sensitivities_in_loop_controller_reads.py, tests/test_sensitivities_in_loop_states_more.py)."""
 from __future__ import annotations
 
 import pytest

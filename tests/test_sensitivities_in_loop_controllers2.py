@@ -89,10 +89,11 @@ def test_the_cli_writes_the_python_paths_files_for_the_chain(tmp_path):
     the_loop_off_writes_the_same(tmp_path, out)
 
 
-def test_a_controller_with_a_state_keeps_the_python_path(monkeypatch):
-    """The arm's controller with an integral state: every step from Python (a guard: its states' sensitivities are
-    carried by the Python step)."""
-    result = _run(SLEW_PI, monkeypatch, True)
-    assert result.summary["sensitivity_steps_in_loop"] == 0 and result.summary["time_loop"] == "python"
+def test_a_controller_with_a_state_reading_a_point_in_a_bodys_axes_takes_the_loop(monkeypatch):
+    """The arm's controller with an integral state, reading the tip's place in the knee's axes: every step in the loop
+    (tests/test_sensitivities_in_loop_states_more.py: a point in a body's axes), the Python path's to the bit."""
+    result, python = _run(SLEW_PI, monkeypatch, True), _run(SLEW_PI, monkeypatch, False)
+    assert result.summary["sensitivity_steps_in_loop"] == result.summary["steps"] > 0
     assert np.abs(result.sensitivities[("tip_z", "Ki")]).max() > 0.0
+    _same(result, python)
 

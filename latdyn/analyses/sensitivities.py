@@ -1453,10 +1453,37 @@ class ControllerTerms:
                             laws[d, column] += owner._hinge_force(state, j, hinge["law"], law, 1.0)
                 owner._contact_forces(state, laws)
                 out[name] = -laws[d]
+            elif probe.kind == "element" and owner.geometry is None and \
+                    owner.kernels.address("beam_section_forces_D_section") is not None:
+                out[name] = self._section_force_slope(state, probe)
             else:
                 moved = owner._by_parameter(zero, state)
                 out[name] = np.asarray(probe_derivatives(owner, probe, state, *moved,
                                                          owner._rates_by_parameter(zero)), float)
+        return out
+
+    def _section_force_slope(self, state, probe) -> np.ndarray:
+        """∂S/∂p (k,) at ``state`` of the element's section force ``probe`` a controller reads, its section values moved
+        by parameters: the generated beam_section_forces_D_section contracted with the section uses' rows
+        (ParameterDerivatives._section_derivative_blocks) and weighed as the controller's sensor weighs the forces
+        (csrc/parameter_forces.c ``latdyn_section_force_slope``, the C the loop of steps calls)."""
+        import ctypes
+
+        from latdyn.assembly.control import _section_sensor
+
+        owner, k = self.owner, self.k
+        out = np.zeros(k)
+        blocks = owner._section_derivative_blocks(state)
+        if blocks is None:
+            return out
+        elements, columns, rows = (np.ascontiguousarray(a, t) for a, t in zip(blocks, (np.int64, np.int64, float)))
+        _, index, _, _, weights, _ = _section_sensor(self.model, probe)
+        weights = np.ascontiguousarray(weights[:2], float)
+        native = self.assembler.native(inertia_tangent=True)
+        _native_library().latdyn_section_force_slope(
+            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)),
+            owner.kernels.address("beam_section_forces_D_section"), index // 4, index % 4, weights.ctypes.data,
+            len(elements), elements.ctypes.data, columns.ctypes.data, rows.ctypes.data, k, out.ctypes.data)
         return out
 
     _laws_naming = staticmethod(laws_naming)
@@ -1568,6 +1595,10 @@ class ControllerStates:
         probes = {p.name: p for p in scene.output.probes}
         wiring = terms.assembler.control
         self.sensors, self.gradients, self._sensed_slots = {}, {}, {}
+        #: controller name -> its place in the wiring, for those that read a point offset from its node or in a body's
+        #: axes (in the wiring's order): their sensors' values the evaluation's (ControllerTerms.sensed_in_c) and their
+        #: δs the C of the loop of steps (:meth:`_sensed`, csrc/controller_states.c controller_state_sensed)
+        self.by_gradient = {}
         #: controller name -> its place k in the wiring, whose compiled law ``controller_laws(k, t, s, out)`` the
         #: step calls (:meth:`_rates_gradients`); controllers that read what the law's arguments do not carry keep
         #: SymPy's lambdified gradients
@@ -1581,6 +1612,8 @@ class ControllerStates:
             if all(n in probes for n in wired):   # the law's arguments: the probes it reads, then its states
                 self.place[c.name] = k
                 self._sensed_slots[c.name] = [wired.index(c.reads[i]) for i in sensed]
+                if _reads_points_by_gradient(wiring, k) and [c.reads[i] for i in sensed] == list(wired):
+                    self.by_gradient[c.name] = k
             else:
                 self.gradients[c.name] = sp.lambdify(c.symbols, [
                     [[sp.diff(f, reads[i]) for i in sensed] for f in c.state_exprs],
@@ -1651,6 +1684,8 @@ class ControllerStates:
         parameters from the compiled partials (derivative_laws.ControllerPartials) where they compiled."""
         if values is None:
             values = self.terms.signal_values(state)
+        if c.name in self.by_gradient:   # the offset and body-axes points as the evaluation computes them in C
+            values = {**values, **self.terms.sensed_in_c(state)}
         arguments = [state.t, *[values[r] for r in c.reads], *self.terms.state_values(c)]
         f_s, f_S = self._rates_gradients(c, arguments)
         p = len(c.states)
@@ -1665,8 +1700,29 @@ class ControllerStates:
 
     def _sensed(self, c, state, dq: np.ndarray, moved: np.ndarray | None = None) -> np.ndarray:
         """δs (m, k): the derivatives of ``c``'s sensors along δq (probe derivatives), and along the prescribed
-        motions by the step end's δt ``moved`` (None: 0)."""
-        return _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq, moved)
+        motions by the step end's δt ``moved`` (None: 0). A controller reading a point offset from its node or in a
+        body's axes (``by_gradient``), where no sensor of it reads a node that follows rigid links or a guide
+        (:func:`senses_dependent`) and none is on a prescribed body or joint or δt is 0: the gradients of the
+        evaluation's sensors times δq, the C the loop of steps calls (csrc/controller_states.c
+        ``latdyn_controller_states_sensed``)."""
+        import ctypes
+
+        owner = self.terms.owner
+        k = self.by_gradient.get(c.name)
+        if k is None or senses_dependent(owner.model, self.terms.assembler.control, k) or (
+                moved is not None and np.any(moved) and _senses_prescribed(owner.model, self.terms.assembler.control, k)):
+            return _sensor_derivatives(owner, self.sensors[c.name], state, dq, moved)
+        native = self.terms.assembler.native(inertia_tangent=True)
+        wiring = self.terms.assembler.control
+        first, count = int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1] - wiring.sensor_start[k])
+        sensor_dof, column_dof = (np.ascontiguousarray(a, np.int64) for a in sensor_rows(owner.model, wiring))
+        dq = np.ascontiguousarray(dq, float)
+        ds = np.zeros((count, dq.shape[1]))
+        native.laws.bind_inputs()
+        _native_library().latdyn_controller_states_sensed(
+            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), float(state.t), first, count,
+            sensor_dof.ctypes.data, column_dof.ctypes.data, dq.shape[1], dq.ctypes.data, ds.ctypes.data)
+        return ds
 
     def _accepted(self) -> dict:
         return {"S": self.values[self.slots].copy(), "f": self.rates[self.rate_index].copy()}
@@ -1770,6 +1826,79 @@ class ControllerStates:
             dS[rows], df[rows] = out_S, out_f
         self.terms.held = {}
         return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
+
+
+def _reads_points_by_gradient(wiring, k: int) -> bool:
+    """Whether the wiring's controller ``k`` reads a point offset from its node or a point in a body's axes (sensor
+    kinds OFFSET_POSITION, BODY_FRAME: their δs by the evaluation's gradient, ControllerStates._sensed)."""
+    from latdyn.assembly.control import BODY_FRAME, OFFSET_POSITION
+
+    return any(int(wiring.sensor_kind[i]) in (OFFSET_POSITION, BODY_FRAME)
+               for i in range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1])))
+
+
+def _senses_prescribed(model, wiring, k: int) -> bool:
+    """Whether a sensor of the wiring's controller ``k`` reads a prescribed joint's angle or a point on a prescribed
+    body, or in a prescribed body's axes."""
+    from latdyn.assembly.control import ANGLE, BODY_FRAME
+    from latdyn.model.model import PRESCRIBED
+
+    for i in range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1])):
+        kind, index = int(wiring.sensor_kind[i]), int(wiring.sensor_index[i])
+        if kind == ANGLE:
+            if model.hinges[index].angle is not None:
+                return True
+            continue
+        if model.nodes[index // 3].kind == PRESCRIBED or (
+                kind == BODY_FRAME and model.nodes[int(wiring.sensor_frame_node[i])].kind == PRESCRIBED):
+            return True
+    return False
+
+
+def senses_dependent(model, wiring, k: int) -> bool:
+    """Whether a sensor of the wiring's controller ``k`` reads a point on a node that follows rigid links or a guide
+    (model.links.dependent), or in such a body's axes: its δs is P δq there (ParameterDerivatives._dependent_motion)."""
+    from latdyn.assembly.control import ANGLE, BODY_FRAME
+
+    if model.links is None:
+        return False
+    dependent = set(int(i) for i in model.links.dependent)
+    for i in range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1])):
+        kind, index = int(wiring.sensor_kind[i]), int(wiring.sensor_index[i])
+        if kind != ANGLE and (index // 3 in dependent
+                              or (kind == BODY_FRAME and int(wiring.sensor_frame_node[i]) in dependent)):
+            return True
+    return False
+
+
+def sensor_rows(model, wiring) -> tuple[np.ndarray, np.ndarray]:
+    """(each of the wiring's sensors' row in δq, each column of their gradients' row in δq), −1 for 0: a joint's
+    angle its free hinge's coordinate, a node's coordinate its free node's (as ParameterDerivatives.
+    _on_free_nodes_and_hinges takes them); a point offset from its node (its node's six coordinates) or in a body's
+    axes (its node's six, then the body's) each gradient column's coordinate likewise; the other kinds −1
+    (csrc/controller_states.c controller_state_sensed)."""
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION
+
+    hinges, nodes = set(int(j) for j in model.free_hinges), set(int(i) for i in model.free_nodes)
+
+    def free(node: int, component: int) -> int:
+        dof = int(model.node_dofs[node, component])
+        return dof if node in nodes and dof < model.n_dofs else -1
+
+    n = wiring.n_sensors
+    sensor_dof, column_dof = [], np.full(int(wiring.sensor_column_start[n]), -1, np.int64)
+    for i, (kind, index) in enumerate(zip(wiring.sensor_kind[:n], wiring.sensor_index[:n])):
+        kind, index = int(kind), int(index)
+        if kind == ANGLE:
+            dof = int(model.hinge_dofs[index])
+            sensor_dof.append(dof if index in hinges and dof < model.n_dofs else -1)
+        else:
+            sensor_dof.append(free(index // 3, index % 3))
+        if kind in (OFFSET_POSITION, BODY_FRAME):
+            ends = [index // 3] + ([int(wiring.sensor_frame_node[i])] if kind == BODY_FRAME else [])
+            start = int(wiring.sensor_column_start[i])
+            column_dof[start:start + 6 * len(ends)] = [free(node, j) for node in ends for j in range(6)]
+    return np.array(sensor_dof, np.int64), column_dof
 
 
 def _native_library():

@@ -71,9 +71,16 @@ displacements and velocities (global, or in a body's axes) and cables' lengths a
 evaluation at the step's end left in Work, csrc/evaluate.c ``sensor_value``, which the
 Python step reads too through ``latdyn_controller_outputs_at``: ControllerTerms.sensed_in_c; a force's coupling along
 δq, δv is in the exact K and C on both paths; where a parameter moves a free joint's own laws — its stiffness,
-damping, rest angle or torque — its ∂F/∂p through ∂f/∂s as ControllerTerms.sensed_force_slopes takes it: −(the
-joint's row of the hinge laws' ∂r/∂p, the generated hinge_force's, as ``hinge_parameter_forces`` leaves it) times the
-reader's compiled output's ∂f/∂s, SensitivityLoop._sensed_force_slopes), that read earlier
+damping, rest angle or torque, its compliant stops' laws — its ∂F/∂p through ∂f/∂s as
+ControllerTerms.sensed_force_slopes takes it: −(the joint's row of the hinge laws' ∂r/∂p, the generated hinge_force's,
+as ``hinge_parameter_forces`` leaves it, plus its row of the stops' and friction's, the generated contact_force_D_law's
+and friction_force_D_law's: csrc/sensitivity_loop.c ``joint_law_force_slopes``) times the reader's compiled output's
+∂f/∂s, SensitivityLoop._sensed_force_slopes; where a parameter moves a read element's section values, its ∂S/∂p
+from the generated beam_section_forces_D_section contracted with the section uses' rows, csrc/parameter_forces.c
+``section_force_slope``, which ControllerTerms.sensed_force_slopes calls too; where a parameter moves a read cable's
+EA, damping or rest length, its tension's ∂N/∂p from the generated cable_force and cable_force_D_rest_length at the
+element's inputs, csrc/cable_forces.c ``cable_tension_slope``, as probe_derivatives._tension_by_parameters forms it),
+that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
 laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
@@ -81,9 +88,14 @@ and sampled controllers between their samples (the loop hands each sample
 instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
 differentiated as before, TransientSensitivities.after_sample; between them the held outputs' δy, copied into the
 struct before each call, through their hinge, guide and load actuators as SampledTerms.add: csrc/sensitivity_loop.c
-``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) on a model without
-rigid links or guides that read hinge and guide angles and nodes' positions and displacements in global axes (not
-beside geometry parameters) and drive hinge torques, guide forces and load components (the step size's column
+``sampled_parameter_forces``), and continuous controllers with states (a PI's integral, a filter) that read hinge
+and guide angles and points' positions and displacements in global or a body's axes, at a node or offset from it (not
+beside geometry parameters; their values the evaluation's sensor_value, a point's δs at an offset or in a body's axes
+its gradient times δq, csrc/controller_states.c ``controller_state_sensed``, which the per-step path calls too; a
+prescribed body's or hinge's beside events too: δt is 0 at every step the loop takes), on a model with rigid links or
+guides too where no sensor of theirs is on a rigid link's body or a guided body (the matrices condensed inside
+``latdyn_linked_exact_values``, the step size's column reduced by Pᵀ, tests/test_sensitivities_in_loop_states_more.py),
+and drive hinge torques, guide forces and load components (the step size's column
 through the states reaching the loads by csrc/sensitivity_loop.c ``controller_states_load_step_size``), read by
 no other controller (the package runs no such chain: latdyn/assembly/control.py), beside sampled controllers too
 (``_states_refusal``), and probes recording their states and outputs (each recorded row's δS and accepted S kept in C,
@@ -126,12 +138,11 @@ after it is the Python path's, energy_sensitivities.external_work_after_event). 
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
-that ``_states_refusal`` names (sensors other than joint angles and nodes' global positions — a point offset from
-its node, in a body's axes, a rate —, a prescribed body's position or a prescribed hinge's angle beside events (their
-∂s/∂t δt after an event, ControllerStates._sensed), rigid links or guides, or whose laws did not compile),
+that ``_states_refusal`` names (a sensor other than joint angles and points' positions and displacements — a rate,
+which the package refuses for states on both paths —, a point on a rigid link's body or a guided body (its δs P δq,
+the per-step path's NumPy), beside geometry parameters, or whose laws did not compile),
 controllers reading a
-section force or a cable's tension whose own laws a parameter moves (its ∂F/∂p: the probes' NumPy and kernels, not in
-C) or a joint's torque or force whose compliant stop's or friction's law a parameter moves,
+section force whose section values a parameter moves beside geometry parameters (refused on both paths),
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
@@ -409,8 +420,9 @@ def _controller_refusal(owner) -> str | None:
     velocity and their components in a body's axes, cables' lengths and tensions, elements' section forces and free
     joints' forces (the values the evaluation computes in C, which the Python path reads too:
     ControllerTerms.sensed_in_c; where a parameter moves a free joint's own laws, its ∂F/∂p the joint's row of the hinge
-    laws' ∂r/∂p, :meth:`SensitivityLoop._sensed_force_slopes`; a section force's or a cable's tension's keeps the
-    Python path, as does a joint's whose compliant stop's or friction's law a parameter moves) and earlier
+    laws' ∂r/∂p and of its compliant stops' and friction's, :meth:`SensitivityLoop._sensed_force_slopes`; a section
+    force's ∂S/∂p by its section values csrc/parameter_forces.c ``section_force_slope``; a cable's tension's by its
+    cable's laws csrc/cable_forces.c ``cable_tension_slope``) and earlier
     controllers' outputs (their compiled outputs and derivatives: ControllerPartials.gradient) — and drives hinge
     torques, guide forces or load components (:func:`controller_parameter_forces` of
     csrc/sensitivity_loop.c; ControllerTerms.add).
@@ -422,7 +434,6 @@ def _controller_refusal(owner) -> str | None:
     (``latdyn_linked_reduce_columns``), the C the per-step Python path calls too (``_on_free_coordinates``,
     sensitivities.reduced_columns): tests/test_sensitivities_in_loop_linked_controllers.py."""
     from latdyn.analyses.derivative_laws import chained_outputs
-    from latdyn.analyses.joint_force_sensitivities import is_joint_force
     from latdyn.assembly.control import ANGLE, BODY_FRAME, BODY_VELOCITY, CABLE_LENGTH, CABLE_TENSION, CONTROLLER, \
         JOINT_FORCE, OFFSET_POSITION, OFFSET_VELOCITY, POSITION, RATE, SECTION_FORCE, VELOCITY
 
@@ -433,19 +444,19 @@ def _controller_refusal(owner) -> str | None:
             return why
     readers = {name for name, reads in getattr(terms, "forces_read", {}).items() if reads}
     moved = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads
-                   if not is_joint_force(terms.moved_forces[read]))
-    if moved:   # ∂f/∂s ∂F/∂p of a section force or a cable's tension (the probes' NumPy and kernels): not in C yet
+                   if terms.moved_forces[read].kind == "element" and (
+                       getattr(owner, "geometry", None) is not None or getattr(owner, "kernels", None) is None
+                       or owner.kernels.address("beam_section_forces_D_section") is None))
+    if moved:   # a section force's ∂S/∂p beside geometry parameters, or without the kernel's C
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
+    tensions = [read for reads in getattr(terms, "forces_read", {}).values() for read in reads
+                if terms.moved_forces[read].kind == "cable"]
+    if tensions and getattr(owner, "cables", None) is None:   # (its ∂N/∂p from the cables' uses, cable_forces.c)
+        return f"a controller reads the tension {tensions[0]!r}, whose cable's laws a parameter moves"
     if readers and (terms.compiled is None or any(name not in terms.compiled.outputs for name in readers)):
         return "controllers reading a force whose own laws a parameter moves, whose outputs did not compile"
-    stopped = {owner.model.hinge_index(beam, end) for (beam, end, *_), _ in owner.joint_law_uses()}
-    for name, reads in getattr(terms, "forces_read", {}).items():
-        for read in reads:
-            probe = terms.moved_forces[read]
-            if _read_joint(owner.model, probe) in stopped:   # (C takes its row of the hinge laws' alone)
-                return (f"controller {name} reads the force {read!r}, whose compliant stop's or friction's law a "
-                        "parameter moves")
-    # (a free joint's ∂F/∂p: its row of ∂r/∂p before the controllers', SensitivityLoop._sensed_force_slopes)
+    # (a free joint's ∂F/∂p: its row of the hinge laws' ∂r/∂p and of its compliant stops' and friction's, the generated
+    # hinge_force and contact_force_D_law, friction_force_D_law: SensitivityLoop._sensed_force_slopes)
     continuous = {c.name for c in terms.continuous} & (set(terms.partials) | readers)   # (the sampled ones': Python's)
     if continuous and terms.compiled is None:
         return "controllers' parameters whose derivatives did not compile"
@@ -478,57 +489,47 @@ def _read_joint(model, probe) -> int:
 def _states_refusal(owner) -> str | None:
     """Why the continuous controllers with states of ``owner`` keep the run on the Python path, or None: the loop
     carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step and
-    after_step) where each reads hinge or guide angles and the global components of nodes' positions and displacements
-    alone (δs their rows of δq; not beside geometry parameters, which move a point) through its step law
+    after_step) where each reads hinge or guide angles and the components of points' positions and displacements in
+    global or a body's axes alone (not beside geometry parameters, which move a point; δs a row of δq for an angle or a
+    node's coordinate, and for a point offset from its node or in a body's axes the gradient the evaluation's
+    sensor_value leaves times δq, csrc/controller_states.c ``controller_state_sensed``, which ControllerStates._sensed
+    calls too, the values the evaluation's) through its step law
     (ControllerStates ``place``), drives hinge torques, guide forces or loads, is read by no other controller (a probe
     may record its states and output: each row's δS and S are kept, :meth:`SensitivityLoop.record_rows`), its states'
     rates' partials and (with limits) its output compiled (derivative_laws.ControllerPartials), on a model without
     rigid links or guides (beside sampled controllers too: their held δy are added first, SampledTerms.add, on both
-    paths); not where, beside events, its states' rates read a prescribed body's position or a prescribed hinge's
-    angle (after an event their ∂s/∂t δt enters δs: ControllerStates._sensed, not in C)."""
-    from latdyn.analyses.sensitivities import has_events
-    from latdyn.assembly.control import ANGLE, POSITION
+    paths). A sensor on a prescribed body or hinge beside events too: after an event the Python path moves it by
+    ∂s/∂t δt (ControllerStates._sensed, TransientSensitivities._prescribed_in_time), and at every step the loop takes
+    δt_{n+1} = δt_n + δh is 0 exactly (the step lands on the grid, δh = −δt_n: csrc/sensitivity_loop.c), where that
+    term is nothing on the Python path as well (tests/test_sensitivities_in_loop_states_more.py)."""
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION, POSITION
+
+    from latdyn.analyses.sensitivities import senses_dependent
 
     terms, states = owner.controllers, owner.controllers.states
-    if owner.model.links is not None:
-        return "controllers with states on a model with rigid links or guides"
     wiring = owner.assembler.control
     stated = {c.name for c in states.controllers}
     for c in terms.continuous:
         if stated & set(c.reads):
             return f"controller {c.name} reads a controller with states"
     compiled = terms.compiled
-    moving_in_time = has_events(owner.scene)   # the steps after an event end at t + δt_e
     for c in states.controllers:
         k = next(k for k, d in enumerate(wiring.controllers) if d.name == c.name)
         sensors = range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1]))
         kinds = {int(wiring.sensor_kind[i]) for i in sensors}
-        if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k) or not kinds <= {ANGLE, POSITION}
-                or (POSITION in kinds and owner.geometry is not None)):
-            return (f"controller {c.name}: states, and it reads other than hinge and guide angles and nodes' positions "
-                    "and displacements in global axes (or those beside geometry parameters)")
-        rated = {name for name, symbol in zip(c.reads, c.symbols[1:1 + len(c.reads)])
-                 if any(symbol in f.free_symbols for f in c.state_exprs)}   # the sensors its states' rates read
-        if moving_in_time and any(_on_prescribed(owner.model, int(wiring.sensor_kind[i]), int(wiring.sensor_index[i]))
-                                  for i, name in zip(sensors, wiring.sensor_names(k)) if name in rated):
-            return (f"controller {c.name}: states reading a prescribed body's position or a prescribed hinge's angle "
-                    "beside events (their ∂s/∂t δt after an event: ControllerStates._sensed, the Python path's)")
+        points = {POSITION, OFFSET_POSITION, BODY_FRAME}
+        if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k)
+                or not kinds <= {ANGLE} | points or (kinds & points and owner.geometry is not None)):
+            return (f"controller {c.name}: states, and it reads other than hinge and guide angles and points' "
+                    "positions and displacements in global or a body's axes (or those beside geometry parameters)")
+        if senses_dependent(owner.model, wiring, k):
+            return (f"controller {c.name}: states reading a point on a rigid link's body or a guided body (its δs P δq, "
+                    "the per-step path's NumPy: ParameterDerivatives._dependent_motion)")
         if c.name in terms.rate_partials and compiled is None:
             return f"controller {c.name}: its states' rates' parameters' derivatives did not compile"
         if c.limits is not None and (compiled is None or c.name not in compiled.outputs):
             return f"controller {c.name}: states and limits, its output's law did not compile"
     return None
-
-
-def _on_prescribed(model, kind: int, index: int) -> bool:
-    """Whether a controller's sensor (``kind``, ``index`` of the wiring: a joint's angle, or a node's coordinate
-    3 node + component) reads a prescribed hinge's angle or a prescribed body's position."""
-    from latdyn.assembly.control import ANGLE
-    from latdyn.model.model import PRESCRIBED
-
-    if kind == ANGLE:
-        return model.hinges[index].angle is not None
-    return model.nodes[index // 3].kind == PRESCRIBED
 
 
 def _time_refusal(owner) -> str | None:
@@ -1012,19 +1013,37 @@ class SensitivityLoop:
     def _sensed_force_slopes(self, terms, place: dict, start: list) -> None:
         """The forces a controller reads whose own laws a parameter moves (ControllerTerms.forces_read; free joints'
         torques and forces alone, :func:`_controller_refusal`): each read's slot among the laws' arguments
-        (:func:`_reads`: the reads' order) and its joint's row, whose ∂r/∂p before the controllers' is −∂F/∂p (the
-        hinge laws' alone where no parameter moves the joint's compliant stop or friction, :func:`_controller_refusal`,
-        as ControllerTerms.sensed_force_slopes sums them)."""
+        (:func:`_reads`: the reads' order) and its joint's row, whose ∂r/∂p of the hinge laws and then of its compliant
+        stops' and friction's laws is −∂F/∂p (csrc/sensitivity_loop.c ``joint_law_force_slopes``), as
+        ControllerTerms.sensed_force_slopes sums them; an element's section force (row −1) its element, its sensor's
+        first force and weights and the generated beam_section_forces_D_section, whose ∂S/∂p by the section uses
+        csrc/parameter_forces.c ``section_force_slope`` takes (the C ControllerTerms.sensed_force_slopes calls)."""
+        from latdyn.analyses.joint_force_sensitivities import is_joint_force
+        from latdyn.assembly.control import _section_sensor
+
         d, model = self.data, self.owner.model
         reads = [(int(start[place[name]]) + i, probe) for name, forces in terms.forces_read.items()
                  for probe, i in forces.items()]
-        d.n_force_reads = len(reads)
+        d.n_force_reads, d.force_element, d.force_cable_element = len(reads), None, None
         if not reads:
             return
-        rows = [int(model.hinge_dofs[_read_joint(model, terms.moved_forces[name])]) for _, name in reads]
+        probes = [terms.moved_forces[name] for _, name in reads]
+        rows = [int(model.hinge_dofs[_read_joint(model, probe)]) if is_joint_force(probe) else -1 for probe in probes]
         d.force_read = self._pointer(np.array([slot for slot, _ in reads], np.int64))
         d.force_row = self._pointer(np.array(rows, np.int64))
         d.force_slopes = self._pointer(np.zeros(len(reads) * len(self.owner.names)))
+        if any(probe.kind == "cable" for probe in probes):   # a tension: its cable's first element
+            cables = model.cables
+            d.force_cable_element = self._pointer(np.array(
+                [int(cables.first[cables.names.index(probe.beam)]) if probe.kind == "cable" else -1 for probe in probes],
+                np.int64))
+        if all(probe.kind != "element" for probe in probes):
+            return
+        sensors = [_section_sensor(model, probe) if probe.kind == "element" else None for probe in probes]
+        d.force_element = self._pointer(np.array([-1 if x is None else x[1] // 4 for x in sensors], np.int64))
+        d.force_first = self._pointer(np.array([-1 if x is None else x[1] % 4 for x in sensors], np.int64))
+        d.force_weights = self._pointer(np.array([(0.0, 0.0) if x is None else x[4][:2] for x in sensors], float))
+        d.section_forces_D_section = self.owner.kernels.address("beam_section_forces_D_section")
 
     def _controller_states(self, states, place: dict) -> None:
         """The controllers with states' part (csrc/controller_states.c ControllerStatesLoop): each one's place in the
@@ -1032,6 +1051,7 @@ class SensitivityLoop:
         within the free coordinates, −1: δθ = 0, as ParameterDerivatives._on_free_nodes_and_hinges), the states' rates'
         compiled partials (ControllerPartials.rate_uses: controller, state, column, law number), the carried δS, δf,
         (S, f) filled before each call (:meth:`prepared`) and read back after it (:meth:`carried_after`), scratch."""
+        from latdyn.analyses.sensitivities import sensor_rows
         from latdyn.assembly.library import ControllerStatesLoopData
 
         owner, d = self.owner, self.data
@@ -1043,17 +1063,8 @@ class SensitivityLoop:
         t.n = len(controllers)
         t.place = ints([place[c.name] for c in controllers])
         t.first = ints([states.first[c.name] for c in controllers] + [len(states.slots)])
-        from latdyn.assembly.control import ANGLE
-
-        hinges, nodes = set(int(j) for j in model.free_hinges), set(int(i) for i in model.free_nodes)
-
-        def row(kind: int, index: int) -> int:   # a joint's angle, or a node's coordinate 3 node + component
-            dof, free = ((int(model.hinge_dofs[index]), index in hinges) if kind == ANGLE else
-                         (int(model.node_dofs[index // 3, index % 3]), index // 3 in nodes))
-            return dof if free and dof < model.n_dofs else -1
-
-        t.sensor_dof = ints([row(int(kind), int(index)) for kind, index in
-                             zip(wiring.sensor_kind[:wiring.n_sensors], wiring.sensor_index[:wiring.n_sensors])])
+        sensor_dof, column_dof = sensor_rows(model, wiring)   # the per-step path's own (ControllerStates._sensed)
+        t.sensor_dof, t.column_dof = ints(sensor_dof), ints(column_dof)
         rate_uses = (owner.controllers.compiled.rate_uses if owner.controllers.compiled is not None else [])
         first_law = (len(owner.controllers.compiled.uses) + len(owner.controllers.compiled.outputs)
                      if owner.controllers.compiled is not None else 0)

@@ -263,7 +263,13 @@ class SensitivityLoopData(ctypes.Structure):
                 ("states", P),
                 # controllers reading a free joint's torque or force whose own laws a parameter moves: each read's
                 # slot, its joint's row, their ∂F/∂p (n_force_reads × k; ControllerTerms.sensed_force_slopes)
-                ("n_force_reads", I64), ("force_read", P), ("force_row", P), ("force_slopes", P)]
+                ("n_force_reads", I64), ("force_read", P), ("force_row", P), ("force_slopes", P),
+                # controllers reading a section force whose section values a parameter moves: each read's element (−1:
+                # a joint's), its sensor's first force and two weights, the generated beam_section_forces_D_section
+                ("force_element", P), ("force_first", P), ("force_weights", P), ("section_forces_D_section", P),
+                # controllers reading a cable's tension whose laws a parameter moves: each read's cable's first
+                # element (−1: not a tension), cable_tension_slope
+                ("force_cable_element", P)]
 
 
 class ControllerStatesLoopData(ctypes.Structure):
@@ -276,7 +282,10 @@ class ControllerStatesLoopData(ctypes.Structure):
                 ("law_args", P), ("law_out", P), ("by_step", P), ("width_s", I64), ("width_S", I64),
                 ("half_kept", ctypes.c_double),
                 # the rows recorded on the way: per row δS (P × k) then S (P); NULL: none (controller probes)
-                ("row_states", P)]
+                ("row_states", P),
+                # sensors of points offset from their node or in a body's axes: each sensor gradient column's row in
+                # δq, −1: 0 (controller_state_sensed; SensitivityLoop._controller_states, ControllerStates._sensed)
+                ("column_dof", P)]
 
 
 class WorkAccountsData(ctypes.Structure):
@@ -507,6 +516,11 @@ def native_library() -> ctypes.CDLL:
         # the continuous controllers' states through the sensitivities' step (csrc/controller_states.c)
         library.latdyn_controller_states_begin.restype = I64
         library.latdyn_controller_states_begin.argtypes = [I64, I64, ctypes.c_double, P, P, P, P, P, P, P, P, P, P]
+        library.latdyn_section_force_slope.restype = None
+        library.latdyn_section_force_slope.argtypes = [model, work, configuration, P, I64, I64, P, I64, P, P, P, I64, P]
+        library.latdyn_controller_states_sensed.restype = None
+        library.latdyn_controller_states_sensed.argtypes = [model, work, configuration, ctypes.c_double, I64, I64, P, P,
+                                                            I64, P, P]
         library.latdyn_controller_states_after.restype = None
         library.latdyn_controller_states_after.argtypes = [I64, I64, I64, ctypes.c_double, P, P, P, P, P, P, P, P, P,
                                                            P, P, P]

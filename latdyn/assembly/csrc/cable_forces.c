@@ -93,6 +93,39 @@ static void cable_parameter_forces(const Model *m, const Work *w, const Configur
     }
 }
 
+/* ∂N/∂p (k, into out) of taut element e's tension N at c, at grid point `grid`, by its cable's EA, damping and rest
+ * length uses in their order (latdyn/analyses/probe_derivatives.py _tension_by_parameters, a controller's read of the
+ * tension: ControllerTerms.sensed_force_slopes): the generated cable_force's N with the derivative in EA's or c's
+ * place, or cable_force_D_rest_length's ∂N/∂L0 times the element's share and the derivative; 0 where the element is
+ * slack (as the evaluation at c decides, cable_parameter_forces). */
+static void cable_tension_slope(const Model *m, const Work *w, const Configuration *c, const CableForces *cf,
+                                int64_t grid, int64_t e, int64_t k, double *out)
+{
+    const double *table = cf->values + cf->n_uses * (grid - cf->values_from);
+    double *geometry = cf->scratch, *velocity = geometry + 12, *section = velocity + 12, *force = section + 4;
+    double *K = force + 12, *C = K + 144, *state = C + 144, *rest = state + 5;
+    const double side = m->cable_side[e];
+    memset(out, 0, sizeof(double) * (size_t)k);
+    if (!(side > 0.0 || (side == 0.0 && w->cable_gap[e] > 0.0))) return;
+    for (int64_t u = 0; u < cf->n_uses; ++u) {
+        const int64_t value = cf->value[u];
+        const double derivative = table[u];
+        if (cf->element_cable[e] != cf->cable[u] || value == 3 || derivative == 0.0) continue;
+        cable_inputs(m, c, w->laws, e, geometry, velocity, section);
+        double slope;
+        if (value == 2) {
+            cf->rest_kernel(1, geometry, velocity, section, force, state);
+            slope = state[4] * m->cable_section[3 * e] * derivative;
+        } else {
+            section[2] = value == 0 ? derivative : 0.0;
+            section[3] = value == 0 ? 0.0 : derivative;
+            cf->force_kernel(1, geometry, velocity, section, force, K, C, state, rest, rest + 1, rest + 2, rest + 3);
+            slope = state[4];
+        }
+        out[cf->column[u]] += slope;
+    }
+}
+
 /* Whether the step's last evaluation has a cable element within twice its tolerance of its change (|gap| ≤
  * 2 cable_tolerance), where the Python step may land or turn it over (CableSensitivities.landing, .event): the loop
  * with sensitivities hands that step to the caller, which takes it from Python. */

@@ -135,14 +135,60 @@ typedef struct ControllerStatesLoopTag {
     /* the rows recorded on the way (controller probes: TransientSensitivities.record reads δS and S at a row): per
      * row the carried δS (P × k) then the accepted S (P), SensitivityLoop.record_rows; NULL: no row wanted */
     double *row_states;
+    /* sensors of points offset from their node or in a body's axes (kinds 5 and 7, control.py OFFSET_POSITION and
+     * BODY_FRAME): each column of the wiring's sensor gradients (Model sensor_column_start) its coordinate's row in δq
+     * (the free nodes' within the free coordinates), −1: 0; their δs the gradient the evaluation's sensor_value leaves
+     * in Work times δq (controller_state_sensed), the C the per-step path's ControllerStates._sensed calls too */
+    const int64_t *column_dof;
 } ControllerStatesLoop;
 
-/* Sensor i of the wiring at c, as the evaluation reads it (evaluate.c sensor_value): a joint's angle or a node's
- * coordinate (kinds 0 and 2, the only ones _states_refusal lets a controller with states read), less its origin. */
-static double controller_state_sensor(const Model *m, const Configuration *c, int64_t i)
+/* Sensor i of the wiring at c (time t), as the evaluation reads it (evaluate.c sensor_value), less its origin: a
+ * joint's angle or a node's coordinate (kinds 0 and 2), or a point offset from its node or in a body's axes (kinds 5
+ * and 7: sensor_value itself, which leaves its gradient in Work) — the kinds _states_refusal lets a controller with
+ * states read. */
+static double controller_state_sensor(const Model *m, Work *w, const Configuration *c, int64_t i, double t)
 {
-    const int64_t index = m->sensor_index[i];
-    return (m->sensor_kind[i] == 0 ? c->theta[index] : c->x[index]) - m->sensor_origin[i];
+    const int64_t index = m->sensor_index[i], kind = m->sensor_kind[i];
+    if (kind == 5 || kind == 7) return sensor_value(m, c, w, i, t);
+    return (kind == 0 ? c->theta[index] : c->x[index]) - m->sensor_origin[i];
+}
+
+/* δs (k) of sensor i of the wiring along δq (n × k) at c (time t): a joint's angle or a node's coordinate (kinds 0
+ * and 2) its row of δq (sensor_dof[i], −1: 0), a point offset from its node or in a body's axes (kinds 5 and 7) its
+ * gradient at c (sensor_value's, Jᵀ e_c from the generated point_load: by the node's and the body's coordinates)
+ * times δq on those coordinates' rows (column_dof, −1: 0), summed in the gradient's column order. */
+static void controller_state_sensed(const Model *m, Work *w, const Configuration *c, double t, int64_t i,
+                                    const int64_t *sensor_dof, const int64_t *column_dof, int64_t k, const double *dq,
+                                    double *ds)
+{
+    const int64_t kind = m->sensor_kind[i];
+    if (kind != 5 && kind != 7) {
+        const int64_t dof = sensor_dof[i];
+        for (int64_t col = 0; col < k; ++col) ds[col] = dof >= 0 ? dq[dof * k + col] : 0.0;
+        return;
+    }
+    sensor_value(m, c, w, i, t);
+    const int64_t start = m->sensor_column_start[i], end = m->sensor_column_start[i + 1];
+    const double *gradient = w->sensor_jacobian + start;
+    for (int64_t col = 0; col < k; ++col) {
+        double sum = 0.0;
+        for (int64_t j = 0; j < end - start; ++j) {
+            const int64_t dof = column_dof[start + j];
+            if (dof >= 0) sum += gradient[j] * dq[dof * k + col];
+        }
+        ds[col] = sum;
+    }
+}
+
+/* The per-step Python path's δs (count × k) of the wiring's sensors first … first + count − 1 along δq (n × k) at c
+ * (time t): controller_state_sensed, the loop's own (ControllerStates._sensed, for a controller with states reading a
+ * point offset from its node or in a body's axes). */
+void latdyn_controller_states_sensed(const Model *m, Work *w, const Configuration *c, double t, int64_t first,
+                                     int64_t count, const int64_t *sensor_dof, const int64_t *column_dof, int64_t k,
+                                     const double *dq, double *ds)
+{
+    for (int64_t r = 0; r < count; ++r)
+        controller_state_sensed(m, w, c, t, first + r, sensor_dof, column_dof, k, dq, ds + r * k);
 }
 
 /* The index of the wiring's controller `ctl` among the controllers with states, −1 for one without. */
@@ -186,7 +232,7 @@ static void controller_states_held_slope(const Model *m, const ControllerStatesL
 /* ControllerStates.begin_step in the loop at c (time t, step size h), the states S_{n+1}, f_{n+1} accepted: each
  * controller's ∂f/∂s, ∂f/∂S (its step law) and ∂f/∂p (the compiled partials) at its sensors and S_{n+1}, then held
  * and by_h (latdyn_controller_states_begin). Returns 0, or 1 + the column of a zero pivot. */
-static int64_t controller_states_begin_loop(const Model *m, const Configuration *c, ControllerStatesLoop *st,
+static int64_t controller_states_begin_loop(const Model *m, Work *w, const Configuration *c, ControllerStatesLoop *st,
                                             void (*partials)(int64_t, double, const double *, double *),
                                             const int64_t *read_start, int64_t k,
                                             double t, double h)
@@ -196,7 +242,7 @@ static int64_t controller_states_begin_loop(const Model *m, const Configuration 
         const int64_t ctl = st->place[i], first = st->first[i], p = st->first[i + 1] - first;
         const int64_t sensors = read_start[ctl + 1] - read_start[ctl];
         double *args = st->law_args;
-        for (int64_t r = 0; r < sensors; ++r) args[r] = controller_state_sensor(m, c, read_start[ctl] + r);
+        for (int64_t r = 0; r < sensors; ++r) args[r] = controller_state_sensor(m, w, c, read_start[ctl] + r, t);
         controller_state_arguments(m, ctl, args, sensors);
         const double *out = controller_step_law(m, st, ctl, t, args);
         const int64_t width = 1 + sensors + p;
@@ -246,7 +292,8 @@ static void controller_states_condensed(const Model *m, Work *w, ControllerState
  * for the others and while its output, by its compiled output law, is clipped), each hinge actuator's row less its
  * factor times it. Its load actuators' part: controller_states_load_step_size (csrc/sensitivity_loop.c), then the
  * column: controller_states_step_size_add. */
-static void controller_states_step_size_column(const Model *m, const Configuration *c, ControllerStatesLoop *st,
+static void controller_states_step_size_column(const Model *m, Work *w, const Configuration *c,
+                                               ControllerStatesLoop *st,
                                                void (*partials)(int64_t, double, const double *, double *),
                                                const int64_t *read_start, const int64_t *output_law,
                                                const int64_t *output_limited, const double *output_limits,
@@ -260,7 +307,7 @@ static void controller_states_step_size_column(const Model *m, const Configurati
     for (int64_t i = 0; i < st->n; ++i) {
         const int64_t ctl = st->place[i], sensors = read_start[ctl + 1] - read_start[ctl];
         double *args = st->law_args;
-        for (int64_t r = 0; r < sensors; ++r) args[r] = controller_state_sensor(m, c, read_start[ctl] + r);
+        for (int64_t r = 0; r < sensors; ++r) args[r] = controller_state_sensor(m, w, c, read_start[ctl] + r, t);
         const int64_t count = controller_state_arguments(m, ctl, args, sensors);
         if (output_law[ctl] >= 0 && output_limited[ctl]) {
             double *out = st->law_out;
@@ -282,20 +329,21 @@ static void controller_states_step_size_add(const Model *m, const ControllerStat
     for (int64_t i = 0; i < m->n_dofs; ++i) explicit_[i * cols + cols - 1] += st->by_step[i];
 }
 
-/* ControllerStates.after_step in the loop: δs the hinge angles' and the nodes' coordinates' rows of δq (0 for a joint
- * or node not free), δS_{n+1}, δf_{n+1}
+/* ControllerStates.after_step in the loop at c (time t): δs the hinge angles' and the nodes' coordinates' rows of δq
+ * (0 for a joint or node not free), the offset and body-axes points' by their gradients (controller_state_sensed),
+ * δS_{n+1}, δf_{n+1}
  * (latdyn_controller_states_after) with the step size's δh, and (S_n, f_n) ← (S_{n+1}, f_{n+1}) for the next step. */
-static void controller_states_after_loop(const Model *m, ControllerStatesLoop *st, const int64_t *read_start,
-                                         int64_t k, double h, const double *dq, const double *dh)
+static void controller_states_after_loop(const Model *m, Work *w, const Configuration *c, ControllerStatesLoop *st,
+                                         const int64_t *read_start, int64_t k, double t, double h, const double *dq,
+                                         const double *dh)
 {
     const double hh = 0.5 * h;
     for (int64_t i = 0; i < st->n; ++i) {
         const int64_t ctl = st->place[i], first = st->first[i], p = st->first[i + 1] - first;
         const int64_t sensors = read_start[ctl + 1] - read_start[ctl];
-        for (int64_t r = 0; r < sensors; ++r) {
-            const int64_t dof = st->sensor_dof[read_start[ctl] + r];
-            for (int64_t col = 0; col < k; ++col) st->ds[r * k + col] = dof >= 0 ? dq[dof * k + col] : 0.0;
-        }
+        for (int64_t r = 0; r < sensors; ++r)
+            controller_state_sensed(m, w, c, t, read_start[ctl] + r, st->sensor_dof, st->column_dof, k, dq,
+                                    st->ds + r * k);
         latdyn_controller_states_after(p, sensors, k, hh, st->factor + first * st->width_S, st->pivots + first,
                                        st->f_s + first * st->width_s, st->f_S + first * st->width_S,
                                        st->f_p + first * k, st->held + first * k, st->by_h + first, st->ds, dh,

@@ -62,3 +62,34 @@ void latdyn_section_parameter_forces(const Model *m, Work *w, const Configuratio
         }
     }
 }
+
+/* ∂S/∂p (k, into out) of an element's section force w0 S_first + w1 S_first+1 (S = [N, T, M_y', M_z'] at mid-element,
+ * the weights a controller's sensor of it holds: evaluate.c sensor_value kind 12) by the section uses whose element is
+ * e: the generated beam_section_forces_D_section (∂S by the section values) at the element's inputs the evaluation left
+ * in w->geometry, each use's row of ∂(section values)/∂p contracted in index order, weighed, summed in the uses' order
+ * (ControllerTerms.sensed_force_slopes on the per-step path, SensitivityLoop's force reads in the loop of steps). */
+static void section_force_slope(const Model *m, const Work *w, kernel_2_2 forces_D_section, int64_t e, int64_t first,
+                                const double *weights, int64_t n_uses, const int64_t *elements, const int64_t *columns,
+                                const double *rows, int64_t k, double *out)
+{
+    double forces[4], by_section[36];
+    memset(out, 0, sizeof(double) * (size_t)k);
+    forces_D_section(1, w->geometry + 36 * e, m->element_sections + m->section_width * e, forces, by_section);
+    for (int64_t u = 0; u < n_uses; ++u) {
+        if (elements[u] != e) continue;
+        const double *row = rows + 10 * u + 1;
+        double sum[2] = {0.0, 0.0};
+        for (int q = 0; q < 2 && first + q < 4; ++q)
+            for (int d = 0; d < 9; ++d) sum[q] += by_section[9 * (first + q) + d] * row[d];
+        out[columns[u]] += weights[0] * sum[0] + weights[1] * sum[1];
+    }
+}
+
+/* The per-step path's section_force_slope at c: the elements' inputs at c, then that. */
+void latdyn_section_force_slope(const Model *m, Work *w, const Configuration *c, kernel_2_2 forces_D_section, int64_t e,
+                                int64_t first, const double *weights, int64_t n_uses, const int64_t *elements,
+                                const int64_t *columns, const double *rows, int64_t k, double *out)
+{
+    element_inputs(m, c, w, 0, m->n_elements);
+    section_force_slope(m, w, forces_D_section, e, first, weights, n_uses, elements, columns, rows, k, out);
+}

@@ -226,6 +226,18 @@ typedef struct SensitivityLoopTag {
     int64_t n_force_reads;
     const int64_t *force_read, *force_row;
     double *force_slopes;
+    /* controllers reading an element's section force whose section values a parameter moves (their force_row −1):
+     * per force read its element (−1: a joint's force), the first of the section forces its sensor weighs and the two
+     * weights (the sensor's, evaluate.c sensor_value kind 12); ∂S/∂p by the section uses (n_uses, elements, columns,
+     * rows) from the generated beam_section_forces_D_section (section_force_slope, csrc/parameter_forces.c, which
+     * ControllerTerms.sensed_force_slopes calls too); NULL: none */
+    const int64_t *force_element, *force_first;
+    const double *force_weights;
+    kernel_2_2 section_forces_D_section;
+    /* controllers reading a cable's tension whose EA, damping or rest length a parameter moves: per force read the
+     * cable's first element (−1: not a tension), whose ∂N/∂p cable_tension_slope (cable_forces.c) takes from the
+     * cables' uses (the cables struct), as CableSensitivities and probe_derivatives._tension_by_parameters form it */
+    const int64_t *force_cable_element;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -327,24 +339,59 @@ static void body_parameter_forces(const Model *m, const Configuration *c, const 
     }
 }
 
-/* ∂r/∂p of the hinges' compliant stops' and friction's laws at c into total: per (use, column) the generated
- * contact_force_D_law or friction_force_D_law at the hinge's (θ, θ̇), its slot times the factor (the Stribeck rate's
- * −(1/v_s)²) times the derivative law's value, added at the hinge's coordinate in the Python path's order
+/* Use u's slope of a hinge's compliant stop's or friction's law at c: the generated contact_force_D_law or
+ * friction_force_D_law at the hinge's (θ, θ̇), its slot times the factor (the Stribeck rate's −(1/v_s)²). */
+static double joint_law_slope(const Configuration *c, const SensitivityLoop *s, int64_t u)
+{
+    const int64_t j = s->law_joint[u];
+    double at[4], out[5];
+    memcpy(at, s->law_at + 4 * u, 4 * sizeof(double));
+    at[0] = c->theta[j];
+    at[1] = c->theta_dot[j];
+    (s->law_kind[u] ? s->friction_kernel : s->contact_kernel)(1, at, s->law_rows + 11 * u, out);
+    return out[s->law_slot[u]] * s->law_factor[u];
+}
+
+/* ∂r/∂p of the hinges' compliant stops' and friction's laws at c into total: per (use, column) its slope
+ * (joint_law_slope) times the derivative law's value, added at the hinge's coordinate in the Python path's order
  * (ParameterDerivatives._contact_forces). */
 static void joint_law_parameter_forces(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
 {
     const int64_t U = s->n_law_uses, k = s->k;
     const double *table = s->law_values + U * (grid - s->values_from);
+    for (int64_t u = 0; u < U; ++u)
+        s->total[m->hinge_dofs[s->law_joint[u]] * k + s->law_column[u]] += table[u] * joint_law_slope(c, s, u);
+}
+
+/* The compliant stops' and friction's part of a read joint's ∂f/∂p (ControllerTerms.sensed_force_slopes: its row of
+ * ParameterDerivatives._contact_forces after the hinge laws'): per (use, column) of a joint a controller reads, in
+ * joint_law_parameter_forces's order, the same product added to that read's force_slopes. */
+static void joint_law_force_slopes(const Model *m, const Configuration *c, const SensitivityLoop *s, int64_t grid)
+{
+    const int64_t U = s->n_law_uses, k = s->k;
+    const double *table = s->law_values + U * (grid - s->values_from);
     for (int64_t u = 0; u < U; ++u) {
-        const int64_t j = s->law_joint[u];
-        double at[4], out[5];
-        memcpy(at, s->law_at + 4 * u, 4 * sizeof(double));
-        at[0] = c->theta[j];
-        at[1] = c->theta_dot[j];
-        (s->law_kind[u] ? s->friction_kernel : s->contact_kernel)(1, at, s->law_rows + 11 * u, out);
-        const double slope = out[s->law_slot[u]] * s->law_factor[u];
-        s->total[m->hinge_dofs[j] * k + s->law_column[u]] += table[u] * slope;
+        const int64_t row = m->hinge_dofs[s->law_joint[u]];
+        double slope = 0.0;
+        int read = 0;
+        for (int64_t f = 0; f < s->n_force_reads; ++f) {
+            if (s->force_row[f] != row) continue;
+            if (!read++) slope = joint_law_slope(c, s, u);
+            s->force_slopes[f * k + s->law_column[u]] += table[u] * slope;
+        }
     }
+}
+
+/* The read section forces' ∂S/∂p at c into their force_slopes (ControllerTerms.sensed_force_slopes): the elements'
+ * inputs at c, then section_force_slope per read of an element. */
+static void section_force_slopes(const Model *m, Work *w, const Configuration *c, const SensitivityLoop *s)
+{
+    element_inputs(m, c, w, 0, m->n_elements);
+    for (int64_t f = 0; f < s->n_force_reads; ++f)
+        if (s->force_element[f] >= 0)
+            section_force_slope(m, w, s->section_forces_D_section, s->force_element[f], s->force_first[f],
+                                s->force_weights + 2 * f, s->n_uses, s->elements, s->columns, s->rows, s->k,
+                                s->force_slopes + f * s->k);
 }
 
 /* The load actuators' part of ControllerTerms.add (and of SampledTerms.add): per actuated load (in its first
@@ -584,7 +631,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     latdyn_sensitivity_predict(n, k, step, s->f, s->slots, s->turn, s->tangent, v_n, a_old, a_new, s->dq, s->dv,
                                s->dvdot, s->da, s->predicted);
     if (s->states != NULL) {   /* ControllerStates.begin_step; the matrices with the states condensed from (S_n, f_n) */
-        const int64_t info = controller_states_begin_loop(m, c, s->states, s->controller_partials, s->read_start, k,
+        const int64_t info = controller_states_begin_loop(m, w, c, s->states, s->controller_partials, s->read_start, k,
                                                           t, h);
         if (info) return s->info = info;
         controller_states_condensed(m, w, s->states, h, 1);
@@ -599,8 +646,15 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
      * geometry parameters', the joint bodies', the compliant stops' and friction's, then the loads') */
     memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
     if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid, t);
-    for (int64_t f = 0; f < s->n_force_reads; ++f)   /* a read joint's ∂F/∂p: −(its row of the hinge laws' alone) */
-        for (int64_t col = 0; col < k; ++col) s->force_slopes[f * k + col] = -s->total[s->force_row[f] * k + col];
+    for (int64_t f = 0; f < s->n_force_reads; ++f)   /* a read joint's ∂F/∂p: its row of the hinge laws' alone, */
+        for (int64_t col = 0; col < k; ++col)
+            s->force_slopes[f * k + col] = s->force_row[f] >= 0 ? s->total[s->force_row[f] * k + col] : 0.0;
+    if (s->n_law_uses && s->n_force_reads) joint_law_force_slopes(m, c, s, grid);   /* + its stops' and friction's */
+    for (int64_t i = 0; i < s->n_force_reads * k; ++i) s->force_slopes[i] = -s->force_slopes[i];   /* −∂f/∂p */
+    if (s->force_element != NULL) section_force_slopes(m, w, c, s);   /* a section force's ∂S/∂p */
+    for (int64_t f = 0; s->force_cable_element != NULL && f < s->n_force_reads; ++f)   /* a cable's tension's ∂N/∂p */
+        if (s->force_cable_element[f] >= 0)
+            cable_tension_slope(m, w, c, s->cables, grid, s->force_cable_element[f], k, s->force_slopes + f * k);
     if (s->n_uses)
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
@@ -618,11 +672,12 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
         s->explicit_[i * cols + k] = 0.0;
     }
     if (s->states != NULL) {   /* the states' derivative by the step size (ControllerStates.by_step_size) */
-        controller_states_step_size_column(m, c, s->states, s->controller_partials, s->read_start, s->output_law,
+        controller_states_step_size_column(m, w, c, s->states, s->controller_partials, s->read_start, s->output_law,
                                            s->output_limited, s->output_limits, s->n_hinge_actuators,
                                            s->actuator_hinge, s->actuator_of, s->actuator_factor, t,
                                            s->n_partial_controllers, s->controller_slopes);
         if (s->n_load_actuators) controller_states_load_step_size(m, c, s);
+        if (s->linked) latdyn_linked_reduce_columns(m, s->states->by_step, 1, s->states->by_step);   /* Pᵀ */
         controller_states_step_size_add(m, s->states, cols, s->explicit_);
     }
     if (s->time_rates != NULL) explicit_time_columns(m, w, c, s, grid, t, h);
@@ -650,7 +705,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
             for (int64_t col = 0; col < k; ++col) to[i * k + col] = x[i * cols + col] + x[i * cols + k] * s->dh[col];
     }
     for (int64_t col = 0; col < k; ++col) s->dt[col] = s->dt[col] + s->dh[col];
-    if (s->states != NULL) controller_states_after_loop(m, s->states, s->read_start, k, h, s->dq, s->dh);
+    if (s->states != NULL) controller_states_after_loop(m, w, c, s->states, s->read_start, k, t, h, s->dq, s->dh);
     if (s->accounts != NULL) work_accounts_step(m, w, c, s->accounts, k, s->dq, s->dv, s->dvdot, s->dh, h, grid, t);
     s->steps += 1;
     s->h = h;
