@@ -327,56 +327,19 @@ def interrupt_cases(folders: list[Path], timeout: float) -> dict:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--family", choices=sorted(GENERATORS), default="boom")
-    parser.add_argument("--runs", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=7)
-    parser.add_argument("--first", type=int, default=0)
-    parser.add_argument("--keep", type=Path, default=Path("/tmp/fuzz7"))
-    parser.add_argument("--show", type=int)
-    parser.add_argument("--timeout", type=float, default=300)
-    parser.add_argument("--no-cli", action="store_true", help="skip (b) and the command's (c)")
-    parser.add_argument("--worker", nargs=2)
-    parser.add_argument("--richardson", nargs=2, help="SCENE OUT: (d) for one scene")
-    parser.add_argument("--tally", nargs="+", type=Path, help="DIR…: counts over the records kept there")
+    parser = two.arguments(GENERATORS, Path("/tmp/fuzz7"), 7)
     parser.add_argument("--interrupt", nargs="+", type=Path,
                         help="DIR…: (c) by the clock (interrupted_by_the_clock) on the solved cases kept there")
     args = parser.parse_args(argv)
     if args.interrupt:
         print(json.dumps(interrupt_cases(args.interrupt, args.timeout), indent=1))
         return 0
-    if args.tally:
-        print(json.dumps(tally_records(args.tally), indent=1))
-        return 0
-    if args.worker:
-        print("RECORD " + json.dumps(worker(Path(args.worker[0]), Path(args.worker[1]))))
-        return 0
-    if args.richardson:
-        print(json.dumps(base.richardson(Path(args.richardson[0]), Path(args.richardson[1])), indent=1))
+    if two.answered(args, GENERATORS, tally_records, worker):
         return 0
     generate = GENERATORS[args.family]
-    if args.show is not None:
-        print(generate(random.Random(f"{args.family}-{args.seed}-{args.show}")))
-        return 0
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    tally: dict[str, int] = {}
     conservative = args.family == "conservative"
-    for n in range(args.first, args.first + args.runs):
-        text = generate(random.Random(f"{args.family}-{args.seed}-{n}"))
-        case = args.keep / f"{args.family}-s{args.seed}-{n}"
-        case.mkdir(parents=True, exist_ok=True)
-        (case / "scene.yaml").write_text(text)
-        start = time.time()
-        record = base.run_worker(__file__, case, env, args.timeout)
-        if "on" in record and not args.no_cli:
-            record.update(base.command_checks(case, env, args.timeout, random.Random(f"{args.seed}-{n}-stop")))
-        outcome = base.judged(record, lambda r: judge(r, conservative), case, tally)
-        on = record.get("on", {})
-        print(f"{n}: {outcome} {time.time() - start:.0f}s in_loop {on.get('in_loop')}/{on.get('steps')} "
-              f"events {on.get('events')} plain {record.get('plain_same')} {record.get('plain_worst')} "
-              f"ebe {record.get('energy_balance_error')} "
-              f"{record['problems'] or record.get('on_error', '') or record.get('worker_error', '')[-200:]}", flush=True)
-    print(json.dumps(tally))
+    print(json.dumps(two.campaign(args, __file__, generate, lambda record: judge(record, conservative),
+                                  lambda record: f"ebe {record.get('energy_balance_error')} ")))
     return 0
 
 
