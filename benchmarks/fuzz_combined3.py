@@ -95,6 +95,25 @@ def _friction(rng: random.Random, params: dict, joint: dict) -> None:
     joint["friction"] = {"coulomb": "mu", "viscous": rng.choice([0, 0.05])}
 
 
+def _unrefused(data: dict) -> None:
+    """What fuzz_combined2's scenes combine that the package refuses by name, taken out (seed 8 on: 64 of 88 cases were
+    refused, the most often for these): a continuous controller reading one with states (the reader's word for it
+    made 0), a reader of a hinge's torque whose law names t beside events (it reads the first element's axial force
+    instead)."""
+    import re
+
+    controllers = data.get("controllers") or {}
+    with_states = [c for c, spec in controllers.items() if "states" in spec]
+    for name, spec in controllers.items():
+        for c in with_states:
+            if c != name and "rate" not in spec:
+                spec["output"] = re.sub(rf"\b{c}\b", "0", spec["output"])
+    probes = data["output"]["probes"]
+    text = json.dumps(data)
+    if "tq" in probes and ("lock_at" in text or "limits" in text or data.get("cables")):
+        probes["tq"] = {"element": "b0.element[0]", "quantity": "axial_force"}
+
+
 def _parameters(rng: random.Random, data: dict) -> None:
     """1–10 of the scene's parameters listed, of every kind it has."""
     names = list(data["parameters"])
@@ -122,8 +141,8 @@ def random_boom(rng: random.Random) -> str:
         _friction(rng, params, beams[rng.choice(free)]["start"]["hinge"])
     if bodies["base"].get("fixed") and rng.random() < 0.3:   # a slewing base
         del bodies["base"]["fixed"]
-        params["sl"] = round(rng.uniform(0.5, 2.0), 2)
-        bodies["base"]["motion"] = {"rotation": {"axis": [0.1, 0.2, 1.0], "angle": "sl*t**2"}}
+        # (a parameter in a prescribed motion is refused by name)
+        bodies["base"]["motion"] = {"rotation": {"axis": [0.1, 0.2, 1.0], "angle": f"{round(rng.uniform(0.5, 2.0), 2)}*t**2"}}
         data.pop("initial_velocity", None)
     for cable in (data.get("cables") or {}).values():
         if rng.random() < 0.6:   # slack at the start or taut: a rest length about the span, a parameter
@@ -142,7 +161,7 @@ def random_boom(rng: random.Random) -> str:
         h = beams[rng.choice(hinges)]["start"]["hinge"]
         params["cd"] = 0.1
         h["damping"] = "cd*(1 + 0.5*theta_dot**2)"
-    if rng.random() < 0.1:   # beyond fuzz_combined2's, which avoids the kinds refused by name
+    if not data.get("cables") and rng.random() < 0.1:   # beyond fuzz_combined2's, which avoids the kinds refused
         for kind in rng.sample(["total", "kinetic", "dissipated", "external_work"], rng.randint(1, 2)):
             data["output"]["probes"][f"e_{kind}"] = {"energy": kind}
     data["solve"].pop("sensitivity_method", None)
@@ -151,6 +170,7 @@ def random_boom(rng: random.Random) -> str:
     data["solve"].update(rng.choice([{}, {}, {"method": "hht-alpha"}, {"method": "newmark"}, {"rho_inf": 0.6}]))
     if rng.random() < 0.2:
         data["solve"]["sensitivity_method"] = "adjoint"
+    _unrefused(data)
     _parameters(rng, data)
     return two._dump(data)
 
@@ -190,6 +210,7 @@ def random_linked(rng: random.Random) -> str:
     if rng.random() < 0.1:
         for kind in rng.sample(["total", "kinetic", "dissipated", "external_work"], rng.randint(1, 2)):
             data["output"]["probes"][f"e_{kind}"] = {"energy": kind}
+    _unrefused(data)
     _parameters(rng, data)
     return two._dump(data)
 
@@ -207,7 +228,8 @@ def random_conservative(rng: random.Random) -> str:
             for key in ("lock_at", "limits", "restitution", "contact", "friction"):
                 hinge.pop(key, None)
             hinge["damping"] = 0
-    data["solve"].pop("rho_inf", None)
+    for key in ("rho_inf", "sensitivity_method"):
+        data["solve"].pop(key, None)
     data["solve"]["method"] = "newmark"
     _parameters(rng, data)
     return two._dump(data)
