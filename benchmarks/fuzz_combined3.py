@@ -295,7 +295,8 @@ def interrupted_by_the_clock(case: Path, env: dict, rng: random.Random, timeout:
     checkpoint = out / "checkpoint.npz"
     while process.poll() is None and seen < writes:
         try:
-            stamp = checkpoint.stat().st_mtime_ns
+            stat = checkpoint.stat()
+            stamp = (stat.st_ino, stat.st_mtime_ns, stat.st_size)   # each write replaces the file
         except FileNotFoundError:
             stamp = None
         if stamp is not None and stamp != last:
