@@ -289,8 +289,12 @@ def interrupted_by_the_clock(case: Path, env: dict, rng: random.Random, timeout:
         return {"clock_error": whole.stderr[-300:]}
     out = case / "clock"
     writes = rng.randint(1, 8)   # the checkpoint's writes to wait for
+    # a command started in the background of a shell inherits SIGINT ignored, and Python then sets no handler: every
+    # SIGINT of fuzz_combined's and fuzz_combined2's campaigns (run with nohup … &) was ignored ("finished before the
+    # interruption" on every case), as a user's Ctrl-C is not; the child takes the default disposition back
     process = subprocess.Popen(command + ["-o", str(out), "--checkpoint-every", "0"], env=env,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     seen, last = 0, None
     checkpoint = out / "checkpoint.npz"
     while process.poll() is None and seen < writes:
