@@ -335,33 +335,27 @@ def judge(record: dict) -> list[str]:
     return problems
 
 
-def main(argv=None) -> int:
+def arguments(generators: dict, keep: Path, seed: int) -> argparse.ArgumentParser:
+    """The campaign's command line (this driver's and benchmarks/fuzz_combined3.py's)."""
     parser = argparse.ArgumentParser()
-    parser.add_argument("--family", choices=sorted(GENERATORS), default="boom")
+    parser.add_argument("--family", choices=sorted(generators), default="boom")
     parser.add_argument("--runs", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--seed", type=int, default=seed)
     parser.add_argument("--first", type=int, default=0)
-    parser.add_argument("--keep", type=Path, default=Path("/tmp/fuzz6"))
+    parser.add_argument("--keep", type=Path, default=keep)
     parser.add_argument("--show", type=int)
     parser.add_argument("--timeout", type=float, default=300)
     parser.add_argument("--no-cli", action="store_true", help="skip (b) and the command's (c)")
     parser.add_argument("--worker", nargs=2)
     parser.add_argument("--richardson", nargs=2, help="SCENE OUT: (d) for one scene")
     parser.add_argument("--tally", nargs="+", type=Path, help="DIR…: counts over the records kept there")
-    args = parser.parse_args(argv)
-    if args.tally:
-        print(json.dumps(tally_records(args.tally), indent=1))
-        return 0
-    if args.worker:
-        print("RECORD " + json.dumps(worker(Path(args.worker[0]), Path(args.worker[1]))))
-        return 0
-    if args.richardson:
-        print(json.dumps(base.richardson(Path(args.richardson[0]), Path(args.richardson[1])), indent=1))
-        return 0
-    generate = GENERATORS[args.family]
-    if args.show is not None:
-        print(generate(random.Random(f"{args.family}-{args.seed}-{args.show}")))
-        return 0
+    return parser
+
+
+def campaign(args, script: str, generate, judge_record, line=lambda record: "") -> dict:
+    """``args.runs`` cases of ``generate`` from ``args.first``, each ``script --worker`` in a process of its own and
+    the command's checks, judged by ``judge_record`` and kept under ``args.keep``; a line per case (``line``: what it
+    adds). Returns the outcomes' counts."""
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     tally: dict[str, int] = {}
     for n in range(args.first, args.first + args.runs):
@@ -370,15 +364,37 @@ def main(argv=None) -> int:
         case.mkdir(parents=True, exist_ok=True)
         (case / "scene.yaml").write_text(text)
         start = time.time()
-        record = base.run_worker(__file__, case, env, args.timeout)
+        record = base.run_worker(script, case, env, args.timeout)
         if "on" in record and not args.no_cli:
             record.update(base.command_checks(case, env, args.timeout, random.Random(f"{args.seed}-{n}-stop")))
-        outcome = base.judged(record, judge, case, tally)
+        outcome = base.judged(record, judge_record, case, tally)
         on = record.get("on", {})
         print(f"{n}: {outcome} {time.time() - start:.0f}s in_loop {on.get('in_loop')}/{on.get('steps')} "
-              f"events {on.get('events')} plain {record.get('plain_same')} {record.get('plain_worst')} "
+              f"events {on.get('events')} plain {record.get('plain_same')} {record.get('plain_worst')} {line(record)}"
               f"{record['problems'] or record.get('on_error', '') or record.get('worker_error', '')[-200:]}", flush=True)
-    print(json.dumps(tally))
+    return tally
+
+
+def answered(args, generators: dict, tally, work) -> bool:
+    """Whether ``args`` asked for one of the campaign's other answers, printed here: ``--tally`` (by ``tally``),
+    ``--worker`` (by ``work``), ``--richardson`` or ``--show``."""
+    if args.tally:
+        print(json.dumps(tally(args.tally), indent=1))
+    elif args.worker:
+        print("RECORD " + json.dumps(work(Path(args.worker[0]), Path(args.worker[1]))))
+    elif args.richardson:
+        print(json.dumps(base.richardson(Path(args.richardson[0]), Path(args.richardson[1])), indent=1))
+    elif args.show is not None:
+        print(generators[args.family](random.Random(f"{args.family}-{args.seed}-{args.show}")))
+    else:
+        return False
+    return True
+
+
+def main(argv=None) -> int:
+    args = arguments(GENERATORS, Path("/tmp/fuzz6"), 1).parse_args(argv)
+    if not answered(args, GENERATORS, tally_records, worker):
+        print(json.dumps(campaign(args, __file__, GENERATORS[args.family], judge)))
     return 0
 
 

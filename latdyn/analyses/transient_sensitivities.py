@@ -1779,6 +1779,10 @@ def _controller_time_rates(owner):
 
     rates = copy.copy(terms)
     rates.k, rates.held, rates.sampled, rates.states = 1, {}, None, None
+    # the sensed forces' ∂F/∂p are the parameters' columns, not t's (a force whose law names t is refused beside
+    # events before the run): a reader of an element's axial force moved by EA beside a timed controller ended in a
+    # ValueError (1,) against (k,) (tests/test_fuzz_run_findings6.py)
+    rates.forces_read = {}
     expressions = {c.name: {0: _drop_deltas(sp.diff(c.output_expr, c.symbols[0]))} for c in timed}
     rates.partial_expressions = expressions
     rates.partials = {name: {0: sp.lambdify(c.symbols, expressions[name][0], modules=["math", "numpy"])}
