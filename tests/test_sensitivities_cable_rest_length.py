@@ -19,39 +19,16 @@ import yaml
 import latdyn
 from latdyn.results.result import Result
 from tests.cli_runs import latdyn_run, summary_of
+from tests.test_sensitivities_in_loop_controller_reads import CABLE_LIMIT
 
-CABLE_REST = """
-title: a tip mass on a flexible arm falls until a damped, heavy skew cable catches it, a controller on the tension
-parameters: {rA: 0.05, Kp: 3.0, Kt: 0.02, EA: 5000.0, L: 1.015, c: 2.0, EI: 50.0, m: 0.5}
-gravity: [0, 0, -9.81]
-sections:
-  s: {EA: 100000.0, EIy: "EI", EIz: "1.3*EI", GJ: "0.8*EI", rhoA: 0.4, rhoIy: 0.001, rhoIz: 0.0013}
-bodies:
-  base: {at: [0, 0, 0], fixed: true}
-  anchor: {at: [0.3, 0.6, 0.9], fixed: true}
-  tip: {at: [0.6666666666666666, 0.3333333333333333, 0.0], mass: "m", inertia: [0.002, 0.003, 0.004]}
-beams:
-  arm:
-    from: base
-    to: tip
-    section: s
-    elements: 3
-    start: {hinge: {axis: [0, 0.6, 0.8], stiffness: 4.0, damping: 0.3, torque: "lim"}}
-cables:
-  stay: {from: anchor, to: {body: tip, offset: [0.05, -0.02, 0.03]}, EA: "EA", rest_length: "L", damping: "c",
-         rhoA: "rA"}
-controllers:
-  lim: {output: "Kp*(0.2 - root) - Kt*pull", limits: [-4, 4]}
-solve: {analysis: transient, dt: 0.005, t_end: 0.25, tol: 1.0e-12, sensitivities: [L, rA]}
-output:
-  every: 0.01
-  probes:
-    root: {hinge: arm.start, quantity: angle}
-    pull: {cable: stay, quantity: tension}
-    tip_z: {point: tip, quantity: position, component: z}
-    tip_x: {point: tip, quantity: position, component: x}
-    mid_y: {point: "arm.node[1]", quantity: displacement, component: y}
-"""
+#: tests/test_sensitivities_in_loop_controller_reads.py's CABLE_LIMIT (tests/test_sensitivities_cables.py's CABLE_3D
+#: on a root hinge whose torque a clipped controller sets from its angle and the cable's tension), the cable of mass
+#: ρA = rA, the Newton tolerance 1e-12, by the rest length and ρA
+CABLE_REST = (CABLE_LIMIT.replace("parameters: {Kp:", "parameters: {rA: 0.05, Kp:")
+              .replace('damping: "c"}', 'damping: "c", rhoA: "rA"}')
+              .replace("solve: {analysis: transient,", "solve: {tol: 1.0e-12, analysis: transient,")
+              .replace("sensitivities: [Kp, Kt, EI, m]", "sensitivities: [L, rA]"))
+assert all(mark in CABLE_REST for mark in ('rhoA: "rA"', "rA: 0.05", "tol: 1.0e-12", "[L, rA]"))
 CHANGES = ["taut", "slack", "taut", "slack", "taut"]
 
 
