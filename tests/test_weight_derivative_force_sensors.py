@@ -48,7 +48,7 @@ SPAR = (CHAIN.replace("start: {hinge: {axis: [0, 1, 1], stiffness: 3.0}}}",
 def test_the_generated_tension_second_derivative_is_the_central_difference_of_its_gradient():
     """``cable_tension_D_q_D_q`` of a damped, stretched element at random rates: its gradient is ``cable_tension``'s
     ∂N/∂q to round-off (1e-15; their CSE differs), and its derivative by the 12 end coordinates the central difference of that gradient along
-    the configuration's update."""
+    the configuration's update (measured ≤ 4.0e-10 relative)."""
     kernels = load_kernels("auto", "default")
     rng = np.random.default_rng(36)
     for _ in range(3):
@@ -66,13 +66,14 @@ def test_the_generated_tension_second_derivative_is_the_central_difference_of_it
             step = np.zeros(12)
             step[k] = H
             numeric = (gradient(_moved_cable(geometry, step)) - gradient(_moved_cable(geometry, -step))) / (2 * H)
-            assert np.abs(second[:, k] - numeric).max() <= 1e-7 * np.abs(second).max()
+            assert np.abs(second[:, k] - numeric).max() <= 1e-8 * np.abs(second).max()
 
 
 @pytest.mark.parametrize("regime", list(es.REGIMES))
 def test_the_generated_section_force_second_derivative_is_the_central_difference_of_its_gradient(regime):
     """3D ``default``: ``beam_section_forces_D_q_D_q``'s (∂S/∂q) a is ``beam_section_forces_D_q``'s ∂S/∂q times a,
-    and its derivative by the 14 coordinates on SO(3) at fixed a the central difference of that product."""
+    and its derivative by the 14 coordinates on SO(3) at fixed a the central difference of that product (measured
+    ≤ 3.5e-10 relative over the regimes)."""
     kernels = load_kernels("auto", "default")
     rng = np.random.default_rng(37)
     state = es.random_state(rng, deformation=es.REGIMES[regime])
@@ -89,7 +90,7 @@ def test_the_generated_section_force_second_derivative_is_the_central_difference
         step = np.zeros(14)
         step[k] = H
         numeric = (product(state.moved(step)) - product(state.moved(-step))) / (2 * H)
-        assert np.abs(tangent[:, k] - numeric).max() <= 1e-6 * np.abs(tangent).max()
+        assert np.abs(tangent[:, k] - numeric).max() <= 1e-8 * np.abs(tangent).max()
 
 
 @pytest.mark.parametrize("text, kinds", [(TENSION, [11]), (SECTION, [12])], ids=["tension", "section_force"])
@@ -97,7 +98,7 @@ def test_a_force_sensors_second_derivative_is_the_central_difference_of_its_grad
     """The stay's tension (kind 11) and the arm's tip element's bending moment and torque (12) at a moved state:
     their gradient is the one csrc/evaluate.c computes (``sensor_jacobian``'s columns of K, to the bit), and its
     derivative along each of their coordinates (the configuration's update: turns on SO(3)) the central difference
-    of that gradient."""
+    of that gradient (measured 1.1e-10 for the tension, 6.1e-10 and 2.2e-10 for the moment and the torque)."""
     prepared, state, _ = _boom_state(text)
     assembler = prepared.assembler
     control, n = assembler.control, prepared.model.n_dofs
@@ -121,7 +122,7 @@ def test_a_force_sensors_second_derivative_is_the_central_difference_of_its_grad
             ahead = _sensor_kinematics(assembler, assembler.advance(state, unit), int(kind), int(index), sensor)[0]
             behind = _sensor_kinematics(assembler, assembler.advance(state, -unit), int(kind), int(index), sensor)[0]
             moved = second[:, dofs == d].sum(axis=1)
-            assert np.abs(moved - (ahead - behind) / 2e-6).max() <= 2e-8 * np.abs(second).max()
+            assert np.abs(moved - (ahead - behind) / 2e-6).max() <= 5e-9 * np.abs(second).max()
         checked.append(int(kind))
     assert sorted(set(checked)) == kinds
 
@@ -129,8 +130,9 @@ def test_a_force_sensors_second_derivative_is_the_central_difference_of_its_grad
 @pytest.mark.parametrize("text", [TENSION, SECTION, SPAR], ids=["tension", "section_force", "spar"])
 def test_a_controller_reading_a_tension_or_a_section_force_is_generated(text):
     """The PD of the stay's tension, the PD of the tip element's bending moment and torque, and the spar's hinge
-    driven by a controller of both: no coordinate left to difference and H's blocks (hinges', loads', cables',
-    couplings') agree with Richardson differences of their K w."""
+    driven by a controller of both: no coordinate left to difference (af426b0 differenced 7, 13 and 13) and H's
+    blocks (hinges', loads', cables', couplings') agree with Richardson differences of their K w (measured ≤ 7.9e-13,
+    1.3e-10, 4.6e-12 over three directions; the difference 2.0e-11, 5.1e-9, 1.5e-9)."""
     prepared, _, _ = _boom_state(text)
     assert exact_couplings(prepared.assembler).all() and len(rest_support(prepared.assembler)) == 0
     _assert_blocks_are_richardsons(text, 1e-9)
