@@ -15,12 +15,15 @@ import yaml
 
 import element_states as es
 import latdyn
-from latdyn.analyses.weight_derivative import _sensor_dofs, _sensor_kinematics, exact_couplings, rest_support
+from latdyn.analyses.weight_derivative import exact_couplings, rest_support
 from latdyn.model.kernels import load_kernels
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
-from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import _agree
 from tests.test_weight_derivative_couplings import CHAIN, _assert_blocks_are_richardsons
+from tests.test_weight_derivative_couplings import \
+    test_a_sensors_second_derivative_is_the_central_difference_of_its_gradient as _sensor_check
+from tests.test_weight_derivative_couplings import \
+    test_through_the_latch_the_sensitivities_agree_and_the_loop_keeps_the_bits as _through_the_latch
 from tests.test_weight_derivative_rest import CONTROLLED_BOOM, _boom_state, _moved_cable, _row
 
 H = 1e-6
@@ -93,38 +96,14 @@ def test_the_generated_section_force_second_derivative_is_the_central_difference
         assert np.abs(tangent[:, k] - numeric).max() <= 1e-8 * np.abs(tangent).max()
 
 
-@pytest.mark.parametrize("text, kinds", [(TENSION, [11]), (SECTION, [12])], ids=["tension", "section_force"])
+@pytest.mark.parametrize("text, kinds", [(TENSION, [11]), (SECTION, [12, 12])], ids=["tension", "section_force"])
 def test_a_force_sensors_second_derivative_is_the_central_difference_of_its_gradient(text, kinds):
     """The stay's tension (kind 11) and the arm's tip element's bending moment and torque (12) at a moved state:
     their gradient is the one csrc/evaluate.c computes (``sensor_jacobian``'s columns of K, to the bit), and its
     derivative along each of their coordinates (the configuration's update: turns on SO(3)) the central difference
-    of that gradient (measured 1.1e-10 for the tension, 6.1e-10 and 2.2e-10 for the moment and the torque)."""
-    prepared, state, _ = _boom_state(text)
-    assembler = prepared.assembler
-    control, n = assembler.control, prepared.model.n_dofs
-    native = assembler.native()
-    held = prepared.model.scene.controller_outputs.values.copy()
-    native.controller_outputs_at(state)
-    prepared.model.scene.controller_outputs.values[:] = held
-    jacobian = np.array(native.buffers["sensor_jacobian"])
-    checked = []
-    for sensor, (kind, index) in enumerate(zip(control.sensor_kind, control.sensor_index)):
-        if kind not in kinds:
-            continue
-        gradient, second = _sensor_kinematics(assembler, state, int(kind), int(index), sensor)
-        first = int(control.sensor_column_start[sensor])
-        np.testing.assert_array_equal(gradient, jacobian[first:first + len(gradient)])
-        dofs = _sensor_dofs(assembler, int(kind), int(index), sensor)
-        assert len(dofs) == len(gradient) and second.shape == (len(dofs), len(dofs))
-        for d in np.unique(dofs[dofs < n]):
-            unit = np.zeros(n)
-            unit[d] = 1e-6
-            ahead = _sensor_kinematics(assembler, assembler.advance(state, unit), int(kind), int(index), sensor)[0]
-            behind = _sensor_kinematics(assembler, assembler.advance(state, -unit), int(kind), int(index), sensor)[0]
-            moved = second[:, dofs == d].sum(axis=1)
-            assert np.abs(moved - (ahead - behind) / 2e-6).max() <= 5e-9 * np.abs(second).max()
-        checked.append(int(kind))
-    assert sorted(set(checked)) == kinds
+    of that gradient (measured 1.1e-10 for the tension, 6.1e-10 and 2.2e-10 for the moment and the torque; the
+    check of tests/test_weight_derivative_couplings.py)."""
+    _sensor_check(text, kinds)
 
 
 @pytest.mark.parametrize("text", [TENSION, SECTION, SPAR], ids=["tension", "section_force", "spar"])
@@ -142,19 +121,8 @@ def test_through_the_latch_the_section_force_pds_sensitivities_agree_and_the_loo
     """Through the arm's latch, no difference left in H: the PD of the tip element's moment and torque. The
     sensitivities by Kp agree with Richardson differences of whole runs (measured 2.3e-6 on the torque's probe, as
     with the difference: the reference's own error) and the loop of steps on and off give the same bits, with steps
-    in the loop."""
-    text, name, tolerance = SECTION, "Kp", 5e-6
-    prepared, _, _ = _boom_state(text)
-    assert len(rest_support(prepared.assembler)) == 0
-    data = yaml.safe_load(text)
-    data["solve"]["sensitivities"] = [name]
-    text = yaml.safe_dump(data)
-    runs = runs_with_the_loop_on_and_off(text)
-    native, python = runs[True], runs[False]
-    assert [e["kind"] for e in native.summary["events"]] == ["latch"]
-    assert native.summary["sensitivity_steps_in_loop"] > 0
-    assert_same_sensitivities(native, python)
-    assert _agree(native, text, name, tolerance) < tolerance
+    in the loop (the check of tests/test_weight_derivative_couplings.py)."""
+    _through_the_latch(SECTION, "Kp", 5e-6)
 
 
 def test_latdyn_run_of_the_tension_pd_agrees_with_richardson_and_the_loop_off_writes_the_same(tmp_path):
