@@ -824,6 +824,24 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         tangent=configuration_tangent("stiffness_along", "stiffness_along_D_q", plane,
                                       "∂((∂F_i/∂q) v)/∂q at fixed v, row-major: [r, d] = ∂(K v)_r/∂q_d"))
 
+    # the section forces' derivative along a direction, (∂S/∂q) a (a in the velocity block), and its derivative by the
+    # element's coordinates, ∂((∂S/∂q) a)/∂q under the configuration update at fixed a: the forward-mode program of the
+    # lowered product seeded as ``beam_stiffness_D_q``'s, the second derivative of a section-force sensor an event's
+    # impulse weight needs along δq (latdyn/analyses/weight_derivative.py ``_sensor_kinematics``, kind 12)
+    b = Builder(kin.auxiliary + shear_definitions)
+    psi = b.vector("psi", kin.psi)
+    Bm = b.matrix("B", kin.B)
+    rename = dict(zip(psi_symbols, psi))
+    by_psi = b.matrix("dS_dpsi", [[sp.diff(f, p).xreplace(rename) for p in psi_symbols] for f in sections])
+    by_q = _matmul(by_psi, Bm)
+    along = [sp.Add(*[by_q[k][c] * direction[c] for c in range(N)]) for k in range(len(sections))]
+    add("beam_section_forces_D_q_D_q", "The section forces' derivative along a direction, (∂S/∂q) a (a in the "
+        "velocity block), and its exact derivative by the element's coordinates at fixed a (forward mode of the "
+        "lowered product, codegen/forward.py)", "Eqs. 22-43", [cv.GEOMETRY, cv.VELOCITY, cv.SECTION],
+        [Output("section_forces_along", (4,), along)], b,
+        tangent=configuration_tangent("section_forces_along", "section_forces_along_D_q", plane,
+                                      "∂((∂S/∂q) a)/∂q at fixed a, row-major: [k, d] = ∂((∂S/∂q) a)_k/∂q_d"))
+
     # the element's energies [U, T, V] (strain, kinetic, gravity potential) and their derivatives by the section
     # values: an energy probe's explicit ∂/∂p (latdyn/analyses/energy_sensitivities.py)
     b = Builder(kin.auxiliary + shear_definitions)

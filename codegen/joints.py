@@ -858,6 +858,32 @@ def _cable_tension_kernel() -> KernelSpec:
                       equations="Eq. 2 (the end points); cables, issue 32")
 
 
+def _cable_tension_D_q_D_q_kernel() -> KernelSpec:
+    """The second derivative of a taut cable element's tension N (:func:`_cable_tension_kernel`, the damper's c ℓ̇
+    included, at fixed rates) by the end coordinates: ∂(∂N/∂q_c)/∂q_i, the gradient ``cable_tension_D_q`` (column c,
+    the spatial update δ at τ = 0) differentiated once more by the update ε of the ends it starts from (column i), as
+    ``cable_stiffness_D_q`` is built: a tension sensor's move along δq in an event's impulse weight derivative
+    (latdyn/analyses/weight_derivative.py ``_sensor_kinematics``, kind 11)."""
+    geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
+    delta = sp.Matrix(sp.symbols("delta_0:12"))
+    second = sp.Matrix(sp.symbols("epsilon_0:12"))
+
+    def gradient(start):
+        moved = sp.Matrix([cable_terms(_cable_moved(start, delta), velocity, section)[4]])
+        return _jacobian(moved, delta, {d: 0 for d in delta})
+
+    by_q = _jacobian(gradient(_cable_moved(list(geometry), second)).T, second, {e: 0 for e in second})
+    outputs = [Output("cable_tension_D_q", (12,), _rows(gradient(list(geometry))),
+                      "∂N/∂[d1, π1, d2, π2] at fixed velocities (spatial update)"),
+               Output("cable_tension_D_q_D_q", (12, 12), _rows(by_q),
+                      "∂(∂N/∂q_c)/∂q_i at fixed velocities (spatial update): row c the gradient's column, column i "
+                      "the move")]
+    return KernelSpec(name="cable_tension_D_q_D_q", doc="The gradient of a taut cable element's tension by the end "
+                      "coordinates and its exact derivative by them (a tension sensor in an event's impulse weight "
+                      "with sensitivities)", inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION], outputs=outputs,
+                      variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
+
+
 ROTATION_VECTOR = Argument("rotation_vector", 3, "w: a rotation vector (axis times angle), global")
 
 #: Below θ² = SO3_SWITCH the exponential's scalars are their Taylor polynomials in θ² (through θ⁸:
@@ -1301,7 +1327,7 @@ def build_kernels() -> list[KernelSpec]:
             _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
             _cable_stiffness_D_q_kernel(), _cable_rest_length_kernel(), _cable_stiffness_D_rest_length_kernel(),
-            _cable_tension_kernel(),
+            _cable_tension_kernel(), _cable_tension_D_q_D_q_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),
             *(_rates_D_q_kernel(kind) for kind in ("rigid_link_edge", "prismatic_link_edge", "slider_closure_edge",

@@ -281,10 +281,11 @@ def test_a_pd_controllers_coupling_in_h_is_sympys_second_derivative_and_no_diffe
     _assert_h_is_richardsons(assembler, state, rng, n)
 
 
-def test_a_saturated_controller_adds_nothing_and_a_controller_of_a_tension_keeps_the_difference():
+def test_a_saturated_controller_adds_nothing_and_a_controller_of_a_relative_velocity_keeps_the_difference():
     """The PD's output clipped at the state (limits [−0.01, 0.01]): its coupling's part of H is empty (∂y/∂s = 0
-    about it, csrc/evaluate.c); the same controller reading the cable's tension keeps the difference along its
-    couplings (a controller reading an input or a point: tests/test_weight_derivative_couplings.py)."""
+    about it, csrc/evaluate.c); the same controller reading a point's velocity in a body's axes keeps the difference
+    along its couplings (a controller reading an input or a point: tests/test_weight_derivative_couplings.py; a
+    cable's tension or a section force: tests/test_weight_derivative_force_sensors.py)."""
     from latdyn.analyses.weight_derivative import _coupling_part, exact_couplings
 
     clipped = CONTROLLED_BOOM.replace('(1 + angle**2)"}', '(1 + angle**2)", limits: [-0.01, 0.01]}')
@@ -292,8 +293,10 @@ def test_a_saturated_controller_adds_nothing_and_a_controller_of_a_tension_keeps
     state.theta[0] = 1.5
     assert exact_couplings(prepared.assembler).all()
     assert len(_coupling_part(prepared.assembler, state, rng.normal(size=prepared.model.n_dofs), 1.0)[2]) == 0
-    with_tension = CONTROLLED_BOOM.replace("- Kd*rate", "- (1 + pull)*Kd*rate")
-    assembler = prepare(latdyn.load_scene(yaml.safe_load(with_tension))).assembler
+    with_relative = (CONTROLLED_BOOM.replace("- Kd*rate", "- (1 + spin)*Kd*rate")
+                     .replace("    angle: {", '    spin: {point: "arm.node[1]", quantity: velocity, component: x, '
+                              'frame: wheel}\n    angle: {', 1))
+    assembler = prepare(latdyn.load_scene(yaml.safe_load(with_relative))).assembler
     assert not exact_couplings(assembler).any() and len(rest_support(assembler))
 
 

@@ -50,8 +50,8 @@ and exact:
   element's K is the runtime's zero, its derivative too (:func:`_cable_part`);
 * the continuous controllers' couplings (:func:`exact_couplings`) from a controller that reads joints' angles and
   rates, points' positions and displacements (global at their node or at an offset, or in a body's axes), nodes'
-  velocities and points' velocities at an offset, cables' lengths, free joints' forces whose laws are generated,
-  inputs, its own states and earlier such controllers (:func:`_exact_controllers`): K's entry −a ∂y/∂q_c (a joint's force) or F(e_p) ∂y/∂q_c (a load
+  velocities and points' velocities at an offset, cables' lengths and tensions, elements' section forces, free
+  joints' forces whose laws are generated, inputs, its own states and earlier such controllers (:func:`_exact_controllers`): K's entry −a ∂y/∂q_c (a joint's force) or F(e_p) ∂y/∂q_c (a load
   component) moves along q with y's second derivative through the chain rule (:func:`_controller_curvatures`):
   SymPy's first and second derivatives of each output's expression by its reads that move (lambdified once per
   controller in a process, :func:`_output_curvature`) at the sensors' values the evaluation computes, the rates
@@ -60,11 +60,18 @@ and exact:
   second derivative through the kinematics under the configuration update (:func:`_sensor_kinematics`: 0 for an
   angle and a global component; a point x + T r, a point in a body's axes, a point's velocity v + ω × T r (by the
   turn, the rates held) and a cable's length composed of the generated ``point_load``'s force and turn tangents, as csrc/evaluate.c composes their gradients from it; a free
-  joint's force from ``hinge_force`` and ``hinge_stiffness_by_angle``); 0 while an output is saturated
+  joint's force from ``hinge_force`` and ``hinge_stiffness_by_angle``; a cable's tension N (its first element's, the
+  damper's c ℓ̇ at the state's rates held; 0 while slack) from ``cable_tension_D_q_D_q``, ∂N/∂q differentiated once
+  more under the update of the ends, codegen/joints.py beside ``cable_stiffness_D_q``; an element's section force
+  from ``beam_section_forces_D_q_D_q``, the forward-mode program of the lowered product (∂S/∂q) a seeded as
+  ``beam_stiffness_D_q``'s, codegen/derivation.py, at a = each of the element's fourteen coordinates; a variant
+  generated before these two kernels keeps the difference for those controllers); 0 while an output is saturated
   (:func:`_coupling_part`, :func:`_driven_load_part`).
 
-Not generated, H_rest: the couplings of a controller reading a cable's tension, an element's section force, a
-point's velocity relative to a body (whose value moves with q), a free joint's force whose law is not generated, or a controller of those, and the blocks of the loads such controllers drive. Their product (W
+Not generated, H_rest: the couplings of a controller reading a point's velocity relative to a body (whose value
+moves with q; its gradient is hand-written in csrc/evaluate.c, so a second derivative would be hand-written physics
+again), a free joint's force whose law is not generated, or a controller of those, and the blocks of the loads such
+controllers drive. Their product (W
 without the generated blocks) w is differenced centrally along each coordinate those blocks are on
 (:func:`rest_support`: those couplings' rows and columns, the driven loads' nodes and frame bodies, a hinge not in
 :func:`exact_hinges`), two evaluations per coordinate, step
@@ -512,30 +519,39 @@ def _taut_cables(assembler, state):
     """(dofs (e, 12) with n_total for no coordinate, geometry (e, 12), velocity (e, 12), section (e, 4)) of the cable
     elements taut at ``state`` (csrc/evaluate.c ``cables``: held taut, or on no side a positive gap min(N_el, N)), the
     generated cable kernels' inputs; None where there is none."""
-    from latdyn.analyses.cable_sensitivities import _turned
-
     model, cables = assembler.model, assembler.model.cables
     if cables is None or not len(cables.nodes):
         return None
+    geometry, velocity, section, taut = _cable_inputs(assembler, state, np.arange(len(cables.nodes)))
+    if not np.any(taut):
+        return None
+    dofs = _scattered(assembler.cable_dofs(), model.n_total)
+    return dofs[taut], geometry[taut], velocity[taut], section[taut]
+
+
+def _cable_inputs(assembler, state, on: np.ndarray):
+    """(geometry (e, 12), velocity (e, 12), section (e, 4), taut (e,) bool) of the cable elements ``on`` at ``state``:
+    the generated cable kernels' inputs, and whether each is taut as csrc/evaluate.c ``cables`` decides (held taut,
+    or on no side a positive gap min(N_el, N))."""
+    from latdyn.analyses.cable_sensitivities import _turned
+
+    cables = assembler.model.cables
     t = float(state.t)
-    on = np.arange(len(cables.nodes))
-    nodes = cables.nodes
+    nodes = cables.nodes[on]
     geometry = np.array([np.concatenate([state.x[a], state.x[b], _turned(state.T[a], cables.offsets[e, 0]),
                                          _turned(state.T[b], cables.offsets[e, 1])])
                          for e, (a, b) in zip(on, nodes)])
     velocity = np.concatenate([state.v[nodes[:, 0]], state.w[nodes[:, 0]], state.v[nodes[:, 1]], state.w[nodes[:, 1]]],
                               axis=1)
     rest = [cables.rest_length[cables.cable[e]] for e in on]
-    section = np.column_stack([cables.share * [r.value(t) for r in rest],
-                               cables.share * [r.rate(t) for r in rest], cables.EA, cables.damping])
+    section = np.column_stack([cables.share[on] * [r.value(t) for r in rest],
+                               cables.share[on] * [r.rate(t) for r in rest], cables.EA[on], cables.damping[on]])
     rows = lambda a: np.ascontiguousarray(a, dtype=float)  # noqa: E731
-    law = np.asarray(assembler.kernels.cable_force(rows(geometry), rows(velocity), rows(section))[3]).reshape(-1, 5)
-    sides = np.asarray(cables.sides, float)
+    geometry, velocity, section = rows(geometry), rows(velocity), rows(section)
+    law = np.asarray(assembler.kernels.cable_force(geometry, velocity, section)[3]).reshape(-1, 5)
+    sides = np.asarray(cables.sides, float)[on]
     taut = (sides > 0) | ((sides == 0) & (np.minimum(law[:, 3], law[:, 4]) > 0.0))
-    if not np.any(taut):
-        return None
-    dofs = _scattered(assembler.cable_dofs(), model.n_total)
-    return dofs[taut], geometry[taut], velocity[taut], section[taut]
+    return geometry, velocity, section, taut
 
 
 def _cable_part(assembler, state, w: np.ndarray, scale: float, full: np.ndarray | None = None):
@@ -611,15 +627,20 @@ def _controller_reads(control, k: int) -> list:
 #: the sensor kinds whose values move along q with a second derivative :func:`_sensor_kinematics` gives
 #: (latdyn.assembly.control: a joint's angle, a point's global position component at its node or at an offset, a
 #: point's position component in a body's axes, a point's velocity at an offset (by its node's turn: v + ω × T r at
-#: the rates held), a cable's length, a free joint's force), and those held along q (a joint's rate, a node's velocity)
-_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 6, 7, 8, 14), (1, 3)
+#: the rates held), a cable's length, a cable's tension, an element's section force, a free joint's force), and those
+#: held along q (a joint's rate, a node's velocity)
+_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 6, 7, 8, 11, 12, 14), (1, 3)
+#: the generated second derivative a force sensor's move along q needs (codegen/joints.py, codegen/derivation.py): a
+#: cable's tension (kind 11) and an element's section force (12); a variant generated before it keeps the difference
+_FORCE_SECOND = {11: "cable_tension_D_q_D_q", 12: "beam_section_forces_D_q_D_q"}
 
 
 def _exact_controllers(assembler) -> list:
     """(controllers,) bool: whether a continuous controller's output has its second derivatives along q generated
     (:func:`_controller_curvatures`): it reads joints' angles and rates, points' positions and displacements
-    (global, at an offset, in a body's axes), nodes' velocities, points' velocities at an offset, cables' lengths,
-    free joints' forces whose laws are generated
+    (global, at an offset, in a body's axes), nodes' velocities, points' velocities at an offset, cables' lengths
+    and tensions, elements' section forces (where the variant holds :data:`_FORCE_SECOND`'s kernels), free joints'
+    forces whose laws are generated
     (:func:`exact_hinges`), inputs, its own states (held across the impulse) and earlier controllers of this kind
     alone, with an output whose second derivatives by the sensors that move
     and the controllers it reads are functions (:func:`_output_curvature`)."""
@@ -631,10 +652,13 @@ def _exact_controllers(assembler) -> list:
         return known[1]
     model = assembler.model
     generated = dict(zip((int(j) for j in model.free_hinges), exact_hinges(assembler)))
+    info = getattr(assembler.kernels, "info", None) or {}
+    held = {kind for kind, name in _FORCE_SECOND.items() if name not in info}
     out = []
     for k, controller in enumerate(control.controllers):
         reads = _controller_reads(control, k)
-        plain = all(kind is None or (kind in _MOVING_SENSORS + _HELD_SENSORS and (kind != 14 or generated.get(index)))
+        plain = all(kind is None or (kind in _MOVING_SENSORS + _HELD_SENSORS and (kind != 14 or generated.get(index))
+                                     and kind not in held)
                     or (kind == CONTROLLER and out[index]) for kind, index, _ in reads)
         moving = tuple(p for p, (kind, _, _) in enumerate(reads) if kind in _MOVING_SENSORS + (CONTROLLER,))
         out.append(plain and _output_curvature(controller, moving) is not None)
@@ -658,6 +682,10 @@ def _sensor_dofs(assembler, kind: int, index: int, sensor: int) -> np.ndarray:
         dofs = model.node_dofs[index // 3, 3:]
     elif kind == 8:   # each element's end nodes, as csrc/evaluate.c's gradient (12 columns an element)
         dofs = model.node_dofs[model.cables.nodes[_cable_elements(assembler, index, sensor)]].reshape(-1)
+    elif kind == 11:  # its K columns: the first element's end nodes (their six rates are C's)
+        dofs = model.node_dofs[model.cables.nodes[index]].reshape(-1)
+    elif kind == 12:  # the element's fourteen coordinates
+        dofs = model.element_dofs[index // 4]
     else:
         dofs = np.concatenate([model.node_dofs[index // 3], model.node_dofs[assembler.control.sensor_frame_node[sensor]]])
     return _scattered(np.asarray(dofs, np.int64), model.n_total)
@@ -693,6 +721,10 @@ def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
         return np.ones(1), None
     if kind == 8:
         return _cable_length_kinematics(assembler, state, index, sensor)
+    if kind == 11:
+        return _tension_kinematics(assembler, state, index)
+    if kind == 12:
+        return _section_force_kinematics(assembler, state, index, sensor)
     if kind == 14:   # s = −f of the joint's laws (csrc/evaluate.c): −∂f/∂θ = −K_jj, moving with −∂K_jj/∂θ
         states, laws, curvatures, contacts = _hinge_rows(assembler, state, [index])
         kernels = assembler.kernels
@@ -780,6 +812,37 @@ def _cable_length_kinematics(assembler, state, first: int, sensor: int):
         block[0:6, 3:6] += turned_a[0]
         block[6:12, 9:12] += turned_b[0]
         second[at, at] = block
+    return gradient, second
+
+
+def _tension_kinematics(assembler, state, element: int):
+    """:func:`_sensor_kinematics` of a cable's tension, its first element's N (csrc/evaluate.c: 0 while slack, as
+    ``cables`` decides, its gradient too): the generated ``cable_tension_D_q_D_q`` (codegen/joints.py) at the element's
+    inputs (:func:`_cable_inputs`, the damper's c ℓ̇ at the state's rates held): that gradient's derivative by the update
+    of the ends; the gradient ∂N/∂q on the end nodes' [d, π] is ``cable_tension``'s, as csrc/evaluate.c's."""
+    geometry, velocity, section, taut = _cable_inputs(assembler, state, np.array([element]))
+    if not taut[0]:
+        return np.zeros(12), None
+    kernels = assembler.kernels
+    gradient = kernels.cable_tension(geometry, velocity, section)[1]   # csrc/evaluate.c's, to the bit
+    second = kernels.cable_tension_D_q_D_q(geometry, velocity, section)[1]
+    return np.asarray(gradient, float).reshape(12), np.asarray(second, float).reshape(12, 12)
+
+
+def _section_force_kinematics(assembler, state, index: int, sensor: int):
+    """:func:`_sensor_kinematics` of an element's section force w0 S_k + w1 S_k+1 (latdyn.assembly.control
+    SECTION_FORCE; index 4 e + k, the weights in ``sensor_offset``): the generated ``beam_section_forces_D_q_D_q``
+    (codegen/derivation.py) at the element's inputs along each of its fourteen coordinates a = e_c, whose
+    (∂S/∂q) e_c is the gradient's column c and ∂((∂S/∂q) e_c)/∂q its move."""
+    e, k = index // 4, index % 4
+    weight = assembler.control.sensor_offset[sensor]
+    n = assembler.model.element_dofs.shape[1]
+    geometry = np.ascontiguousarray(np.repeat(assembler.native().element_inputs(state)[0][e:e + 1], n, axis=0))
+    sections = np.ascontiguousarray(np.repeat(assembler.model.element_sections[e:e + 1], n, axis=0))
+    along, moved = assembler.kernels.beam_section_forces_D_q_D_q(geometry, np.eye(n), sections)
+    along, moved = np.asarray(along, float).reshape(n, 4), np.asarray(moved, float).reshape(n, 4, n)
+    gradient = weight[0] * along[:, k] + (weight[1] * along[:, k + 1] if k < 3 else 0.0)
+    second = weight[0] * moved[:, k] + (weight[1] * moved[:, k + 1] if k < 3 else 0.0)
     return gradient, second
 
 
