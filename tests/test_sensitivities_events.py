@@ -13,6 +13,7 @@ import yaml
 
 import latdyn
 from latdyn.errors import SceneError
+from tests.reference_runs import reference_runs
 from tests.resumed_runs import interrupted_and_whole
 
 LATCH_PLANAR = """
@@ -75,12 +76,14 @@ def _run(text: str, only: str | None = None, **parameters):
 
 def _agree(result, text: str, name: str, tolerance: float = 1e-6, event_tolerance: float = 1e-7) -> float:
     """The largest error of ``result``'s sensitivities by ``name`` (probes over the rows, relative to each
-    probe's largest; the event time, relative) against Richardson-extrapolated central differences."""
+    probe's largest; the event time, relative) against Richardson-extrapolated central differences (of whole runs
+    without sensitivities where they write ``result``'s probes: tests/reference_runs.py)."""
     p0 = yaml.safe_load(text)["parameters"][name]
     h = 1e-4 * abs(p0)
+    run = reference_runs(text, result, lambda **moved: _run(text, name, **moved))
     central, times = [], []
     for step in (h, h / 2):
-        up, down = _run(text, name, **{name: p0 + step}), _run(text, name, **{name: p0 - step})
+        up, down = run(**{name: p0 + step}), run(**{name: p0 - step})
         assert [e["kind"] for e in up.summary["events"]] == [e["kind"] for e in down.summary["events"]]
         central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
         times.append(np.array([(a["t"] - b["t"]) / (2 * step) for a, b in zip(up.summary["events"],

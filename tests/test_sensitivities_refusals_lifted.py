@@ -40,6 +40,7 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
+from tests.reference_runs import reference_runs
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import LATCH_3D as WHEEL_LATCH
 from tests.test_sensitivities_events import STOP_3D as WHEEL_STOP
@@ -123,13 +124,14 @@ def test_the_adjoint_with_guides_and_events_beside_links_gives_the_forward_metho
     assert _adjoint_error(forward, adjoint) <= 1e-10
 
 
-def _richardson_end(text: str, name: str, relative: float = 1e-4) -> dict:
+def _richardson_end(text: str, name: str, result, relative: float = 1e-4) -> dict:
     """{probe: d(end value)/d name}: Richardson-extrapolated central differences of whole runs (``relative`` and half
-    of it)."""
+    of it; without sensitivities where they write ``result``'s probes: tests/reference_runs.py)."""
     p0 = yaml.safe_load(text)["parameters"][name]
+    run = reference_runs(text, result, lambda **moved: _run(text, name, **moved))
     central = []
     for step in (relative * abs(p0), relative / 2 * abs(p0)):
-        up, down = _run(text, name, **{name: p0 + step}), _run(text, name, **{name: p0 - step})
+        up, down = run(**{name: p0 + step}), run(**{name: p0 - step})
         assert [e["kind"] for e in up.summary["events"]] == [e["kind"] for e in down.summary["events"]]
         central.append({k: (up.probes[k][-1] - down.probes[k][-1]) / (2 * step) for k in up.probes})
     return {k: (4 * central[1][k] - central[0][k]) / 3 for k in central[0]}
@@ -146,9 +148,10 @@ def test_the_adjoints_end_values_agree_with_richardson_central_differences(text,
     data = yaml.safe_load(text)
     data["solve"]["sensitivity_method"] = "adjoint"
     data["solve"]["sensitivities"] = names
-    adjoint = latdyn.run(latdyn.load_scene(data)).summary["probe_sensitivities"]
+    run = latdyn.run(latdyn.load_scene(data))
+    adjoint = run.summary["probe_sensitivities"]
     for name in names:
-        expected = _richardson_end(text, name, relative)
+        expected = _richardson_end(text, name, run, relative)
         scale = max(abs(v) for v in expected.values())
         for probe, value in expected.items():
             assert abs(adjoint[probe]["end"][name] - value) <= 1e-6 * scale, (probe, name)
@@ -207,8 +210,9 @@ def test_the_adjoints_kinetic_energy_with_a_guide_agrees_with_richardson():
     text = GUIDE_3D + ENERGIES
     data = yaml.safe_load(text)
     data["solve"].update(sensitivity_method="adjoint", sensitivities=["k"])
-    adjoint = latdyn.run(latdyn.load_scene(data)).summary["probe_sensitivities"]
-    expected = _richardson_end(text, "k")
+    run = latdyn.run(latdyn.load_scene(data))
+    adjoint = run.summary["probe_sensitivities"]
+    expected = _richardson_end(text, "k", run)
     scale = max(abs(v) for v in expected.values())
     for probe, value in expected.items():
         assert abs(adjoint[probe]["end"]["k"] - value) <= 1e-6 * scale, probe
@@ -241,12 +245,14 @@ assert "motion: {translation" in SLEWING_WORK and 'angle: "0.6*t' in DRIVEN_WORK
 def _work_error(text: str, name: str) -> float:
     """The largest error of the external work's sensitivity by ``name`` over the rows (API, the loop of steps on as a
     user runs it), relative to its largest, against Richardson-extrapolated central differences of whole runs (1e-4
-    and 5e-5 relative)."""
-    computed = _run(text, name).sensitivities[("W", name)]
+    and 5e-5 relative; without sensitivities where they write the run's probes: tests/reference_runs.py)."""
+    result = _run(text, name)
+    computed = result.sensitivities[("W", name)]
     p0 = yaml.safe_load(text)["parameters"][name]
+    run = reference_runs(text, result, lambda **moved: _run(text, name, **moved))
     central = []
     for step in (1e-4 * abs(p0), 5e-5 * abs(p0)):
-        up, down = _run(text, name, **{name: p0 + step}), _run(text, name, **{name: p0 - step})
+        up, down = run(**{name: p0 + step}), run(**{name: p0 - step})
         central.append((up.probes["W"] - down.probes["W"]) / (2 * step))
     expected = (4 * central[1] - central[0]) / 3
     return float(np.abs(computed - expected).max() / np.abs(expected).max())

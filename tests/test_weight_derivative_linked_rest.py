@@ -158,14 +158,27 @@ def _at_events(text, monkeypatch):
     return result, errors, len(differences)
 
 
+#: {scene text: _at_events' result}, for the scenes two tests check (the slider-crank's cables: its events through
+#: the API, and its CLI run against the API's), run once in a process (the checks read the result, never change it)
+_RUNS_AT_EVENTS: dict = {}
+
+
+def _at_events_once(text):
+    """:func:`_at_events` of ``text``, run the first time it is asked for in this process."""
+    if text not in _RUNS_AT_EVENTS:
+        with pytest.MonkeyPatch.context() as patch:
+            _RUNS_AT_EVENTS[text] = _at_events(text, patch)
+    return _RUNS_AT_EVENTS[text]
+
+
 @pytest.mark.parametrize("name", list(SCENES))
-def test_the_events_take_no_difference_and_agree_with_richardson(name, monkeypatch):
+def test_the_events_take_no_difference_and_agree_with_richardson(name):
     """At every event of the scene (through the API) no difference of W_rest is taken (10be92c took two evaluations a
     parameter), and ∂(W w)/∂q δq agrees with the Richardson reference within :data:`SCENES`' tolerance (measured
     2.3e-12, 2.2e-10, 5.1e-13, 2.8e-11: the links' second derivatives' difference and the reference's own error
     dominate)."""
     text, events, tolerance = SCENES[name]
-    result, errors, differences = _at_events(text, monkeypatch)
+    result, errors, differences = _at_events_once(text)
     assert [e["kind"] for e in result.summary["events"]] == events
     assert differences == 0
     assert errors and max(errors) < tolerance, errors
@@ -192,7 +205,7 @@ def test_a_controller_mixing_an_angle_and_a_rate_keeps_its_entries_in_the_differ
     assert errors and max(errors) < 5e-11, errors
 
 
-def test_the_slider_cranks_cables_through_the_cli_loop_on_and_off(tmp_path, monkeypatch):
+def test_the_slider_cranks_cables_through_the_cli_loop_on_and_off(tmp_path):
     """The slider-crank with its cables through ``latdyn run``: steps in the loop, the loop off writing the same bytes,
     and the API's event sensitivities the CLI's, made without a difference of W_rest (10be92c took one at each
     event; the whole runs' sensitivities against Richardson central differences of whole runs are measured in
@@ -202,7 +215,7 @@ def test_the_slider_cranks_cables_through_the_cli_loop_on_and_off(tmp_path, monk
     summary = summary_of(out)
     assert summary["sensitivity_steps_in_loop"] > 0 and [e["kind"] for e in summary["events"]] == ["stop", "stop"]
     the_loop_off_writes_the_same(tmp_path, out)
-    result, _, differences = _at_events(CRANK_CABLES, monkeypatch)
+    result, _, differences = _at_events_once(CRANK_CABLES)
     assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
     assert differences == 0
 
