@@ -168,7 +168,8 @@ __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact
            "exact_hinges", "exact_hinges_by_rates", "exact_loads", "exact_loads_by_rates",
            "geometric_product", "geometric_second_product", "linked_configuration_tangent", "linked_geometric_derivative",
            "linked_cable_rates_product", "linked_exact_couplings", "linked_exact_hinges", "linked_generated_loads",
-           "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
+           "linked_geometric_rate_in_time", "linked_has_rest", "linked_rate_moving_hinges", "linked_rates_tangent",
+           "linked_rest_product",
            "needs_the_kernel", "rates_rest_needed", "rates_rest_product", "rates_tangent_of_weight",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
@@ -1094,25 +1095,33 @@ def stiffness_moving_with_rates(assembler, state) -> tuple:
     return tuple(name for name, a, b in zip(STIFFNESS_BLOCKS, here, there) if not np.array_equal(a, b))
 
 
+def _hinge_moves_with_its_rate(assembler, j: int) -> bool:
+    """Whether free hinge ``j``'s K_jj = ∂f/∂θ moves with its rate θ̇_j: a stiffness law of θ̇, a damping law of θ
+    (c(θ) θ̇ has ∂/∂θ = c′(θ) θ̇), a torque law of θ and θ̇ both, or a compliant stop with damping (n δⁿ⁻¹ c δ̇ in
+    contact)."""
+    laws = {key: (law.depends_on if law is not None else ()) for key, law in _hinge_laws(assembler, int(j))}
+    contact = assembler.model.hinges[j].contact
+    return bool("theta_dot" in laws["stiffness"] or "theta" in laws["damping"]
+                or {"theta", "theta_dot"} <= set(laws["torque"]) or (contact is not None and contact.damping != 0.0))
+
+
+def linked_rate_moving_hinges(assembler) -> np.ndarray:
+    """(free hinges,) bool: the free hinges whose K_jj moves with their rate (:func:`_hinge_moves_with_its_rate`),
+    which the reduction's move carries (``TransientSensitivities._linked_move``)."""
+    model = assembler.model
+    return np.array([_hinge_moves_with_its_rate(assembler, int(j)) for j in model.free_hinges], bool)
+
+
 def linked_exact_hinges(assembler) -> np.ndarray:
     """(free hinges,) bool: the free hinges (guides) whose diagonal entry of H a model with rigid links or guides takes
     generated (:func:`_hinge_part`, :func:`linked_configuration_tangent`): those of :func:`exact_hinges` whose
-    K_jj = ∂f/∂θ does not move with the hinge's rate, which the reduction's move carries
-    (``TransientSensitivities._linked_move``; ∂K_jj/∂θ̇ is not generated): no stiffness law of θ̇, no damping law of θ
-    (c(θ) θ̇ has ∂/∂θ = c′(θ) θ̇), no torque law of θ and θ̇ both, no compliant stop with damping (n δⁿ⁻¹ c δ̇ in
-    contact). The others keep the difference (:func:`linked_rest_product`): before, their entries' move with the rates
-    was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch)."""
-    model = assembler.model
-    out = exact_hinges(assembler).copy()
-    for i, j in enumerate(model.free_hinges):
-        if not out[i]:
-            continue
-        laws = {key: (law.depends_on if law is not None else ()) for key, law in _hinge_laws(assembler, int(j))}
-        contact = model.hinges[j].contact
-        out[i] = not ("theta_dot" in laws["stiffness"] or "theta" in laws["damping"]
-                      or {"theta", "theta_dot"} <= set(laws["torque"])
-                      or (contact is not None and contact.damping != 0.0))
-    return out
+    K_jj = ∂f/∂θ does not move with the hinge's rate (:func:`linked_rate_moving_hinges`), or whose move with it is
+    generated too (:func:`exact_hinges_by_rates`: s (∂K_jj/∂θ̇_j) w_j δθ̇_j, :func:`linked_rates_tangent`; the hinge's
+    rate is a free one, P does not move its row). The others (a law naming an input whose K_jj moves with the rate)
+    keep the difference (:func:`linked_rest_product`): before 10be92c's linkedrest their entries' move with the rates
+    was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch), after it
+    every hinge moving with its rate was differenced."""
+    return exact_hinges(assembler) & (~linked_rate_moving_hinges(assembler) | exact_hinges_by_rates(assembler))
 
 
 def linked_generated_loads(assembler) -> np.ndarray:
@@ -1165,8 +1174,9 @@ def linked_exact_couplings(assembler) -> np.ndarray:
     for k, controller in enumerate(control.controllers):
         kinds = control.sensor_kind[control.sensor_start[k]:control.sensor_start[k + 1]]
         joints = bool(np.all((kinds == ANGLE) | (kinds == RATE))) and len(kinds) == len(controller.reads)
-        plain.append(joints and _mixed_curvature_vanishes(controller, tuple(np.flatnonzero(kinds == ANGLE)),
-                                                          tuple(np.flatnonzero(kinds == RATE))))
+        plain.append(joints and (_mixed_curvature_vanishes(controller, tuple(np.flatnonzero(kinds == ANGLE)),
+                                                           tuple(np.flatnonzero(kinds == RATE)))
+                                 or _joint_reads(control, k) is not None))
     for e, a in enumerate(np.asarray(control.coupling_actuator)):
         out[e] &= plain[control.actuator_controller[a]]
     return out
@@ -1203,14 +1213,15 @@ def exact_hinges_by_rates(assembler) -> np.ndarray:
     return out
 
 
-def _hinge_rates_part(assembler, state, w: np.ndarray):
+def _hinge_rates_part(assembler, state, w: np.ndarray, exact: np.ndarray | None = None):
     """(rows, values) of the hinges' part of ∂(K w)/∂v, on its diagonal: (∂K_jj/∂θ̇_j) w_j for each free hinge j of
     :func:`exact_hinges_by_rates` with w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated
     ``hinge_stiffness_by_rate``, codegen/joints.py: ∂²f/∂θ∂θ̇ from the laws' values, first derivatives and mixed
     second derivatives at the state — SymPy's, the ``d_rate`` of the law's slope in the angle — and the stop's
-    Hunt–Crossley damping in contact)."""
-    hinge_rows, by_rate = _hinge_stiffness_slope(assembler, state, w, exact_hinges_by_rates(assembler),
-                                                 "hinge_stiffness_by_rate", "d_rate")
+    Hunt–Crossley damping in contact). ``exact`` (free hinges,) bool: the hinges taken (default
+    :func:`exact_hinges_by_rates`; :func:`linked_rates_tangent`'s)."""
+    exact = exact_hinges_by_rates(assembler) if exact is None else exact
+    hinge_rows, by_rate = _hinge_stiffness_slope(assembler, state, w, exact, "hinge_stiffness_by_rate", "d_rate")
     return hinge_rows, by_rate * w[hinge_rows]
 
 
@@ -1311,16 +1322,18 @@ def _controller_at(control, k: int, state):
     return (values, t) if lo <= float(control.controllers[k].functions()[0](t, *values)) <= hi else None
 
 
-def _coupling_rates_part(assembler, state, w: np.ndarray):
+def _coupling_rates_part(assembler, state, w: np.ndarray, exact: np.ndarray | None = None):
     """(rows, cols, values) of the couplings' part of ∂(K w)/∂v for the entries of :func:`exact_couplings_by_rates`:
     K's entry K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while
     the output is saturated, csrc/evaluate.c controller_outputs) moves with the rate of a rate sensor i by
-    −a ∂²y/∂θ_j∂θ̇_i: Σ_j of it times w_j in row r, column i."""
+    −a ∂²y/∂θ_j∂θ̇_i: Σ_j of it times w_j in row r, column i. ``exact`` (couplings,) bool: the entries taken (default
+    :func:`exact_couplings_by_rates`; :func:`linked_rates_tangent`'s, a subset of it)."""
     control, model = assembler.control, assembler.model
     n = model.n_dofs
     dofs = np.asarray(model.hinge_dofs, np.int64)
     out_rows, out_cols, out_values = [], [], []
-    actuators = np.unique(np.asarray(control.coupling_actuator, np.int64)[exact_couplings_by_rates(assembler)])
+    exact = exact_couplings_by_rates(assembler) if exact is None else exact
+    actuators = np.unique(np.asarray(control.coupling_actuator, np.int64)[exact])
     for a in actuators[np.asarray(control.actuator_kind)[actuators] == 0]:   # a load's: :func:`_load_rates_part`
         k = int(control.actuator_controller[a])
         first, angles, rates = _joint_reads(control, k)
@@ -1407,6 +1420,29 @@ def rates_tangent_of_weight(assembler, state, w: np.ndarray):
     return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows]),
                    np.concatenate([hinge_rows, coupling_cols, load_cols]),
                    np.concatenate([hinge_values, coupling_values, load_values]), n)
+
+
+def linked_rates_tangent(assembler, state, w: np.ndarray):
+    """∂(K_gen w)/∂v (n × n, sparse as :func:`rates_tangent_of_weight`'s; None: no block of W_gen moves with the
+    rates) on a model with rigid links or guides: the generated hinges' and couplings' entries of W_gen
+    (:func:`linked_exact_hinges`, :func:`linked_exact_couplings`) that move with the rates the reduction's move
+    carries — a hinge of :func:`linked_rate_moving_hinges` by (∂K_jj/∂θ̇_j) w_j (:func:`_hinge_rates_part`), a coupling
+    whose output mixes an angle and a rate by −a ∂²y/∂θ_j∂θ̇_i w_j (:func:`_coupling_rates_part`). Their rows,
+    columns and rates are hinges' coordinates and rates, free ones (P = [I; J] is the identity there, and
+    ∂(J v)/∂q δq moves dependent rows alone), so Pᵀ s ∂(K u)/∂v_all δv_all = s (this matrix) δv, u = P w: exact, no
+    evaluation (``TransientSensitivities._linked_weight_derivative``). The damped cables' move is
+    :func:`linked_cable_rates_product`'s; the loads a controller drives stay differenced."""
+    hinges = linked_exact_hinges(assembler) & linked_rate_moving_hinges(assembler)
+    couplings = np.asarray(linked_exact_couplings(assembler), bool).copy()
+    if np.any(couplings):
+        couplings &= exact_couplings_by_rates(assembler)
+    if not np.any(hinges) and not np.any(couplings):
+        return None
+    n = assembler.model.n_dofs
+    hinge_rows, hinge_values = _hinge_rates_part(assembler, state, w, exact=hinges)
+    coupling_rows, coupling_cols, coupling_values = _coupling_rates_part(assembler, state, w, exact=couplings)
+    return _sparse(np.concatenate([hinge_rows, coupling_rows]), np.concatenate([hinge_rows, coupling_cols]),
+                   np.concatenate([hinge_values, coupling_values]), n)
 
 
 def rates_rest_needed(assembler, moving: tuple) -> bool:
