@@ -6,6 +6,7 @@ at each event).
 
 On 3D YAML scenes of the gimbal of rigid links on skew hinges latching (its inner hinge locks; loads in the rings'
 frames): its outer hinge damped by 0.05 (1 + 4θ²) (K_jj holds c′(θ) θ̇); its outer hinge with a torque law of θ and θ̇;
+its outer hinge on a damped compliant stop (at a turned state in contact);
 a PD of the inner hinge's angle and rate, nonlinear in both, driving the inner hinge; a PD of the outer hinge's angle
 and rate, nonlinear in both, driving the outer hinge (its row stays free through the latch) — the exact part against
 Richardson-extrapolated differences of Pᵀ W_gen P w at a turned state with random rates, and at every event through
@@ -39,26 +40,36 @@ GIMBAL_MIXED_OUTER = (GIMBAL_LOADS.replace("parameters: {k1: 6.0,", "parameters:
                                "    r1: {hinge: gim1.start, quantity: rate}\n")
                       .replace("sensitivities: [k1, m, P, EI, rho]", "sensitivities: [Kp, Kd, k1, m]"))
 
+#: the gimbal with loads, its outer hinge on a damped compliant stop (Hunt–Crossley, n = 1.5), in contact at the turned
+#: state of the exact part's check (θ = −0.046 below −0.01): n δⁿ⁻¹ c δ̇ in K_jj moves with the rate
+GIMBAL_STOP = GIMBAL_LOADS.replace('stiffness: "k1", rest_angle: "rest"}}}',
+                                   'stiffness: "k1", rest_angle: "rest", limits: [-0.01, 1.0], '
+                                   'contact: {stiffness: 200.0, exponent: 1.5, damping: 5.0}}}}')
+
 SCENES = {"the outer hinge's damper of θ": GIMBAL_DAMPED,
           "the outer hinge's torque of θ and θ̇": GIMBAL_TORQUE,
           "the inner hinge's PD of its angle and rate": GIMBAL_MIXED,
           "the outer hinge's PD of its angle and rate": GIMBAL_MIXED_OUTER}
 
 
-@pytest.mark.parametrize("name", list(SCENES))
+#: the scenes of the exact part's check at a turned state: :data:`SCENES` and the damped compliant stop
+TURNED = {**SCENES, "the outer hinge's damped compliant stop": GIMBAL_STOP}
+
+
+@pytest.mark.parametrize("name", list(TURNED))
 def test_the_hinges_and_couplings_moving_with_the_rates_are_generated_through_the_reduction(name):
-    """W_rest = 0 (``linked_has_rest`` False: af426b0 differenced these entries), and the exact part — ∂(Pᵀ W_gen P w)/∂q
-    δq plus the hinges' and couplings' move with the free rates, s ``linked_rates_tangent`` δv — at a turned state with
+    """W_rest = 0 (``linked_has_rest`` False: af426b0 differenced these entries), and the exact part —
+    ∂(Pᵀ W_gen P w)/∂q δq plus the hinges' and couplings' move with the free rates, s ``linked_rates_tangent`` δv — at a turned state with
     random rates against Richardson-extrapolated central differences of Pᵀ W_gen P w along (δq, δv, δv̇) (steps 4e-5,
     2e-5, 1e-5), W = M + 1e-4 K and W = K."""
     from latdyn.analyses import weight_derivative as wd
 
-    assembler, state, rng = turned_state(SCENES[name], 11, 0.3)
+    assembler, state, rng = turned_state(TURNED[name], 11, 0.3)
     assert not wd.linked_has_rest(assembler)
     n = assembler.model.n_dofs
     hinges = wd.linked_exact_hinges(assembler)
     moving = wd.linked_rates_tangent(assembler, state, np.ones(n))
-    assert moving is not None
+    assert moving is not None and np.any(wd.times(moving, np.ones((n, 1))))
     errors = []
     for mass, scale in ((True, 1e-4), (False, 1.0)):
         w, dq, dv, dvdot = rng.normal(size=n), rng.normal(size=(n, 1)), rng.normal(size=(n, 1)), rng.normal(size=(n, 1))

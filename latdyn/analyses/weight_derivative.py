@@ -89,12 +89,16 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   ``dependent_rates_tangent``, the generated edge kernels' ``*_rates_D_q``): the derivative of P along δq applied
   to w, exact for every edge kind (hinges, slides, closures), where a polarisation of the links' quadratic term
   would hold for their positions' rows alone (on the 3D gimbal of skew hinges ∂(J w)/∂q δq and ∂(J δq)/∂q w differ
-  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations'); of those blocks only the damped taut
-  cables' K_c moves with the rates (the loads' with the configuration and t alone, the couplings' of
-  :func:`linked_exact_couplings` not: no mixed second derivative by an angle and a rate), and the move carries the
-  rates, the dependent ones following the configuration too: Pᵀ s ∂(K_c u)/∂v_all δv_all with
-  δv_all = P δv + ∂(J v)/∂q δq, exactly (K_c affine in the rates: ``cable_stiffness_D_q`` at the move less at none,
-  :func:`linked_cable_rates_product`);
+  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations'); of those blocks the damped taut
+  cables' K_c, the hinges' K_jj of :func:`linked_rate_moving_hinges` (a stiffness law of θ̇, a damping law of θ, a
+  torque law of θ and θ̇, a damped compliant stop) and the couplings whose output mixes an angle and a rate move with
+  the rates (the loads' with the configuration and t alone), and the move carries the rates, the dependent ones
+  following the configuration too: Pᵀ s ∂(K u)/∂v_all δv_all with δv_all = P δv + ∂(J v)/∂q δq, exactly — the
+  cables' K_c affine in the rates (``cable_stiffness_D_q`` at the move less at none,
+  :func:`linked_cable_rates_product`), the hinges' and couplings' rows, columns and rates free hinges' ones (P the
+  identity there, ∂(J v)/∂q δq on dependent rows alone), so s ∂(K u)/∂v δv from the generated
+  ``hinge_stiffness_by_rate`` and SymPy's mixed ∂²y/∂θ∂θ̇ (:func:`linked_rates_tangent`: the unlinked
+  :func:`_hinge_rates_part`, :func:`_coupling_rates_part` on the linked masks; no evaluation);
 * the geometric term's own derivative, :func:`linked_geometric_derivative`: along (δq, δv, δv̇),
   s ∂(Pᵀ δr_all)/∂q[w] exactly (δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction
   with the inertia tangent, the dependent rates following the links through their compiled buffers), plus
@@ -108,16 +112,20 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, the same composition along the prescribed coordinates' rates q̇_p
   (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
 * differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
-  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings whose output mixes an
-  angle and a rate and the hinges whose K_jj moves with their rate (:func:`linked_exact_hinges`: their entries move
-  with the rates the move carries; ∂(K w)/∂v of them is not generated),
+  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings of controllers reading
+  anything but joints' angles and rates (points, bodies, cables, inputs, states, other controllers: their second
+  derivatives through the reduction's dependent sensors are not composed here), and the hinges whose K_jj moves with
+  their rate through a law naming an input (:func:`linked_exact_hinges`: ∂K_jj/∂θ̇ not generated for them, as
+  :func:`exact_hinges_by_rates`),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
   part's round-off, 1e-8 of H δq over the step on the slider-crank), centrally along each column's move (δq, the free
   rates along δv, δv̇, the dependent ones completed) as before, two evaluations a parameter — none where the model
   has no such block (:func:`linked_has_rest`: the gimbal latching with loads in the rings' frames, a slider-crank
   with damped cables, a guided mass with follower loads, a chain of rigid bays with a PD of its hinges' angles and
   rate take none; 10be92c took 2k there, docs/performance.md "The linked weight's loads, cables and couplings
-  generated (issue 34)").
+  generated (issue 34)"; the gimbal with a damper 0.05 (1 + 4θ²) or a torque of θ and θ̇ on its outer hinge, or a PD
+  mixing a hinge's angle and rate, take none since af426b0's linkedrates, docs/performance.md "The linked weight's
+  rates generated (issue 34)").
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``; its
 transpose in the adjoint, the same matrix times the identity). Which terms of K move with the rates is asked of the
@@ -1158,8 +1166,9 @@ def linked_exact_couplings(assembler) -> np.ndarray:
     :func:`exact_couplings` whose controller reads joints' angles and rates alone (a joint's coordinate and rate are
     free ones, or none where it is locked or prescribed: P does not move their rows) with an output whose mixed
     second derivatives by an angle and a rate vanish (:func:`_mixed_curvature_vanishes`; the entries then do not move
-    with the rates that the reduction's move carries, ``TransientSensitivities._linked_move``). The others keep the
-    difference (:func:`linked_rest_product`)."""
+    with the rates that the reduction's move carries, ``TransientSensitivities._linked_move``) or are generated
+    (:func:`_joint_reads`: no state, no input; their move along the rates is :func:`linked_rates_tangent`'s). The
+    others keep the difference (:func:`linked_rest_product`)."""
     control = assembler.control
     held = _LINKED_COUPLINGS.get(id(control))
     if held is not None and held[0]() is control:
