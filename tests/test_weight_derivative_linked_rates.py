@@ -1,5 +1,6 @@
-"""The impulse weight's derivative on models with rigid links or guides: the hinges whose K_jj moves with their rate
-and the continuous controllers' couplings whose output mixes an angle and a rate, generated through the reduction
+"""The impulse weight's derivative on models with rigid links or guides: the hinges whose K_jj moves with their rate,
+the continuous controllers' couplings whose output mixes an angle and a rate and the couplings of controllers reading
+points' positions (``_linked_position_controllers``), generated through the reduction
 (latdyn/analyses/weight_derivative.py, "Rigid links and guides": ``linked_rates_tangent``; docs/parameters.md, "The
 impulse weight's derivative"), where af426b0 differenced them (``linked_rest_product``, two evaluations a parameter
 at each event).
@@ -8,7 +9,8 @@ On 3D YAML scenes of the gimbal of rigid links on skew hinges latching (its inne
 frames): its outer hinge damped by 0.05 (1 + 4θ²) (K_jj holds c′(θ) θ̇); its outer hinge with a torque law of θ and θ̇;
 its outer hinge on a damped compliant stop (at a turned state in contact);
 a PD of the inner hinge's angle and rate, nonlinear in both, driving the inner hinge; a PD of the outer hinge's angle
-and rate, nonlinear in both, driving the outer hinge (its row stays free through the latch) — the exact part against
+and rate, nonlinear in both, driving the outer hinge (its row stays free through the latch); the chain of rigid bays
+latching twice with a PD of two points on the bays' bodies (dependent nodes) — the exact part against
 Richardson-extrapolated differences of Pᵀ W_gen P w at a turned state with random rates, and at every event through
 the API no difference taken and ∂(W w)/∂q δq against the Richardson reference of tests/test_weight_derivative_linked.py;
 the outer PD through the CLI, loop on and off (the whole runs' sensitivities against Richardson central differences of
@@ -21,6 +23,7 @@ import numpy as np
 import pytest
 
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.test_sensitivities_in_loop_links import CHAIN
 from tests.test_weight_derivative_linked import turned_state
 from tests.test_weight_derivative_linked_rest import GIMBAL_DAMPED, GIMBAL_LOADS, GIMBAL_MIXED, _at_events, _moved
 
@@ -46,10 +49,23 @@ GIMBAL_STOP = GIMBAL_LOADS.replace('stiffness: "k1", rest_angle: "rest"}}}',
                                    'stiffness: "k1", rest_angle: "rest", limits: [-0.01, 1.0], '
                                    'contact: {stiffness: 200.0, exponent: 1.5, damping: 5.0}}}}')
 
+#: the deploying chain of rigid bays latching twice, a PD of two points on the bays' bodies (dependent nodes: their
+#: positions' second derivatives by the assembled coordinates), nonlinear in them, driving the second hinge
+CHAIN_POINTS = (CHAIN.replace("parameters: {k: 1.5,", "parameters: {Kp: 0.4, k: 1.5,")
+                .replace('rest_angle: 2*pi/3 + 0.3, lock_at', 'rest_angle: 2*pi/3 + 0.3, torque: "pd", lock_at')
+                .replace("solve: {", "controllers:\n"
+                         '  pd: {output: "Kp*(0.45 - s2x) + 3*Kp*(s1z - 0.4)**2 + Kp*s2x*s1z"}\nsolve: {')
+                .replace("    knee2: {hinge: bay2.start, quantity: angle}\n",
+                         "    knee2: {hinge: bay2.start, quantity: angle}\n"
+                         "    s2x: {point: s2, quantity: position, component: x}\n"
+                         "    s1z: {point: s1, quantity: position, component: z}\n")
+                .replace("sensitivities: [k, c, m, EI, F]", "sensitivities: [Kp, k, m, F]"))
+
 SCENES = {"the outer hinge's damper of θ": GIMBAL_DAMPED,
           "the outer hinge's torque of θ and θ̇": GIMBAL_TORQUE,
           "the inner hinge's PD of its angle and rate": GIMBAL_MIXED,
-          "the outer hinge's PD of its angle and rate": GIMBAL_MIXED_OUTER}
+          "the outer hinge's PD of its angle and rate": GIMBAL_MIXED_OUTER,
+          "the chain's PD of two points": CHAIN_POINTS}
 
 
 #: the scenes of the exact part's check at a turned state: :data:`SCENES` and the damped compliant stop
@@ -59,22 +75,28 @@ TURNED = {**SCENES, "the outer hinge's damped compliant stop": GIMBAL_STOP}
 @pytest.mark.parametrize("name", list(TURNED))
 def test_the_hinges_and_couplings_moving_with_the_rates_are_generated_through_the_reduction(name):
     """W_rest = 0 (``linked_has_rest`` False: af426b0 differenced these entries), and the exact part —
-    ∂(Pᵀ W_gen P w)/∂q δq plus the hinges' and couplings' move with the free rates, s ``linked_rates_tangent`` δv — at a turned state with
-    random rates against Richardson-extrapolated central differences of Pᵀ W_gen P w along (δq, δv, δv̇) (steps 4e-5,
-    2e-5, 1e-5), W = M + 1e-4 K and W = K."""
+    ∂(Pᵀ W_gen P w)/∂q δq plus the hinges' and couplings' move with the free rates, s ``linked_rates_tangent`` δv
+    (none on the chain: its controller reads positions alone) — at a turned state with random rates against
+    Richardson-extrapolated central differences of Pᵀ W_gen P w along (δq, δv, δv̇) (steps 4e-5, 2e-5, 1e-5),
+    W = M + 1e-4 K and W = K."""
     from latdyn.analyses import weight_derivative as wd
 
-    assembler, state, rng = turned_state(TURNED[name], 11, 0.3)
+    chain = name == "the chain's PD of two points"
+    assembler, state, rng = turned_state(TURNED[name], 11, 0.05 if chain else 0.3)
     assert not wd.linked_has_rest(assembler)
     n = assembler.model.n_dofs
     hinges = wd.linked_exact_hinges(assembler)
     moving = wd.linked_rates_tangent(assembler, state, np.ones(n))
-    assert moving is not None and np.any(wd.times(moving, np.ones((n, 1))))
+    if chain:   # positions alone: nothing moves with the rates
+        assert moving is None and any(wd._linked_position_controllers(assembler))
+    else:
+        assert moving is not None and np.any(wd.times(moving, np.ones((n, 1))))
     errors = []
     for mass, scale in ((True, 1e-4), (False, 1.0)):
         w, dq, dv, dvdot = rng.normal(size=n), rng.normal(size=(n, 1)), rng.normal(size=(n, 1)), rng.normal(size=(n, 1))
-        exact = (wd.linked_configuration_tangent(assembler, state, w, dq, scale, mass)
-                 + scale * wd.times(wd.linked_rates_tangent(assembler, state, w), dv))
+        exact = wd.linked_configuration_tangent(assembler, state, w, dq, scale, mass)
+        if moving is not None:
+            exact = exact + scale * wd.times(wd.linked_rates_tangent(assembler, state, w), dv)
 
         def product(h):
             moved = _moved(assembler, state, h, dq[:, 0], dv[:, 0], dvdot[:, 0])
@@ -93,7 +115,7 @@ def test_the_events_take_no_difference_and_agree_with_richardson(name, monkeypat
     """At the latch (through the API) no difference of W_rest is taken (af426b0 took two evaluations a parameter), and
     ∂(W w)/∂q δq agrees with tests/test_weight_derivative_linked's Richardson reference."""
     result, errors, differences = _at_events(SCENES[name], monkeypatch)
-    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"] * (2 if "chain" in name else 1)
     assert differences == 0
     assert errors and max(errors) < 5e-11, errors
 

@@ -875,14 +875,18 @@ def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = F
     return np.asarray(columns, np.int64), curvatures
 
 
-def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None):
+def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None,
+                   full: np.ndarray | None = None):
     """(rows, cols, values) of the couplings' part of H for the entries of :func:`exact_couplings`: K's entry
     K_rc = −a ∂y/∂q_c (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; y's total derivative
     through the controllers it reads; 0 while the output is saturated, csrc/evaluate.c controller_outputs) along w:
     s Σ_c ∂K_rc/∂q_i w_c = −s a Σ_c ∂²y/∂q_c∂q_i w_c in column i, over the angle coordinates the actuator's
     controller reaches (:func:`_controller_curvatures`; rates held: W has no C). ``exact`` (couplings,) bool: the
     entries taken (default :func:`exact_couplings`; :func:`linked_exact_couplings`, whose controllers read joints'
-    angles and rates alone: their own curvatures alone are formed)."""
+    angles and rates alone: their own curvatures alone are formed, or whose controllers read positions,
+    :func:`_linked_position_controllers`: every controller of :func:`_exact_controllers` formed, for the chain).
+    ``full`` (n_total + 1,): the direction on every assembled coordinate (a model with rigid links or guides, u = P w:
+    a sensor on a dependent node moves with its dependent coordinates), w on the free ones otherwise."""
     control, model = assembler.control, assembler.model
     subset = exact is not None
     exact = exact_couplings(assembler) if exact is None else exact
@@ -892,11 +896,15 @@ def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndar
     if not actuators:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     controllers = _exact_controllers(assembler)
-    if subset:   # linked_exact_couplings: controllers of joints alone, no chain; the actuators' own
-        driving = {int(control.actuator_controller[a]) for a in actuators}
+    driving = {int(control.actuator_controller[a]) for a in actuators}
+    if subset and not any(_linked_position_controllers(assembler)[k] for k in driving):
+        # linked_exact_couplings of joints alone: no chain; the actuators' own
         controllers = [bool(on) and k in driving for k, on in enumerate(controllers)]
     columns, curvatures = _controller_curvatures(assembler, state, controllers)
-    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
+    if full is not None:
+        along = full[columns] if len(columns) else np.zeros(0)
+    else:
+        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
     out_rows, out_cols, out_values = [], [], []
     for a in actuators:
         curvature = curvatures[int(control.actuator_controller[a])]
@@ -1186,8 +1194,36 @@ def linked_exact_couplings(assembler) -> np.ndarray:
         plain.append(joints and (_mixed_curvature_vanishes(controller, tuple(np.flatnonzero(kinds == ANGLE)),
                                                            tuple(np.flatnonzero(kinds == RATE)))
                                  or _joint_reads(control, k) is not None))
-    for e, a in enumerate(np.asarray(control.coupling_actuator)):
-        out[e] &= plain[control.actuator_controller[a]]
+    positions = _linked_position_controllers(assembler)
+    kinds = np.asarray(control.actuator_kind)
+    for e, a in enumerate(np.asarray(control.coupling_actuator)):   # a load's entries: its block's difference
+        out[e] &= bool(kinds[a] == 0) and (plain[control.actuator_controller[a]]
+                                           or positions[control.actuator_controller[a]])
+    return out
+
+
+#: the sensor kinds whose values a model with rigid links or guides takes through its exact part (the reduction's move
+#: carries the rates: no kind whose value or gradient moves with them): a joint's angle, a point's global position
+#: component (at its node or at an offset), in a body's axes, a cable's length
+_LINKED_POSITION_SENSORS = (0, 2, 5, 6, 8)
+
+
+def _linked_position_controllers(assembler) -> list:
+    """(controllers,) bool: the continuous controllers of :func:`_exact_controllers` whose couplings a model with rigid
+    links or guides takes generated beside those of joints' angles and rates (:func:`linked_exact_couplings`): they
+    read positions (:data:`_LINKED_POSITION_SENSORS`: on a dependent node too, its second derivative by the
+    assembled coordinates), inputs, their own states and earlier such controllers alone — nothing whose value moves
+    with the rates the reduction's move carries, so their entries −a ∂y/∂q_all move along P δq alone
+    (:func:`_coupling_part` on the assembled coordinates, ``full`` = P w)."""
+    from latdyn.assembly.control import CONTROLLER
+
+    control = assembler.control
+    exact = _exact_controllers(assembler)
+    out = []
+    for k in range(len(control.controllers)):
+        reads = _controller_reads(control, k)
+        out.append(bool(exact[k]) and all(kind is None or kind in _LINKED_POSITION_SENSORS
+                                          or (kind == CONTROLLER and out[index]) for kind, index, _ in reads))
     return out
 
 
@@ -1713,7 +1749,7 @@ def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray
     parts = [_generated(assembler, state, w, scale, mass, full=u),
              _load_part(assembler, state, w, scale, full=u, exact=linked_generated_loads(assembler)),
              _cable_part(assembler, state, w, scale, full=u),
-             _coupling_part(assembler, state, w, scale, exact=linked_exact_couplings(assembler))]
+             _coupling_part(assembler, state, w, scale, exact=linked_exact_couplings(assembler), full=u)]
     rows, cols, values = (np.concatenate([part[i] for part in parts]) for i in range(3))
     keep = (rows < n_asm) & (cols < n_asm)
     H_gen = csr.CSR.from_coo(values[keep], rows[keep], cols[keep], (n_asm, n_asm))
