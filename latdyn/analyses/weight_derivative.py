@@ -77,7 +77,11 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
 (its free coordinates are the assembled ones); ``TransientSensitivities._linked_weight_derivative`` splits W_red w:
 
 * exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point
-  loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings`:
+  loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings` — of
+  controllers of joints' angles and rates, and of controllers reading points' positions (at their node or an
+  offset, in a body's axes; a dependent node's by the assembled coordinates), cables' lengths, joints' angles,
+  inputs, their states and earlier such controllers (:func:`_linked_position_controllers`, :func:`_coupling_part` at
+  u = P w on the assembled coordinates):
   :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
   on every assembled coordinate (the dependent nodes' elements and bodies too; a load on a node that follows the
@@ -112,9 +116,9 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, the same composition along the prescribed coordinates' rates q̇_p
   (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
 * differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
-  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings of controllers reading
-  anything but joints' angles and rates (points, bodies, cables, inputs, states, other controllers: their second
-  derivatives through the reduction's dependent sensors are not composed here), and the hinges whose K_jj moves with
+  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings of controllers reading a
+  rate beside anything but joints (a node's or a point's velocity, a free joint's force: their values move with the
+  rates the move carries) or a controller of those, a load's coupling entries, and the hinges whose K_jj moves with
   their rate through a law naming an input (:func:`linked_exact_hinges`: ∂K_jj/∂θ̇ not generated for them, as
   :func:`exact_hinges_by_rates`),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
