@@ -131,3 +131,35 @@ def test_the_outer_pd_through_the_cli_loop_on_and_off(tmp_path, monkeypatch):
     result, _, differences = _at_events(GIMBAL_MIXED_OUTER, monkeypatch)
     assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
     assert differences == 0
+
+
+#: the gimbal with loads, the tip load's z component driven by a controller of the outer hinge's angle
+GIMBAL_DRIVEN_LOAD = (GIMBAL_LOADS.replace("parameters: {k1: 6.0,", "parameters: {Kp: 0.8, k1: 6.0,")
+                      .replace('  - {at: tip, force: [0, "P", "-0.5*P"], frame: inner}\n',
+                               '  - {at: tip, force: [0, "P", "pd"], frame: inner}\n')
+                      .replace("solve: {", 'controllers:\n  pd: {output: "Kp*(0.3 - a1) + Kp*a1**2"}\nsolve: {'))
+
+
+def test_a_driven_loads_coupling_entries_stay_with_its_block_in_the_difference():
+    """A load a controller of joints' angles drives: its block is differenced (``linked_generated_loads``), and its
+    coupling entries F(e_p) ∂y/∂q with it (``linked_exact_couplings`` False for a load's entries): af426b0 put them in
+    W_gen, whose exact part left their derivative out (``_coupling_part`` takes hinges' entries alone): 3.1e-8 of the
+    exact part off Richardson's difference of Pᵀ W_gen P w at this turned state, now 8.7e-12."""
+    from latdyn.analyses import weight_derivative as wd
+
+    assembler, state, rng = turned_state(GIMBAL_DRIVEN_LOAD, 11, 0.3)
+    assert wd.linked_has_rest(assembler) and not np.any(wd.linked_exact_couplings(assembler))
+    n = assembler.model.n_dofs
+    hinges = wd.linked_exact_hinges(assembler)
+    w, dq, dv, dvdot = rng.normal(size=n), rng.normal(size=(n, 1)), rng.normal(size=(n, 1)), rng.normal(size=(n, 1))
+    exact = wd.linked_configuration_tangent(assembler, state, w, dq, 1.0, False)
+
+    def product(h):
+        moved = _moved(assembler, state, h, dq[:, 0], dv[:, 0], dvdot[:, 0])
+        ev = assembler.evaluate(moved, matrices=True)
+        W_gen = wd._linked_weight(assembler, ev, 1.0, False, hinges, generated=True)
+        return np.asarray(ev.projection.T @ (W_gen @ np.asarray(ev.projection @ w))).reshape(-1)
+
+    d1, d2, d3 = ((product(h) - product(-h)) / (2 * h) for h in (4e-5, 2e-5, 1e-5))
+    reference = (16 * (4 * d3 - d2) / 3 - (4 * d2 - d1) / 3) / 15
+    assert np.max(np.abs(exact[:, 0] - reference)) / np.max(np.abs(reference)) <= 1e-9
