@@ -68,26 +68,40 @@ SCENES = {"the outer hinge's damper of θ": GIMBAL_DAMPED,
           "the chain's PD of two points": CHAIN_POINTS}
 
 
-#: the scenes of the exact part's check at a turned state: :data:`SCENES` and the damped compliant stop
-TURNED = {**SCENES, "the outer hinge's damped compliant stop": GIMBAL_STOP}
+#: the gimbal with loads, a controller of the inner ring's position in the outer ring's axes (both dependent bodies)
+#: and the tip's displacement driving the outer hinge
+GIMBAL_BODY_FRAME = (GIMBAL_LOADS.replace("parameters: {k1: 6.0,", "parameters: {Kp: 0.8, k1: 6.0,")
+                     .replace('stiffness: "k1", rest_angle: "rest"}}}',
+                              'stiffness: "k1", rest_angle: "rest", torque: "pd"}}}')
+                     .replace("solve: {", "controllers:\n"
+                              '  pd: {output: "Kp*(0.3 - ox) + Kp*ox**2 + 2*Kp*tz*ox"}\nsolve: {')
+                     .replace("    a1: {", "    ox: {point: inner, quantity: position, component: x, frame: outer}\n"
+                              "    tz: {point: tip, quantity: displacement, component: z}\n    a1: {"))
+#: the scenes whose controllers read positions alone (nothing of theirs moves with the rates)
+POSITIONS = ("the chain's PD of two points", "the gimbal's PD of a ring's position in the other's axes")
+#: the scenes of the exact part's check at a turned state: :data:`SCENES`, the damped compliant stop and the body frame
+TURNED = {**SCENES, "the outer hinge's damped compliant stop": GIMBAL_STOP, POSITIONS[1]: GIMBAL_BODY_FRAME}
 
 
 @pytest.mark.parametrize("name", list(TURNED))
 def test_the_hinges_and_couplings_moving_with_the_rates_are_generated_through_the_reduction(name):
     """W_rest = 0 (``linked_has_rest`` False: af426b0 differenced these entries), and the exact part —
     ∂(Pᵀ W_gen P w)/∂q δq plus the hinges' and couplings' move with the free rates, s ``linked_rates_tangent`` δv
-    (none on the chain: its controller reads positions alone) — at a turned state with random rates against
-    Richardson-extrapolated central differences of Pᵀ W_gen P w along (δq, δv, δv̇) (steps 4e-5, 2e-5, 1e-5),
-    W = M + 1e-4 K and W = K."""
+    (none on the chain and the body frame's: their controllers read positions alone) — at a turned state with random
+    rates against Richardson-extrapolated central differences of Pᵀ W_gen P w along (δq, δv, δv̇) (steps 4e-5, 2e-5,
+    1e-5), W = M + 1e-4 K and W = K."""
     from latdyn.analyses import weight_derivative as wd
 
-    chain = name == "the chain's PD of two points"
-    assembler, state, rng = turned_state(TURNED[name], 11, 0.05 if chain else 0.3)
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, CABLE_LENGTH, OFFSET_POSITION, POSITION
+
+    positions = name in POSITIONS
+    assembler, state, rng = turned_state(TURNED[name], 11, 0.05 if positions else 0.3)
     assert not wd.linked_has_rest(assembler)
     n = assembler.model.n_dofs
     hinges = wd.linked_exact_hinges(assembler)
     moving = wd.linked_rates_tangent(assembler, state, np.ones(n))
-    if chain:   # positions alone: nothing moves with the rates
+    if positions:   # positions alone (no velocity sensor among the kinds taken): nothing moves with the rates
+        assert wd._LINKED_POSITION_SENSORS == (ANGLE, POSITION, OFFSET_POSITION, BODY_FRAME, CABLE_LENGTH)
         assert moving is None and any(wd._linked_position_controllers(assembler))
     else:
         assert moving is not None and np.any(wd.times(moving, np.ones((n, 1))))

@@ -1207,9 +1207,10 @@ def linked_exact_couplings(assembler) -> np.ndarray:
 
 
 #: the sensor kinds whose values a model with rigid links or guides takes through its exact part (the reduction's move
-#: carries the rates: no kind whose value or gradient moves with them): a joint's angle, a point's global position
-#: component (at its node or at an offset), in a body's axes, a cable's length
-_LINKED_POSITION_SENSORS = (0, 2, 5, 6, 8)
+#: carries the rates: no kind whose value or gradient moves with them; latdyn.assembly.control ANGLE, POSITION,
+#: OFFSET_POSITION, BODY_FRAME, CABLE_LENGTH): a joint's angle, a point's global position component (at its node or
+#: at an offset), a point's position or displacement in a body's axes, a cable's length
+_LINKED_POSITION_SENSORS = (0, 2, 5, 7, 8)
 
 
 def _linked_position_controllers(assembler) -> list:
