@@ -78,9 +78,9 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
 
 * exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point
   loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings` — of
-  controllers of joints' angles and rates, and of controllers reading points' positions (at their node or an
-  offset, in a body's axes; a dependent node's by the assembled coordinates), cables' lengths, joints' angles,
-  inputs, their states and earlier such controllers (:func:`_linked_position_controllers`, :func:`_coupling_part` at
+  controllers of joints' angles and rates, and of controllers reading nodes' positions and points' positions in a
+  body's axes (a dependent node's by the assembled coordinates), joints' angles, inputs, their states and earlier
+  such controllers (:func:`_linked_position_controllers`, :func:`_coupling_part` at
   u = P w on the assembled coordinates):
   :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
@@ -118,7 +118,8 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
 * differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
   not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings of controllers reading a
   rate beside anything but joints (a node's or a point's velocity, a free joint's force: their values move with the
-  rates the move carries) or a controller of those, a load's coupling entries, and the hinges whose K_jj moves with
+  rates the move carries), a point at an offset or a cable's length (not measured on linked models), or a controller
+  of those, a load's coupling entries, and the hinges whose K_jj moves with
   their rate through a law naming an input (:func:`linked_exact_hinges`: ∂K_jj/∂θ̇ not generated for them, as
   :func:`exact_hinges_by_rates`),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
@@ -1208,16 +1209,18 @@ def linked_exact_couplings(assembler) -> np.ndarray:
 
 #: the sensor kinds whose values a model with rigid links or guides takes through its exact part (the reduction's move
 #: carries the rates: no kind whose value or gradient moves with them; latdyn.assembly.control ANGLE, POSITION,
-#: OFFSET_POSITION, BODY_FRAME, CABLE_LENGTH): a joint's angle, a point's global position component (at its node or
-#: at an offset), a point's position or displacement in a body's axes, a cable's length
-_LINKED_POSITION_SENSORS = (0, 2, 5, 7, 8)
+#: BODY_FRAME): a joint's angle, a node's global position component, a point's position or displacement in a body's
+#: axes — those measured on linked models (tests/test_weight_derivative_linked_rates.py); a point at an offset and a
+#: cable's length, whose kinematics are composed alike, keep the difference until measured there
+_LINKED_POSITION_SENSORS = (0, 2, 7)
 
 
 def _linked_position_controllers(assembler) -> list:
     """(controllers,) bool: the continuous controllers of :func:`_exact_controllers` whose couplings a model with rigid
     links or guides takes generated beside those of joints' angles and rates (:func:`linked_exact_couplings`): they
-    read positions (:data:`_LINKED_POSITION_SENSORS`: on a dependent node too, its second derivative by the
-    assembled coordinates), inputs, their own states and earlier such controllers alone — nothing whose value moves
+    read joints' angles, nodes' positions and points' positions in a body's axes (:data:`_LINKED_POSITION_SENSORS`: on
+    a dependent node too, its second derivative by the assembled coordinates), inputs, their own states and earlier such
+    controllers alone — nothing whose value moves
     with the rates the reduction's move carries, so their entries −a ∂y/∂q_all move along P δq alone
     (:func:`_coupling_part` on the assembled coordinates, ``full`` = P w)."""
     from latdyn.assembly.control import CONTROLLER
