@@ -10,10 +10,10 @@ slack); a mass on a skew guide at a flexible arm's tip with a follower load on i
 stop; a chain of rigid bays with a boom of 24 elements (band storage) whose second hinge a PD controller of the
 hinges' angles and rate drives — the exact part against Richardson-extrapolated differences of Pᵀ W_gen P w at a
 turned state with random rates, and at every event through the API no difference taken and ∂(W w)/∂q δq against the
-Richardson reference of tests/test_weight_derivative_linked.py; a controller whose output mixes an angle and a rate
-keeps its entries in the difference; the slider-crank through the CLI, loop on and off (the whole runs' sensitivities
-against Richardson central differences of whole runs are measured in docs/performance.md, "The linked weight's loads,
-cables and couplings generated (issue 34)")."""
+Richardson reference of tests/test_weight_derivative_linked.py; a controller whose output mixes an angle and a rate and
+reads an input, and a hinge damper naming an input, keep their entries in the difference; the slider-crank through
+the CLI, loop on and off (the whole runs' sensitivities against Richardson central differences of whole runs are
+measured in docs/performance.md, "The linked weight's loads, cables and couplings generated (issue 34)")."""
 from __future__ import annotations
 
 import json
@@ -71,15 +71,22 @@ CHAIN_PD = (LONG_CHAIN.replace("parameters: {k: 1.5,", "parameters: {Kp: 0.3, Kd
                      "    knee2: {hinge: bay2.start, quantity: angle}\n    rate2: {hinge: bay2.start, quantity: rate}\n")
             .replace("sensitivities: [k, c, m, EI, F]", "sensitivities: [Kp, Kd, k, m, F]"))
 #: the gimbal with loads, a controller of the inner hinge's angle and rate whose output mixes them (its entries move
-#: with the rate: they stay in the difference) driving the inner hinge
+#: with the rate: generated, tests/test_weight_derivative_linked_rates.py) driving the inner hinge
 GIMBAL_MIXED = (GIMBAL_LOADS.replace("parameters: {k1: 6.0,", "parameters: {Kp: 0.8, Kd: 0.05, k1: 6.0,")
                 .replace('damping: "c2", lock_at', 'damping: "c2", torque: "pd", lock_at')
                 .replace("solve: {", 'controllers:\n  pd: {output: "Kp*(0.3 - a2) - Kd*r2*(1 + a2)"}\nsolve: {'))
 
 #: the gimbal with loads, its outer hinge damped by 0.05 (1 + 4θ²): the hinge's K_jj = ∂f/∂θ holds c′(θ) θ̇, which
-#: moves with the rate the reduction's move carries (∂K_jj/∂θ̇ not generated: its entry stays in the difference)
+#: moves with the rate the reduction's move carries (∂K_jj/∂θ̇ generated: tests/test_weight_derivative_linked_rates.py)
 GIMBAL_DAMPED = GIMBAL_LOADS.replace('stiffness: "k1", rest_angle: "rest"}}}',
                                      'stiffness: "k1", rest_angle: "rest", damping: "0.05*(1 + 4*theta**2)"}}}')
+#: the same damper times an input g = 1 (its ∂K_jj/∂θ̇ not generated: its entry stays in the difference)
+GIMBAL_DAMPED_INPUT = GIMBAL_LOADS.replace('stiffness: "k1", rest_angle: "rest"}}}',
+                                           'stiffness: "k1", rest_angle: "rest", damping: "0.05*g*(1 + 4*theta**2)"}}}'
+                                           ) + "inputs: {g: 1.0}\n"
+#: :data:`GIMBAL_MIXED` with its rate term times an input g = 1 (a controller reading an input: its mixed second
+#: derivatives are not generated on linked models, its entries stay in the difference)
+GIMBAL_MIXED_INPUT = GIMBAL_MIXED.replace("Kd*r2*(1 + a2)", "g*Kd*r2*(1 + a2)") + "inputs: {g: 1.0}\n"
 
 SCENES = {"the gimbal's loads in the rings' frames": (GIMBAL_LOADS, ["latch"], 5e-11),
           "the slider-crank's cables": (CRANK_CABLES, ["stop", "stop"], 1e-9),
@@ -184,13 +191,15 @@ def test_the_events_take_no_difference_and_agree_with_richardson(name):
     assert errors and max(errors) < tolerance, errors
 
 
-def test_a_controller_mixing_an_angle_and_a_rate_keeps_its_entries_in_the_difference(monkeypatch):
-    """The gimbal with loads and a PD whose output holds Kd r2 a2 (its coupling's entry −∂y/∂a2 moves with the rate
-    r2, which the reduction's move carries): W_rest holds that entry alone (not the loads' blocks, as on 10be92c), the
-    difference is taken at the latch, and ∂(W w)/∂q δq agrees with the Richardson reference (measured 6.2e-12)."""
+def test_a_controller_mixing_an_angle_and_a_rate_and_reading_an_input_keeps_its_entries_in_the_difference(
+        monkeypatch):
+    """The gimbal with loads and a PD whose output holds g Kd r2 a2, g an input (its coupling's entry −∂y/∂a2 moves with
+    the rate r2, which the reduction's move carries; ∂²y/∂a2∂r2 is generated for controllers of joints alone,
+    tests/test_weight_derivative_linked_rates.py): W_rest holds that entry alone (not the loads' blocks, as on
+    10be92c), the difference is taken at the latch, and ∂(W w)/∂q δq agrees with the Richardson reference."""
     from latdyn.analyses.weight_derivative import _linked_weight, exact_hinges
 
-    prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL_MIXED)))
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL_MIXED_INPUT)))
     assembler, model = prepared.assembler, prepared.model
     ev = assembler.evaluate(prepared.state, matrices=True)
     W_rest = _linked_weight(assembler, ev, 1.0, True, exact_hinges(assembler), generated=False)
@@ -200,7 +209,7 @@ def test_a_controller_mixing_an_angle_and_a_rate_keeps_its_entries_in_the_differ
     from latdyn.analyses.weight_derivative import linked_exact_couplings
 
     assert not np.any(linked_exact_couplings(assembler))
-    result, errors, differences = _at_events(GIMBAL_MIXED, monkeypatch)
+    result, errors, differences = _at_events(GIMBAL_MIXED_INPUT, monkeypatch)
     assert [e["kind"] for e in result.summary["events"]] == ["latch"] and differences > 0
     assert errors and max(errors) < 5e-11, errors
 
@@ -220,14 +229,16 @@ def test_the_slider_cranks_cables_through_the_cli_loop_on_and_off(tmp_path):
     assert differences == 0
 
 
-def test_a_hinge_whose_stiffness_moves_with_its_rate_keeps_the_difference(monkeypatch):
-    """The gimbal with loads and its outer hinge damped by 0.05 (1 + 4θ²) (K_jj holds c′(θ) θ̇): that hinge's entry
-    is differenced along the move (its rate moves with it), the latch's ∂(W w)/∂q δq against the Richardson
-    reference 9.8e-12, where 10be92c, whose generated hinges' part left the rate's move out, was 1.7e-4 off."""
-    result, errors, differences = _at_events(GIMBAL_DAMPED, monkeypatch)
+def test_a_hinge_whose_stiffness_moves_with_its_rate_through_a_law_naming_an_input_keeps_the_difference(monkeypatch):
+    """The gimbal with loads and its outer hinge damped by 0.05 g (1 + 4θ²), g an input (K_jj holds c′(θ) θ̇; its
+    ∂K_jj/∂θ̇ is generated for laws naming no input, tests/test_weight_derivative_linked_rates.py): that hinge's entry
+    is differenced along the move (its rate moves with it), the latch's ∂(W w)/∂q δq agreeing with the Richardson
+    reference, where 10be92c, whose generated hinges' part left the rate's move out, was 1.7e-4 off (the same damper
+    without the input)."""
+    result, errors, differences = _at_events(GIMBAL_DAMPED_INPUT, monkeypatch)
     assert [e["kind"] for e in result.summary["events"]] == ["latch"] and differences > 0
     assert errors and max(errors) < 5e-11, errors
     from latdyn.analyses.weight_derivative import linked_exact_hinges
 
-    prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL_DAMPED)))
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL_DAMPED_INPUT)))
     assert linked_exact_hinges(prepared.assembler).tolist() == [False, True]

@@ -84,7 +84,11 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
 (its free coordinates are the assembled ones); ``TransientSensitivities._linked_weight_derivative`` splits W_red w:
 
 * exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point
-  loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings`:
+  loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings` — of
+  controllers of joints' angles and rates, and of controllers reading nodes' positions and points' positions in a
+  body's axes (a dependent node's by the assembled coordinates), joints' angles, inputs, their states and earlier
+  such controllers (:func:`_linked_position_controllers`, :func:`_coupling_part` at
+  u = P w on the assembled coordinates):
   :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
   on every assembled coordinate (the dependent nodes' elements and bodies too; a load on a node that follows the
@@ -96,12 +100,16 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   ``dependent_rates_tangent``, the generated edge kernels' ``*_rates_D_q``): the derivative of P along δq applied
   to w, exact for every edge kind (hinges, slides, closures), where a polarisation of the links' quadratic term
   would hold for their positions' rows alone (on the 3D gimbal of skew hinges ∂(J w)/∂q δq and ∂(J δq)/∂q w differ
-  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations'); of those blocks only the damped taut
-  cables' K_c moves with the rates (the loads' with the configuration and t alone, the couplings' of
-  :func:`linked_exact_couplings` not: no mixed second derivative by an angle and a rate), and the move carries the
-  rates, the dependent ones following the configuration too: Pᵀ s ∂(K_c u)/∂v_all δv_all with
-  δv_all = P δv + ∂(J v)/∂q δq, exactly (K_c affine in the rates: ``cable_stiffness_D_q`` at the move less at none,
-  :func:`linked_cable_rates_product`);
+  by 0.61 of the former on the rotations' rows, 2.3e-16 on the translations'); of those blocks the damped taut
+  cables' K_c, the hinges' K_jj of :func:`linked_rate_moving_hinges` (a stiffness law of θ̇, a damping law of θ, a
+  torque law of θ and θ̇, a damped compliant stop) and the couplings whose output mixes an angle and a rate move with
+  the rates (the loads' with the configuration and t alone), and the move carries the rates, the dependent ones
+  following the configuration too: Pᵀ s ∂(K u)/∂v_all δv_all with δv_all = P δv + ∂(J v)/∂q δq, exactly — the
+  cables' K_c affine in the rates (``cable_stiffness_D_q`` at the move less at none,
+  :func:`linked_cable_rates_product`), the hinges' and couplings' rows, columns and rates free hinges' ones (P the
+  identity there, ∂(J v)/∂q δq on dependent rows alone), so s ∂(K u)/∂v δv from the generated
+  ``hinge_stiffness_by_rate`` and SymPy's mixed ∂²y/∂θ∂θ̇ (:func:`linked_rates_tangent`: the unlinked
+  :func:`_hinge_rates_part`, :func:`_coupling_rates_part` on the linked masks; no evaluation);
 * the geometric term's own derivative, :func:`linked_geometric_derivative`: along (δq, δv, δv̇),
   s ∂(Pᵀ δr_all)/∂q[w] exactly (δr_all = K_all δq_all + C_all δv_all + M_all δa_all, the blocks before the reduction
   with the inertia tangent, the dependent rates following the links through their compiled buffers), plus
@@ -115,16 +123,21 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, the same composition along the prescribed coordinates' rates q̇_p
   (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
 * differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
-  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings whose output mixes an
-  angle and a rate and the hinges whose K_jj moves with their rate (:func:`linked_exact_hinges`: their entries move
-  with the rates the move carries; ∂(K w)/∂v of them is not generated),
+  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings of controllers reading a
+  rate beside anything but joints (a node's or a point's velocity, a free joint's force: their values move with the
+  rates the move carries), a point at an offset or a cable's length (not measured on linked models), or a controller
+  of those, a load's coupling entries, and the hinges whose K_jj moves with
+  their rate through a law naming an input (:func:`linked_exact_hinges`: ∂K_jj/∂θ̇ not generated for them, as
+  :func:`exact_hinges_by_rates`),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
   part's round-off, 1e-8 of H δq over the step on the slider-crank), centrally along each column's move (δq, the free
   rates along δv, δv̇, the dependent ones completed) as before, two evaluations a parameter — none where the model
   has no such block (:func:`linked_has_rest`: the gimbal latching with loads in the rings' frames, a slider-crank
   with damped cables, a guided mass with follower loads, a chain of rigid bays with a PD of its hinges' angles and
   rate take none; 10be92c took 2k there, docs/performance.md "The linked weight's loads, cables and couplings
-  generated (issue 34)").
+  generated (issue 34)"; the gimbal with a damper 0.05 (1 + 4θ²) or a torque of θ and θ̇ on its outer hinge, or a PD
+  mixing a hinge's angle and rate, take none since af426b0's linkedrates, docs/performance.md "The linked weight's
+  rates generated (issue 34)").
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``; its
 transpose in the adjoint, the same matrix times the identity). Which terms of K move with the rates is asked of the
@@ -175,7 +188,8 @@ __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact
            "exact_hinges", "exact_hinges_by_rates", "exact_loads", "exact_loads_by_rates",
            "geometric_product", "geometric_second_product", "linked_configuration_tangent", "linked_geometric_derivative",
            "linked_cable_rates_product", "linked_exact_couplings", "linked_exact_hinges", "linked_generated_loads",
-           "linked_geometric_rate_in_time", "linked_has_rest", "linked_rest_product",
+           "linked_geometric_rate_in_time", "linked_has_rest", "linked_rate_moving_hinges", "linked_rates_tangent",
+           "linked_rest_product",
            "needs_the_kernel", "rates_rest_needed", "rates_rest_product", "rates_tangent_of_weight",
            "refuse_without_kernel", "rest_support", "stiffness_moving_with_rates", "times", "transposed_times"]
 
@@ -929,14 +943,18 @@ def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = F
     return np.asarray(columns, np.int64), curvatures
 
 
-def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None):
+def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndarray | None = None,
+                   full: np.ndarray | None = None):
     """(rows, cols, values) of the couplings' part of H for the entries of :func:`exact_couplings`: K's entry
     K_rc = −a ∂y/∂q_c (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; y's total derivative
     through the controllers it reads; 0 while the output is saturated, csrc/evaluate.c controller_outputs) along w:
     s Σ_c ∂K_rc/∂q_i w_c = −s a Σ_c ∂²y/∂q_c∂q_i w_c in column i, over the angle coordinates the actuator's
     controller reaches (:func:`_controller_curvatures`; rates held: W has no C). ``exact`` (couplings,) bool: the
     entries taken (default :func:`exact_couplings`; :func:`linked_exact_couplings`, whose controllers read joints'
-    angles and rates alone: their own curvatures alone are formed)."""
+    angles and rates alone: their own curvatures alone are formed, or whose controllers read positions,
+    :func:`_linked_position_controllers`: every controller of :func:`_exact_controllers` formed, for the chain).
+    ``full`` (n_total + 1,): the direction on every assembled coordinate (a model with rigid links or guides, u = P w:
+    a sensor on a dependent node moves with its dependent coordinates), w on the free ones otherwise."""
     control, model = assembler.control, assembler.model
     subset = exact is not None
     exact = exact_couplings(assembler) if exact is None else exact
@@ -946,11 +964,15 @@ def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndar
     if not actuators:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     controllers = _exact_controllers(assembler)
-    if subset:   # linked_exact_couplings: controllers of joints alone, no chain; the actuators' own
-        driving = {int(control.actuator_controller[a]) for a in actuators}
+    driving = {int(control.actuator_controller[a]) for a in actuators}
+    if subset and not any(_linked_position_controllers(assembler)[k] for k in driving):
+        # linked_exact_couplings of joints alone: no chain; the actuators' own
         controllers = [bool(on) and k in driving for k, on in enumerate(controllers)]
     columns, curvatures = _controller_curvatures(assembler, state, controllers)
-    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
+    if full is not None:
+        along = full[columns] if len(columns) else np.zeros(0)
+    else:
+        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
     out_rows, out_cols, out_values = [], [], []
     for a in actuators:
         curvature = curvatures[int(control.actuator_controller[a])]
@@ -1157,25 +1179,33 @@ def stiffness_moving_with_rates(assembler, state) -> tuple:
     return tuple(name for name, a, b in zip(STIFFNESS_BLOCKS, here, there) if not np.array_equal(a, b))
 
 
+def _hinge_moves_with_its_rate(assembler, j: int) -> bool:
+    """Whether free hinge ``j``'s K_jj = ∂f/∂θ moves with its rate θ̇_j: a stiffness law of θ̇, a damping law of θ
+    (c(θ) θ̇ has ∂/∂θ = c′(θ) θ̇), a torque law of θ and θ̇ both, or a compliant stop with damping (n δⁿ⁻¹ c δ̇ in
+    contact)."""
+    laws = {key: (law.depends_on if law is not None else ()) for key, law in _hinge_laws(assembler, int(j))}
+    contact = assembler.model.hinges[j].contact
+    return bool("theta_dot" in laws["stiffness"] or "theta" in laws["damping"]
+                or {"theta", "theta_dot"} <= set(laws["torque"]) or (contact is not None and contact.damping != 0.0))
+
+
+def linked_rate_moving_hinges(assembler) -> np.ndarray:
+    """(free hinges,) bool: the free hinges whose K_jj moves with their rate (:func:`_hinge_moves_with_its_rate`),
+    which the reduction's move carries (``TransientSensitivities._linked_move``)."""
+    model = assembler.model
+    return np.array([_hinge_moves_with_its_rate(assembler, int(j)) for j in model.free_hinges], bool)
+
+
 def linked_exact_hinges(assembler) -> np.ndarray:
     """(free hinges,) bool: the free hinges (guides) whose diagonal entry of H a model with rigid links or guides takes
     generated (:func:`_hinge_part`, :func:`linked_configuration_tangent`): those of :func:`exact_hinges` whose
-    K_jj = ∂f/∂θ does not move with the hinge's rate, which the reduction's move carries
-    (``TransientSensitivities._linked_move``; ∂K_jj/∂θ̇ is not generated): no stiffness law of θ̇, no damping law of θ
-    (c(θ) θ̇ has ∂/∂θ = c′(θ) θ̇), no torque law of θ and θ̇ both, no compliant stop with damping (n δⁿ⁻¹ c δ̇ in
-    contact). The others keep the difference (:func:`linked_rest_product`): before, their entries' move with the rates
-    was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch)."""
-    model = assembler.model
-    out = exact_hinges(assembler).copy()
-    for i, j in enumerate(model.free_hinges):
-        if not out[i]:
-            continue
-        laws = {key: (law.depends_on if law is not None else ()) for key, law in _hinge_laws(assembler, int(j))}
-        contact = model.hinges[j].contact
-        out[i] = not ("theta_dot" in laws["stiffness"] or "theta" in laws["damping"]
-                      or {"theta", "theta_dot"} <= set(laws["torque"])
-                      or (contact is not None and contact.damping != 0.0))
-    return out
+    K_jj = ∂f/∂θ does not move with the hinge's rate (:func:`linked_rate_moving_hinges`), or whose move with it is
+    generated too (:func:`exact_hinges_by_rates`: s (∂K_jj/∂θ̇_j) w_j δθ̇_j, :func:`linked_rates_tangent`; the hinge's
+    rate is a free one, P does not move its row). The others (a law naming an input whose K_jj moves with the rate)
+    keep the difference (:func:`linked_rest_product`): before 10be92c's linkedrest their entries' move with the rates
+    was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch), after it
+    every hinge moving with its rate was differenced."""
+    return exact_hinges(assembler) & (~linked_rate_moving_hinges(assembler) | exact_hinges_by_rates(assembler))
 
 
 def linked_generated_loads(assembler) -> np.ndarray:
@@ -1212,8 +1242,9 @@ def linked_exact_couplings(assembler) -> np.ndarray:
     :func:`exact_couplings` whose controller reads joints' angles and rates alone (a joint's coordinate and rate are
     free ones, or none where it is locked or prescribed: P does not move their rows) with an output whose mixed
     second derivatives by an angle and a rate vanish (:func:`_mixed_curvature_vanishes`; the entries then do not move
-    with the rates that the reduction's move carries, ``TransientSensitivities._linked_move``). The others keep the
-    difference (:func:`linked_rest_product`)."""
+    with the rates that the reduction's move carries, ``TransientSensitivities._linked_move``) or are generated
+    (:func:`_joint_reads`: no state, no input; their move along the rates is :func:`linked_rates_tangent`'s). The
+    others keep the difference (:func:`linked_rest_product`)."""
     control = assembler.control
     held = _LINKED_COUPLINGS.get(id(control))
     if held is not None and held[0]() is control:
@@ -1228,10 +1259,42 @@ def linked_exact_couplings(assembler) -> np.ndarray:
     for k, controller in enumerate(control.controllers):
         kinds = control.sensor_kind[control.sensor_start[k]:control.sensor_start[k + 1]]
         joints = bool(np.all((kinds == ANGLE) | (kinds == RATE))) and len(kinds) == len(controller.reads)
-        plain.append(joints and _mixed_curvature_vanishes(controller, tuple(np.flatnonzero(kinds == ANGLE)),
-                                                          tuple(np.flatnonzero(kinds == RATE))))
-    for e, a in enumerate(np.asarray(control.coupling_actuator)):
-        out[e] &= plain[control.actuator_controller[a]]
+        plain.append(joints and (_mixed_curvature_vanishes(controller, tuple(np.flatnonzero(kinds == ANGLE)),
+                                                           tuple(np.flatnonzero(kinds == RATE)))
+                                 or _joint_reads(control, k) is not None))
+    positions = _linked_position_controllers(assembler)
+    kinds = np.asarray(control.actuator_kind)
+    for e, a in enumerate(np.asarray(control.coupling_actuator)):   # a load's entries: its block's difference
+        out[e] &= bool(kinds[a] == 0) and (plain[control.actuator_controller[a]]
+                                           or positions[control.actuator_controller[a]])
+    return out
+
+
+#: the sensor kinds whose values a model with rigid links or guides takes through its exact part (the reduction's move
+#: carries the rates: no kind whose value or gradient moves with them; latdyn.assembly.control ANGLE, POSITION,
+#: BODY_FRAME): a joint's angle, a node's global position component, a point's position or displacement in a body's
+#: axes — those measured on linked models (tests/test_weight_derivative_linked_rates.py); a point at an offset and a
+#: cable's length, whose kinematics are composed alike, keep the difference until measured there
+_LINKED_POSITION_SENSORS = (0, 2, 7)
+
+
+def _linked_position_controllers(assembler) -> list:
+    """(controllers,) bool: the continuous controllers of :func:`_exact_controllers` whose couplings a model with rigid
+    links or guides takes generated beside those of joints' angles and rates (:func:`linked_exact_couplings`): they
+    read joints' angles, nodes' positions and points' positions in a body's axes (:data:`_LINKED_POSITION_SENSORS`: on
+    a dependent node too, its second derivative by the assembled coordinates), inputs, their own states and earlier such
+    controllers alone — nothing whose value moves
+    with the rates the reduction's move carries, so their entries −a ∂y/∂q_all move along P δq alone
+    (:func:`_coupling_part` on the assembled coordinates, ``full`` = P w)."""
+    from latdyn.assembly.control import CONTROLLER
+
+    control = assembler.control
+    exact = _exact_controllers(assembler)
+    out = []
+    for k in range(len(control.controllers)):
+        reads = _controller_reads(control, k)
+        out.append(bool(exact[k]) and all(kind is None or kind in _LINKED_POSITION_SENSORS
+                                          or (kind == CONTROLLER and out[index]) for kind, index, _ in reads))
     return out
 
 
@@ -1266,14 +1329,15 @@ def exact_hinges_by_rates(assembler) -> np.ndarray:
     return out
 
 
-def _hinge_rates_part(assembler, state, w: np.ndarray):
+def _hinge_rates_part(assembler, state, w: np.ndarray, exact: np.ndarray | None = None):
     """(rows, values) of the hinges' part of ∂(K w)/∂v, on its diagonal: (∂K_jj/∂θ̇_j) w_j for each free hinge j of
     :func:`exact_hinges_by_rates` with w_j ≠ 0, K_jj = ∂f/∂θ of its laws and its compliant stop (the generated
     ``hinge_stiffness_by_rate``, codegen/joints.py: ∂²f/∂θ∂θ̇ from the laws' values, first derivatives and mixed
     second derivatives at the state — SymPy's, the ``d_rate`` of the law's slope in the angle — and the stop's
-    Hunt–Crossley damping in contact)."""
-    hinge_rows, by_rate = _hinge_stiffness_slope(assembler, state, w, exact_hinges_by_rates(assembler),
-                                                 "hinge_stiffness_by_rate", "d_rate")
+    Hunt–Crossley damping in contact). ``exact`` (free hinges,) bool: the hinges taken (default
+    :func:`exact_hinges_by_rates`; :func:`linked_rates_tangent`'s)."""
+    exact = exact_hinges_by_rates(assembler) if exact is None else exact
+    hinge_rows, by_rate = _hinge_stiffness_slope(assembler, state, w, exact, "hinge_stiffness_by_rate", "d_rate")
     return hinge_rows, by_rate * w[hinge_rows]
 
 
@@ -1374,16 +1438,18 @@ def _controller_at(control, k: int, state):
     return (values, t) if lo <= float(control.controllers[k].functions()[0](t, *values)) <= hi else None
 
 
-def _coupling_rates_part(assembler, state, w: np.ndarray):
+def _coupling_rates_part(assembler, state, w: np.ndarray, exact: np.ndarray | None = None):
     """(rows, cols, values) of the couplings' part of ∂(K w)/∂v for the entries of :func:`exact_couplings_by_rates`:
     K's entry K_rj = −a ∂y/∂θ_j (a = ∂τ/∂y of the hinge's law a y + b, 1 for the controller's name alone; 0 while
     the output is saturated, csrc/evaluate.c controller_outputs) moves with the rate of a rate sensor i by
-    −a ∂²y/∂θ_j∂θ̇_i: Σ_j of it times w_j in row r, column i."""
+    −a ∂²y/∂θ_j∂θ̇_i: Σ_j of it times w_j in row r, column i. ``exact`` (couplings,) bool: the entries taken (default
+    :func:`exact_couplings_by_rates`; :func:`linked_rates_tangent`'s, a subset of it)."""
     control, model = assembler.control, assembler.model
     n = model.n_dofs
     dofs = np.asarray(model.hinge_dofs, np.int64)
     out_rows, out_cols, out_values = [], [], []
-    actuators = np.unique(np.asarray(control.coupling_actuator, np.int64)[exact_couplings_by_rates(assembler)])
+    exact = exact_couplings_by_rates(assembler) if exact is None else exact
+    actuators = np.unique(np.asarray(control.coupling_actuator, np.int64)[exact])
     for a in actuators[np.asarray(control.actuator_kind)[actuators] == 0]:   # a load's: :func:`_load_rates_part`
         k = int(control.actuator_controller[a])
         first, angles, rates = _joint_reads(control, k)
@@ -1470,6 +1536,29 @@ def rates_tangent_of_weight(assembler, state, w: np.ndarray):
     return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows]),
                    np.concatenate([hinge_rows, coupling_cols, load_cols]),
                    np.concatenate([hinge_values, coupling_values, load_values]), n)
+
+
+def linked_rates_tangent(assembler, state, w: np.ndarray):
+    """∂(K_gen w)/∂v (n × n, sparse as :func:`rates_tangent_of_weight`'s; None: no block of W_gen moves with the
+    rates) on a model with rigid links or guides: the generated hinges' and couplings' entries of W_gen
+    (:func:`linked_exact_hinges`, :func:`linked_exact_couplings`) that move with the rates the reduction's move
+    carries — a hinge of :func:`linked_rate_moving_hinges` by (∂K_jj/∂θ̇_j) w_j (:func:`_hinge_rates_part`), a coupling
+    whose output mixes an angle and a rate by −a ∂²y/∂θ_j∂θ̇_i w_j (:func:`_coupling_rates_part`). Their rows,
+    columns and rates are hinges' coordinates and rates, free ones (P = [I; J] is the identity there, and
+    ∂(J v)/∂q δq moves dependent rows alone), so Pᵀ s ∂(K u)/∂v_all δv_all = s (this matrix) δv, u = P w: exact, no
+    evaluation (``TransientSensitivities._linked_weight_derivative``). The damped cables' move is
+    :func:`linked_cable_rates_product`'s; the loads a controller drives stay differenced."""
+    hinges = linked_exact_hinges(assembler) & linked_rate_moving_hinges(assembler)
+    couplings = np.asarray(linked_exact_couplings(assembler), bool).copy()
+    if np.any(couplings):
+        couplings &= exact_couplings_by_rates(assembler)
+    if not np.any(hinges) and not np.any(couplings):
+        return None
+    n = assembler.model.n_dofs
+    hinge_rows, hinge_values = _hinge_rates_part(assembler, state, w, exact=hinges)
+    coupling_rows, coupling_cols, coupling_values = _coupling_rates_part(assembler, state, w, exact=couplings)
+    return _sparse(np.concatenate([hinge_rows, coupling_rows]), np.concatenate([hinge_rows, coupling_cols]),
+                   np.concatenate([hinge_values, coupling_values]), n)
 
 
 def rates_rest_needed(assembler, moving: tuple) -> bool:
@@ -1731,7 +1820,7 @@ def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray
     parts = [_generated(assembler, state, w, scale, mass, full=u),
              _load_part(assembler, state, w, scale, full=u, exact=linked_generated_loads(assembler)),
              _cable_part(assembler, state, w, scale, full=u),
-             _coupling_part(assembler, state, w, scale, exact=linked_exact_couplings(assembler))]
+             _coupling_part(assembler, state, w, scale, exact=linked_exact_couplings(assembler), full=u)]
     rows, cols, values = (np.concatenate([part[i] for part in parts]) for i in range(3))
     keep = (rows < n_asm) & (cols < n_asm)
     H_gen = csr.CSR.from_coo(values[keep], rows[keep], cols[keep], (n_asm, n_asm))
