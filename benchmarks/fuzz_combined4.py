@@ -188,7 +188,7 @@ def random_scene(rng: random.Random, focus: str = "") -> tuple[str, str]:
     free = [h for h in _free_hinges(data) if "limits" not in h and "lock_at" not in h]
     if focus == "adjoint":
         pass
-    elif free and rng.random() < 0.3:
+    elif free and rng.random() < (0.1 if focus == "extras" else 0.3):
         h = rng.choice(free)
         params["cd"] = round(rng.uniform(0.5, 5.0), 2)
         h["limits"] = [-0.02, 0.02]
@@ -198,15 +198,59 @@ def random_scene(rng: random.Random, focus: str = "") -> tuple[str, str]:
         h = rng.choice(free)
         h["friction"] = {"coulomb": 0.01, "stribeck_rate": 0.1, "viscous": 0.02}
         kinds.append("friction")
+    forced = []
+    if focus == "extras":
+        forced = _extras(rng, data, kinds)
     if not controllers:
         del data["controllers"]
     solve = data["solve"]
     solve.update(rng.choice([{}, {}, {"method": "hht-alpha"}, {"method": "newmark"}, {"rho_inf": 0.6}]))
     names = [p for p, v in params.items() if isinstance(v, (int, float))]
     rng.shuffle(names)
-    solve["sensitivities"] = names[:rng.randint(1, min(8, len(names)))]
+    solve["sensitivities"] = list(dict.fromkeys(forced + names))[:max(len(forced), rng.randint(1, min(8, len(names))))]
     data["title"] += " + " + ", ".join(kinds) if kinds else ""
     return name, _dump(data)
+
+
+def _extras(rng: random.Random, data: dict, kinds: list) -> list[str]:
+    """``--focus extras``: int20's other paths — a PI or filter state on the controller reading a point or cable
+    (or on a scene's own controller reading a point), energy probes (the external work of prescribed motions with
+    links among them), a geometry parameter (a moving body's ``at`` component) beside the controllers. The
+    parameters the sensitivities must name."""
+    params, probes, controllers = data["parameters"], data["output"]["probes"], data["controllers"]
+    forced = []
+    readers = [c for c in controllers if "rate" not in controllers[c] and "states" not in controllers[c]]
+    if readers and rng.random() < 0.6:
+        c = rng.choice(readers)
+        sensed = next((p for p in ("pp8", "cq8") if p in probes and p in controllers[c]["output"]), None)
+        if sensed is None:
+            sensed = next((p for p, spec in probes.items() if "point" in spec and spec.get("quantity") == "position"
+                           and p in controllers[c]["output"]), None)
+        if sensed is not None:
+            if rng.random() < 0.5:
+                params["Ki"] = round(rng.uniform(0.5, 3.0), 2)
+                controllers[c]["states"] = {"Si": f"0.05 - {sensed}"}
+                controllers[c]["output"] = f"{controllers[c]['output']} + Ki*Si"
+                forced.append("Ki")
+            else:
+                params["wf"] = round(rng.uniform(5.0, 30.0), 1)
+                controllers[c]["states"] = {"Sf": f"wf*({sensed} - Sf)"}
+                controllers[c]["output"] = f"{controllers[c]['output']} - 0.3*Sf"
+                forced.append("wf")
+            kinds.append("controller state")
+    if rng.random() < 0.6:
+        for kind in rng.sample(["external_work", "total", "kinetic", "dissipated"], rng.randint(1, 2)):
+            probes[f"e_{kind}"] = {"energy": kind}
+            kinds.append(f"energy {kind}")
+    if rng.random() < 0.5:
+        movable = [b for b, spec in data["bodies"].items() if not spec.get("fixed") and b != "anchor8"]
+        body = rng.choice(movable)
+        axis = rng.randrange(3)
+        params["gx"] = float(data["bodies"][body]["at"][axis])
+        data["bodies"][body]["at"][axis] = "gx"
+        forced.append("gx")
+        kinds.append("geometry parameter")
+    return forced
 
 
 # ---------------------------------------------------------------------------------------------------------- worker
@@ -411,7 +455,7 @@ def main(argv=None) -> int:
     parser.add_argument("--worker", nargs=2)
     parser.add_argument("--richardson", nargs=2, help="SCENE OUT: (c) for one scene")
     parser.add_argument("--tally", nargs="+", type=Path)
-    parser.add_argument("--focus", choices=["", "adjoint"], default="", help="adjoint: random_scene's focus")
+    parser.add_argument("--focus", choices=["", "adjoint", "extras"], default="", help="adjoint: random_scene's focus")
     args = parser.parse_args(argv)
     if args.tally:
         print(json.dumps(tally_records(args.tally), indent=1))
