@@ -454,6 +454,7 @@ def main(argv=None) -> int:
     parser.add_argument("--cli-every", type=int, default=3, help="(d) on every N-th case")
     parser.add_argument("--worker", nargs=2)
     parser.add_argument("--richardson", nargs=2, help="SCENE OUT: (c) for one scene")
+    parser.add_argument("--step", type=float, default=1e-3, help="(c)'s relative step h (Richardson of h, h/2)")
     parser.add_argument("--tally", nargs="+", type=Path)
     parser.add_argument("--focus", choices=["", "adjoint", "extras"], default="", help="adjoint: random_scene's focus")
     args = parser.parse_args(argv)
@@ -464,7 +465,7 @@ def main(argv=None) -> int:
         print("RECORD " + json.dumps(worker(Path(args.worker[0]), Path(args.worker[1]))))
         return 0
     if args.richardson:
-        print(json.dumps(base.richardson(Path(args.richardson[0]), Path(args.richardson[1])), indent=1))
+        print(json.dumps(base.richardson(Path(args.richardson[0]), Path(args.richardson[1]), args.step), indent=1))
         return 0
     if args.show is not None:
         print(random_scene(random.Random(f"fuzz8-{args.seed}-{args.show}"), args.focus)[1])
