@@ -22,6 +22,7 @@ Checks per case (a process of its own, ``--worker``):
 (b) the loop of steps on against every switch off (sha-256 of sensitivities.csv, probes.csv and the summary's
     derivatives), for the forward method and for the adjoint;
 (d) ``latdyn run`` (every ``--cli-every``-th case) against the API, sha-256 (forward, and the adjoint where taken);
+(f) the same scene without ``solve.sensitivities``: the same events at the same times (to PLAIN_EVENTS = 1e-6 s);
 (e) no traceback: a failure that is not a SceneError/SolverError-style refusal is recorded (``crash``), and the
     worker's timeout.
 (c) is ``--richardson SCENE OUT`` (benchmarks/fuzz_combined.richardson: end rows, tol 1e-12, Richardson of central
@@ -332,9 +333,11 @@ def worker(scene_path: Path, out: Path) -> dict:
         _switches(True)
     if "digest" in record["forward"] and "digest" in record["adjoint"]:
         record["a"] = _compare(record["forward"]["digest"], record["adjoint"]["digest"])
-        f, a = record["forward"]["digest"], record["adjoint"]["digest"]
-        if (f["events"], f["event_times"], f["probes.csv"]) != (a["events"], a["event_times"], a["probes.csv"]):
-            problems.append("adjoint's run differs from the forward method's (events or probes.csv)")
+    if "digest" in record["forward"]:   # (f) the same scene without solve.sensitivities: its events
+        plain = yaml.safe_load(text)
+        for key in ("sensitivities", "sensitivity_method"):
+            plain["solve"].pop(key, None)
+        record["plain"] = _run(plain, out / "plain")
     (out / "adjoint.yaml").write_text(_dump(adjoint))
     return record
 
@@ -342,6 +345,8 @@ def worker(scene_path: Path, out: Path) -> dict:
 COMPARED = ("sensitivities.csv", "probes.csv", "probe_sensitivities", "event_sensitivities")
 #: (a)'s scale's floor, relative to the probe's largest derivative over its end, max and min
 FLOOR = 1e-4
+#: (f): the events' times with and without solve.sensitivities (the run without lands to the events' tolerance)
+PLAIN_EVENTS = 1e-6
 #: (a)'s bound: the adjoint's derivatives against the forward method's, relative to each output's largest
 BOUND = 1e-9
 
@@ -373,6 +378,15 @@ def judge(record: dict) -> list[str]:
                 for key in COMPARED:
                     if cli["digest"][key] != on["digest"][key]:
                         problems.append(f"{label} cli != api: {key}")
+    plain, forward = record.get("plain", {}), record.get("forward", {})
+    if "error" in plain:
+        problems.append(f"plain: {plain['error'][:150]}")
+    elif "digest" in plain and "digest" in forward:
+        f, q = forward["digest"], plain["digest"]
+        if f["events"] != q["events"] or any(abs(x - y) > PLAIN_EVENTS for x, y in zip(f["event_times"],
+                                                                                        q["event_times"])):
+            problems.append(f"plain events {list(zip(q['events'], q['event_times']))[:4]} != "
+                            f"{list(zip(f['events'], f['event_times']))[:4]}")
     a = record.get("a")
     if a:
         if a["missing"]:
