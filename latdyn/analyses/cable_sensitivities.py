@@ -297,23 +297,38 @@ class CableSensitivities:
         """∂g/∂t of element ``e``'s gap through its ends on prescribed bodies: the gap's gradients by that end's
         configuration and rates (the kernel's blocks, as :meth:`step_size_derivative` takes them) along the
         prescribed motion's own velocity and acceleration at ``state``'s time (v, ω, v̇, ω̇ of the motion's laws and
-        their exact time derivatives, ``latdyn_prescribe``); 0 without such an end."""
+        their exact time derivatives, ``latdyn_prescribe``); through its ends on nodes that follow rigid links
+        from a prescribed body or hinge angle, along their motion at fixed free coordinates and rates
+        (``TransientSensitivities.dependent_motion_in_time``: a cable to a prescribed crank's pin took 0 here,
+        its change refused as grazing, and to a free swing on that pin reported its time's derivative 700×
+        off, tests/test_fuzz_run_findings7.py); 0 without such an end."""
         from latdyn.model.model import PRESCRIBED
 
         nodes = self.cables.nodes[e]
         ends = [i for i in range(2) if self.model.nodes[nodes[i]].kind == PRESCRIBED]
-        if not ends:
+        moving, carried = state, []
+        if self.model.links is not None and _prescribed_motion(self.model):
+            dependent = set(int(n) for n in self.model.links.dependent)
+            carried = [i for i in range(2) if int(nodes[i]) in dependent]
+        if not ends and not carried:
             return 0.0
+        if carried:
+            moving = state.copy()
+            still, unaccelerated = self.owner.dependent_motion_in_time(state)
+            for i in carried:
+                node = nodes[i]
+                moving.v[node], moving.w[node] = still.v[node], still.w[node]
+                moving.a[node], moving.alpha[node] = unaccelerated.a[node], unaccelerated.alpha[node]
         damped = self._damped(state, e)
         _, K, C, _ = self.law(state, e, c=self.cables.damping[e] if damped else 0.0)
         points = [state.x[nodes[i]] + state.T[nodes[i]] @ self.cables.offsets[e, i] for i in range(2)]
         unit = (points[1] - points[0]) / np.linalg.norm(points[1] - points[0])
         g_q, g_v = -unit @ K[0:3], -unit @ C[0:3]
         rate = 0.0
-        for i in ends:
+        for i in ends + carried:
             node, block = nodes[i], slice(6 * i, 6 * i + 6)
-            rate += g_q[block] @ np.concatenate([state.v[node], state.w[node]])
-            rate += g_v[block] @ np.concatenate([state.a[node], state.alpha[node]])
+            rate += g_q[block] @ np.concatenate([moving.v[node], moving.w[node]])
+            rate += g_v[block] @ np.concatenate([moving.a[node], moving.alpha[node]])
         return float(rate)
 
     def _damped(self, state, e: int) -> bool:
@@ -341,3 +356,10 @@ class CableSensitivities:
             return None
         return {"joint": self.cables.names[self.cables.cable[e]], "kind": change, "t": float(new.t),
                 "dt": {name: float(dt_event[c]) for c, name in enumerate(names)}}
+
+
+def _prescribed_motion(model) -> bool:
+    """Whether a body's motion or a hinge's angle is prescribed (rigid links carry it to their dependent nodes)."""
+    from latdyn.model.model import PRESCRIBED
+
+    return any(node.kind == PRESCRIBED for node in model.nodes) or any(h.angle is not None for h in model.hinges)

@@ -1459,21 +1459,32 @@ class TransientSensitivities(ParameterDerivatives):
     def _dependent_in_time(self, state, moved: np.ndarray, dx, dpi, rates) -> None:
         """The nodes that follow rigid links from a prescribed body or hinge angle, at a row whose time moves
         with p (:meth:`_prescribed_in_time`): P δq moves them with the free coordinates only, and the
-        prescribed motion carries them on by its own rates at fixed free coordinates, δx += v° δt,
-        δπ += ω° δt, with (v°, ω°) their rates completed with the free rates 0; their rates by
-        ∂v_dep/∂t at fixed free coordinates and rates, (a°, α°) − ∂(J v)/∂q v: their accelerations completed
-        with the free accelerations 0 (J_p θ̈_p + the rates' quadratic terms) less the part of those terms
-        that moves with the free coordinates (the generated ``*_rates_D_q``, latdyn/assembly/linked.py)."""
-        model, assembler = self.model, self.assembler
-        dependent = model.links.dependent
-        still = state.copy()
-        unpack_free(model, np.zeros(model.n_dofs), still.v, still.w, still.theta_dot)
-        assembler.complete_links(still)
+        prescribed motion carries them on by its own rates at fixed free coordinates
+        (:meth:`dependent_motion_in_time`), δx += v° δt, δπ += ω° δt, and their rates by ∂v_dep/∂t."""
+        dependent = self.model.links.dependent
+        still, unaccelerated = self.dependent_motion_in_time(state, rates is not None)
         for node in dependent:
             dx[node] += np.outer(still.v[node], moved)
             dpi[node] += np.outer(still.w[node], moved)
         if rates is None:
             return
+        for node in dependent:
+            rates[0][node] += np.outer(unaccelerated.a[node], moved)
+            rates[1][node] += np.outer(unaccelerated.alpha[node], moved)
+
+    def dependent_motion_in_time(self, state, accelerations: bool = True) -> tuple:
+        """(still, unaccelerated): copies of ``state`` whose dependent nodes' (v, ω) are (v°, ω°), their rates
+        completed with the free rates 0 (the prescribed motion's own at fixed free coordinates), and whose
+        dependent nodes' (a, α) are ∂v_dep/∂t at fixed free coordinates and rates, (a°, α°) − ∂(J v)/∂q v: their
+        accelerations completed with the free accelerations 0 (J_p θ̈_p + the rates' quadratic terms) less the
+        part of those terms that moves with the free coordinates (the generated ``*_rates_D_q``,
+        latdyn/assembly/linked.py); ``unaccelerated`` None unless ``accelerations``."""
+        model, assembler = self.model, self.assembler
+        still = state.copy()
+        unpack_free(model, np.zeros(model.n_dofs), still.v, still.w, still.theta_dot)
+        assembler.complete_links(still)
+        if not accelerations:
+            return still, None
         from latdyn.assembly.linked import evaluate_linked
 
         unaccelerated = state.copy()
@@ -1481,9 +1492,10 @@ class TransientSensitivities(ParameterDerivatives):
         assembler.complete_links(unaccelerated)
         ev = evaluate_linked(model.links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
         by_velocity = np.asarray(ev.rates_tangent[0] @ free_velocity(model, state)).reshape(-1, 6)
-        for i, node in enumerate(dependent):
-            rates[0][node] += np.outer(unaccelerated.a[node] - by_velocity[i, 0:3], moved)
-            rates[1][node] += np.outer(unaccelerated.alpha[node] - by_velocity[i, 3:6], moved)
+        for i, node in enumerate(model.links.dependent):
+            unaccelerated.a[node] = unaccelerated.a[node] - by_velocity[i, 0:3]
+            unaccelerated.alpha[node] = unaccelerated.alpha[node] - by_velocity[i, 3:6]
+        return still, unaccelerated
 
     def table(self, carried: dict) -> dict:
         """``{(probe, name): array over the rows}`` (``Result.sensitivities``)."""
