@@ -154,8 +154,8 @@ from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.scene.expressions import TimeFunction, _drop_deltas
 from latdyn.step.integrators import consistent_acceleration, start_without_scipy
-from latdyn.timeloop.events import (cable_crossings, cable_gaps, crossing_fraction, first_crossing, lock_events, may_stick,
-                                   sticking_hinges, stop_hits)
+from latdyn.timeloop.events import (cable_crossings, cable_gaps, crossing_fraction, first_crossing, lock_events,
+                                   may_stick, sticking_hinges, stop_hits)
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["TransientSensitivities"]
