@@ -11,15 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
 
 import element_states as es
-import latdyn
 from latdyn.analyses.weight_derivative import exact_couplings, rest_support
 from latdyn.model.kernels import load_kernels
-from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
-from tests.test_sensitivities_events import _agree
-from tests.test_weight_derivative_couplings import CHAIN, _assert_blocks_are_richardsons
+from tests.test_weight_derivative_couplings import (CHAIN, _assert_blocks_are_richardsons,
+                                                    latdyn_run_through_the_latch_agrees)
 from tests.test_weight_derivative_couplings import \
     test_a_sensors_second_derivative_is_the_central_difference_of_its_gradient as _sensor_check
 from tests.test_weight_derivative_couplings import \
@@ -129,14 +126,5 @@ def test_latdyn_run_of_the_tension_pd_agrees_with_richardson_and_the_loop_off_wr
     """``latdyn run`` of the PD of the stay's tension through its latch: no difference left in H, the event
     sensitivities by Kp in summary.json the API's, agreeing with Richardson differences of whole runs, and the loop
     of steps off writes the same files byte for byte."""
-    prepared, _, _ = _boom_state(TENSION)
-    assert len(rest_support(prepared.assembler)) == 0
-    text = TENSION.replace("sensitivities: [Kp, k]", "sensitivities: [Kp]")
-    run, out = latdyn_run(tmp_path, text)
-    assert run.returncode == 0, run.stderr
-    summary = summary_of(out)
-    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
-    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
-    assert summary["event_sensitivities"] == result.summary["event_sensitivities"]
-    assert _agree(result, text, "Kp", 1e-6) < 1e-6
-    the_loop_off_writes_the_same(tmp_path, out)
+    latdyn_run_through_the_latch_agrees(tmp_path, TENSION.replace("sensitivities: [Kp, k]", "sensitivities: [Kp]"),
+                                        "Kp", 1e-6)
