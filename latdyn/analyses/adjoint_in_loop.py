@@ -49,8 +49,6 @@ def refusal(owner) -> str | None:
     (module docstring). Once a run."""
     from latdyn.analyses.sensitivities_in_loop import model_refusal
 
-    if owner.model.links is not None:   # the forward step's loop takes them (sensitivities_in_loop); this pass not yet
-        return "rigid links or guides"
     if owner.model.cables is not None:   # likewise (csrc/cable_forces.c); this pass's reverse steps not yet
         return "cables"
     return model_refusal(owner)
@@ -207,6 +205,7 @@ class ReverseSteps:
             held = [np.ascontiguousarray(b, dtype=float) for b in (tangent.blocks, tangent_t.blocks, turn_t.blocks)]
             self._held = held
             blocks, blocks_t, turned_t = (b.ctypes.data for b in held)
+        owner.assembler.complete_links(new)   # rigid links or guides: as Assembler.linked_exact_matrix_values
         native = owner.assembler.native(True)
         native.laws.bind_inputs()
         info = native.library.latdyn_adjoint_reverse_step(
