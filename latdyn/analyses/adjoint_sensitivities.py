@@ -724,9 +724,11 @@ class AdjointSensitivities(TransientSensitivities):
         S = β′M + γ′C + K J on its held pattern and storage (:meth:`TransientSensitivities._step_system`),
         factorised as the forward method factorises it, and solved with Sᵀ from those factors
         (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`); Cᵀ and Kᵀ views of the held
-        matrices' storage, made once per pattern. With rigid links, the reduction's matrices
-        (:meth:`_matrices`) summed as the forward method sums them and Sᵀ factorised. A singular S raises
-        SolverError."""
+        matrices' storage, made once per pattern. With rigid links or guides, M, C and the exact K of the compiled
+        step's reduction (``Assembler.linked_exact_matrix_values``, as the forward method's step and the native
+        reverse step, csrc/adjoint_reverse.c) on the forward step's held pattern the same way; where the reduction has
+        none (``linked_exact_layout`` None), the reduction's matrices (:meth:`_matrices`) summed as the forward method
+        sums them and Sᵀ factorised. A singular S raises SolverError."""
         linked = self.model.links is not None
         # with rigid links or guides the compiled step's reduction (csrc/linked_matrices.c) where it has one, as the
         # forward method's step (TransientSensitivities._step_system) and the native reverse step

@@ -323,10 +323,10 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     names: :func:`_energy_refusal`), or None:
     :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
-    which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
-    steps): controllers and explicit time dependence beside events only where :func:`_controller_refusal` and
-    :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), on a model with rigid links or
-    guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the laws' rates, as the Python
+    which refuses cables itself; rigid links and guides it takes). ``differentiated`` (:func:`refusal`: the loop
+    differentiates the steps): controllers and explicit time dependence beside events only where
+    :func:`_controller_refusal` and :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), on
+    a model with rigid links or guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the laws' rates, as the Python
     path's ``_on_free_coordinates``)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
