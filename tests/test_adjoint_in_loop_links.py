@@ -3,9 +3,9 @@ issue 34, item 6): the forward pass's smooth steps stored by the loop of steps i
 ``sensitivity_steps_in_loop``), the reverse pass's smooth steps in one native call each on the compiled step's
 reduction (csrc/adjoint_reverse.c with csrc/linked_matrices.c), and the derivatives the per-step Python and NumPy
 path's (the private switches ``ADJOINT_IN_LOOP`` and ``REVERSE_NATIVE`` off) to the bit, through the API and the
-CLI, and the forward method's to 1e-10 of each output's largest: the gimbal of rigid links, the guided
-slider-crank bouncing between its stops, the deploying chain of rigid bays latching in line, the 3D arm with a guided
-mass (free, and hitting its stop)."""
+CLI, and the forward method's to 1e-10 of each output's largest: the gimbal of rigid links (free, and its inner ring
+latching), the slider-crank closed by a rigid rod and the guided one bouncing between its stops, the deploying chain of
+rigid bays (opening, and latching in line), the 3D arm with a guided mass (free, and hitting its stop)."""
 from __future__ import annotations
 
 import numpy as np
@@ -16,7 +16,8 @@ import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
 from tests.test_adjoint_in_loop import _run
 from tests.test_sensitivities_guides import STOP_3D
-from tests.test_sensitivities_in_loop_links import CHAIN, CRANK_STOPS, GIMBAL_JOINTS, GUIDED
+from tests.test_sensitivities_in_loop_links import CHAIN, CRANK_STOPS, GIMBAL_JOINTS, GIMBAL_LATCH, GUIDED
+from tests.test_sensitivities_rigid_links import CLOSED_SLIDER_CRANK
 
 
 def _adjoint(text: str) -> str:
@@ -26,8 +27,13 @@ def _adjoint(text: str) -> str:
     return out
 
 
-SCENES = {"gimbal": GIMBAL_JOINTS, "guided slider-crank, stops": CRANK_STOPS, "chain of rigid bays, latches": CHAIN,
-          "3D guided arm": GUIDED, "3D guided arm, stop": STOP_3D}
+#: the chain of rigid bays before its first latch (t = 0.251 s): no event
+CHAIN_OPENING = CHAIN.replace("t_end: 0.5,", "t_end: 0.2,")
+assert CHAIN_OPENING != CHAIN
+
+SCENES = {"gimbal": GIMBAL_JOINTS, "gimbal, latch": GIMBAL_LATCH, "closed slider-crank": CLOSED_SLIDER_CRANK,
+          "guided slider-crank, stops": CRANK_STOPS, "chain of rigid bays": CHAIN_OPENING,
+          "chain of rigid bays, latches": CHAIN, "3D guided arm": GUIDED, "3D guided arm, stop": STOP_3D}
 
 
 def _largest_gap(adjoint: dict, forward: dict) -> float:
