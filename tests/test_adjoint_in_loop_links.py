@@ -14,6 +14,7 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
+from tests.resumed_runs import resumed_inside_the_loop_is_whole
 from tests.test_adjoint_in_loop import _run
 from tests.test_sensitivities_guides import STOP_3D
 from tests.test_sensitivities_in_loop_links import CHAIN, CRANK_STOPS, GIMBAL_JOINTS, GIMBAL_LATCH, GUIDED
@@ -90,3 +91,11 @@ def test_the_cli_writes_the_python_paths_files_on_the_guided_slider_crank(tmp_pa
         assert (out / name).read_bytes() == (reference / name).read_bytes(), name
     for key in ("probe_sensitivities", "event_sensitivities"):
         assert summary[key] == summary_of(reference)[key], key
+
+
+@pytest.mark.parametrize("name, t_stop", [("guided slider-crank, stops", 0.1), ("3D guided arm", 0.2)])
+def test_a_linked_run_interrupted_inside_the_loop_resumes_to_the_same_files(name, t_stop, tmp_path, monkeypatch):
+    """Interrupted (Ctrl-C) as a loop of steps starts at ``t_stop`` (the slider-crank between its stops' events, the
+    arm with none) and resumed from its checkpoint: sensitivities.csv and summary.json's derivatives and count of steps
+    in the loop are the uninterrupted run's, byte for byte."""
+    resumed_inside_the_loop_is_whole(yaml.safe_load(_adjoint(SCENES[name])), tmp_path, monkeypatch, t_stop)
