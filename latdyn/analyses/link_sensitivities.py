@@ -128,11 +128,12 @@ def held_linked_parts(owner, state, rates: bool) -> tuple:
     if rates:
         ev = evaluate_linked(owner.model.links, owner.assembler, state, True, 1.0, True, inertia_tangent=True,
                              rates_term=True)
-        parts = (ev.projection.copy(), ev.rates_tangent[0].copy())
+        parts = (ev.projection, ev.rates_tangent[0])
     else:
-        parts = (owner.assembler.evaluate(state, matrices=True).projection.copy(), None)
-    if held is not None:
-        held[key] = (state, parts)   # the state held with them: its id stays its own
+        parts = (owner.assembler.evaluate(state, matrices=True).projection, None)
+    if held is not None:   # copies (the next evaluation may reuse the buffers); the state held with them: its id stays
+        parts = tuple(None if part is None else part.copy() for part in parts)
+        held[key] = (state, parts)
     return parts
 
 
