@@ -146,7 +146,9 @@ section force whose section values a parameter moves beside geometry parameters 
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
-with a law of θ, θ̇ or an input in them that does not compile, and the NumPy kernels.
+with a law of θ, θ̇ or an input in them that does not compile, and the NumPy kernels. The discrete adjoint's forward
+pass and its reverse pass's smooth steps (latdyn/analyses/adjoint_in_loop.py) are native on the runs
+:func:`model_refusal` lets through, with rigid links and guides too, not with cables (``adjoint_in_loop.refusal``).
 
 Step matrices of every storage: where a model has S on the supernodal sparse LU (above DENSE_LIMIT coordinates, its
 bandwidth after reverse Cuthill–McKee above BAND_LIMIT: a designer's lattice, with rigid links or not), the loop
