@@ -384,17 +384,20 @@ class AdjointSensitivities(TransientSensitivities):
             # the outputs' forms taken state by state (a latch's renumbering rebuilds the native model; with rigid links
             # or guides the reduction's parts held per state: link_sensitivities.held_linked_parts), each output's
             # columns in the outputs' order
-            forms_of = {}
+            forms_of, held = {}, {}   # held: a probe's forms at a state, once (its end and its max or min at one row)
             self._linked_parts_held = {}
             for at in sorted(range(len(outputs)), key=lambda at: rows[outputs[at][2]]):
                 probe, index = outputs[at][0], rows[outputs[at][2]]
+                if (id(probe), index) in held:
+                    forms_of[at] = held[id(probe), index]
+                    continue
                 if final is not None:   # the row's forms on the numbering it was recorded on
                     self._numbered(numberings[index])
                 # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
                 forms = [self.output_forms(probe, states[index])]
                 if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                     forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
-                forms_of[at] = forms
+                forms_of[at] = held[id(probe), index] = forms
             self._linked_parts_held = None
             for at, (_, _, row) in enumerate(outputs):
                 forms = forms_of[at]
