@@ -1,14 +1,15 @@
 """The discrete adjoint on models with rigid links or guides through events: its CPU time against the run without
 sensitivities and the forward method, in process (docs/performance.md, "Adjoint with guides and events beside links
-(issue 34)").
+(issue 34)", "The adjoint on linked models in the loop of steps (issue 34)").
 
-    python benchmarks/adjoint_linked_cost.py [--repeats 5]
+    python benchmarks/adjoint_linked_cost.py [--repeats 5] [--only TEXT]
 
 Scenes (tests/test_sensitivities_refusals_lifted.py and tests/test_sensitivities_guides.py, more parameters): the
 gimbal of rigid links whose inner ring latches (8 parameters), a bead on a guide on the gimbal's inner ring hitting its
 stops three times (8), a slider on a skew guide at a 3D arm's tip hitting its stop (5, and 12 with the section values
-and the tip's mass as parameters). Each scene warm once per variant, then ``--repeats`` rounds alternating the run
-without sensitivities, the forward method and the adjoint; medians of ``time.process_time`` and wall. Run under
+and the tip's mass as parameters); the guided arm, free and hitting its stop, by 1, 10 and 100 load amplitudes. Each
+scene warm once per variant, then ``--repeats`` rounds alternating the run without sensitivities, the forward method
+and the adjoint; medians of ``time.process_time`` and wall. Run under
 ``chrt -f 10`` on a loaded machine; another checkout's build through ``PYTHONPATH`` for a before.
 """
 from __future__ import annotations
@@ -24,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def scenes() -> dict:
     """{name: YAML text}."""
-    from tests.test_sensitivities_guides import STOP_3D
+    from tests.test_sensitivities_guides import GUIDE_3D, STOP_3D
     from tests.test_sensitivities_refusals_lifted import BEAD_ON_GIMBAL, LATCH
 
     twelve = STOP_3D.replace(
@@ -43,7 +44,22 @@ def scenes() -> dict:
                                                            "sensitivities: [k, c, m, EI, rest]"),
            "guide stop on a 3D arm (12 p)": twelve}
     assert all(text.count("sensitivities: [") == 1 for text in out.values()) and '"mt"' in twelve
+    for count in (1, 10, 100):   # the loads' amplitudes: 1, 10, 100 parameters on the guided arm, free and stopped
+        out[f"guided 3D arm, {count} load p"] = loaded(GUIDE_3D, count)
+        out[f"guide stop on a 3D arm, {count} load p"] = loaded(STOP_3D, count)
     return out
+
+
+def loaded(text: str, count: int) -> str:
+    """``text`` (the guided 3D arm) with ``count`` loads at the arm's nodes and the tip, each of its own amplitude
+    F1 … F<count> (0.01 N each way), the sensitivities by those amplitudes."""
+    points = ["arm.node[1]", "arm.node[2]", "tip"]
+    names = [f"F{i + 1}" for i in range(count)]
+    loads = "".join(f'  - {{at: "{points[i % 3]}", force: ["{name}", "-{name}", "0.5*{name}"]}}\n'
+                    for i, name in enumerate(names))
+    out = text.replace("parameters: {k: 40.0,", "parameters: {" + "".join(f"{name}: 0.01, " for name in names)
+                       + "k: 40.0,").replace("beams:", "loads:\n" + loads + "beams:")
+    return out.replace("sensitivities: [k, m, EI, rest]", f"sensitivities: [{', '.join(names)}]")
 
 
 def main() -> None:
@@ -53,8 +69,11 @@ def main() -> None:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--only", default="", help="the scenes whose name holds this text")
     args = parser.parse_args()
     for name, text in scenes().items():
+        if args.only not in name:
+            continue
         plain, forward, adjoint = (yaml.safe_load(text) for _ in range(3))
         plain["solve"].pop("sensitivities")
         adjoint["solve"]["sensitivity_method"] = "adjoint"

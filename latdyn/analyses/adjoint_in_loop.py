@@ -15,8 +15,9 @@ before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
 (:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, explicit time dependence beside events,
 geometry parameters, external work or dissipated energy probes, NumPy kernels; the energies of the state and the
-momenta are taken) and those with rigid links, guides or cables, which :func:`refusal` refuses itself: decided once,
-at the start.
+momenta are taken) and those with cables, which :func:`refusal` refuses itself: decided once, at the start. On a
+model with rigid links or guides the loop's step is the compiled step's reduction, as the forward method's loop takes
+it (its stored state has the dependent nodes completed).
 
 The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smooth step — no event at its end, a size
 that does not move with the parameters — in one call of csrc/adjoint_reverse.c (:class:`ReverseSteps`): M, C and the
@@ -24,11 +25,16 @@ exact K at the stored state, S factorised on its held pattern and storage, w = S
 sums in NumPy's and SciPy's order; the contraction (∂r/∂p)ᵀw stays :meth:`AdjointSensitivities.residual_transposed_product`
 (every parameter kind), and the events' pieces and the steps whose size moves stay on the NumPy path; a numbering
 whose S takes the sparse LU is taken natively too, with the band LU with pivoting where a sparse pivot fails
-(Factorization._factor_pivoted's, as the NumPy path's: sensitivities_in_loop.SensitivityLoop._pivoted). For the same
-runs (:func:`refusal`).
+(Factorization._factor_pivoted's, as the NumPy path's: sensitivities_in_loop.SensitivityLoop._pivoted). With rigid
+links or guides M, C and the exact K are the compiled step's reduction on the minimum coordinates
+(csrc/linked_matrices.c ``latdyn_linked_exact_values``, as the forward method's step: S on its dense pattern, or
+above DENSE_LIMIT coordinates or on a sparse storage its reduced pattern; the NumPy path takes the same values,
+``Assembler.linked_exact_matrix_values``, AdjointSensitivities._transposed_step_system); (∂r/∂p)ᵀw stays the reduced
+∂r/∂p's product from Python there. For the same runs (:func:`refusal`).
 
 The derivatives are those of the Python and NumPy paths to the bit (``ADJOINT_IN_LOOP`` and ``REVERSE_NATIVE`` off:
-tests/test_adjoint_in_loop.py; docs/performance.md, "The adjoint's passes in C").
+tests/test_adjoint_in_loop.py, tests/test_adjoint_in_loop_links.py; docs/performance.md, "The adjoint's passes in C",
+"The adjoint on linked models in the loop of steps (issue 34)").
 """
 from __future__ import annotations
 
@@ -49,9 +55,7 @@ def refusal(owner) -> str | None:
     (module docstring). Once a run."""
     from latdyn.analyses.sensitivities_in_loop import model_refusal
 
-    if owner.model.links is not None:   # the forward step's loop takes them (sensitivities_in_loop); this pass not yet
-        return "rigid links or guides"
-    if owner.model.cables is not None:   # likewise (csrc/cable_forces.c); this pass's reverse steps not yet
+    if owner.model.cables is not None:   # the forward step's loop takes them (csrc/cable_forces.c); this pass not yet
         return "cables"
     return model_refusal(owner)
 
@@ -207,6 +211,7 @@ class ReverseSteps:
             held = [np.ascontiguousarray(b, dtype=float) for b in (tangent.blocks, tangent_t.blocks, turn_t.blocks)]
             self._held = held
             blocks, blocks_t, turned_t = (b.ctypes.data for b in held)
+        owner.assembler.complete_links(new)   # rigid links or guides: as Assembler.linked_exact_matrix_values
         native = owner.assembler.native(True)
         native.laws.bind_inputs()
         info = native.library.latdyn_adjoint_reverse_step(

@@ -381,17 +381,30 @@ class AdjointSensitivities(TransientSensitivities):
         taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
         columns = 0
         try:
-            for probe, _, row in outputs:
-                index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
+            # the outputs' forms taken state by state (a latch's renumbering rebuilds the native model; with rigid links
+            # or guides the reduction's parts held per state: link_sensitivities.held_linked_parts), each output's
+            # columns in the outputs' order
+            forms_of, held = {}, {}   # held: a probe's forms at a state, once (its end and its max or min at one row)
+            self._linked_parts_held = {}
+            for at in sorted(range(len(outputs)), key=lambda at: rows[outputs[at][2]]):
+                probe, index = outputs[at][0], rows[outputs[at][2]]
+                if (id(probe), index) in held:
+                    forms_of[at] = held[id(probe), index]
+                    continue
                 if final is not None:   # the row's forms on the numbering it was recorded on
                     self._numbered(numberings[index])
+                # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
                 forms = [self.output_forms(probe, states[index])]
                 if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                     forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
+                forms_of[at] = held[id(probe), index] = forms
+            self._linked_parts_held = None
+            for at, (_, _, row) in enumerate(outputs):
+                forms = forms_of[at]
                 taken.append(list(range(columns, columns + len(forms))))
                 columns += len(forms)
                 for column, form in zip(taken[-1], forms):
-                    seeds.setdefault(index, []).append((column, form))
+                    seeds.setdefault(rows[row], []).append((column, form))
             timings = {}   # stored state index -> [column]: an event time's, seeded on δt there
             for index, _ in events:
                 timings.setdefault(index, []).append(columns)
@@ -400,6 +413,7 @@ class AdjointSensitivities(TransientSensitivities):
                 self._numbered(numberings[-1] if numberings[-1] is not None else final)
             gradient = self._reverse_columns(carried, states, seeds, columns, timings)
         finally:
+            self._linked_parts_held = None
             if final is not None:
                 self._numbered(final)
         return self._at_a_zero_norm(gradient[:, :columns - len(events)], taken), gradient[:, columns - len(events):]
@@ -713,10 +727,17 @@ class AdjointSensitivities(TransientSensitivities):
         S = β′M + γ′C + K J on its held pattern and storage (:meth:`TransientSensitivities._step_system`),
         factorised as the forward method factorises it, and solved with Sᵀ from those factors
         (:meth:`latdyn.assembly.factorization.Factorization.solve_transposed`); Cᵀ and Kᵀ views of the held
-        matrices' storage, made once per pattern. With rigid links, the reduction's matrices
-        (:meth:`_matrices`) summed as the forward method sums them and Sᵀ factorised. A singular S raises
-        SolverError."""
-        if self.model.links is not None:
+        matrices' storage, made once per pattern. With rigid links or guides, M, C and the exact K of the compiled
+        step's reduction (``Assembler.linked_exact_matrix_values``, as the forward method's step and the native
+        reverse step, csrc/adjoint_reverse.c) on the forward step's held pattern the same way; where the reduction has
+        none (``linked_exact_layout`` None), the reduction's matrices (:meth:`_matrices`) summed as the forward method
+        sums them and Sᵀ factorised. A singular S raises SolverError."""
+        linked = self.model.links is not None
+        # with rigid links or guides the compiled step's reduction (csrc/linked_matrices.c) where it has one, as the
+        # forward method's step (TransientSensitivities._step_system) and the native reverse step
+        values = (self.assembler.linked_exact_matrix_values(new) if linked else
+                  self.assembler.exact_matrix_values(new))
+        if linked and values is None:
             summed, C, K = self._reduced_step_matrix(new, tangent, beta_p, gamma_p)
             matrix = _transposed(summed)
             try:
@@ -726,8 +747,8 @@ class AdjointSensitivities(TransientSensitivities):
                                   "matrix, which is singular there") from None
             return C.T, K.T, solver.solve, solver.solve_transposed
         try:
-            step_matrix = self._step_matrix(tangent.slots)
-            factors = step_matrix.factor(self.assembler.exact_matrix_values(new), tangent.blocks, beta_p, gamma_p)
+            step_matrix = self._step_matrix(tangent.slots, dense=linked)
+            factors = step_matrix.factor(values, tangent.blocks, beta_p, gamma_p)
             return (*self._held_transposes(step_matrix), factors.solve_transposed, factors.solve)
         except np.linalg.LinAlgError:
             raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "

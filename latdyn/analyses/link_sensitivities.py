@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["add_link_section_forces", "columns_moving", "dependent_rates"]
+__all__ = ["add_link_section_forces", "columns_moving", "dependent_rates", "held_linked_parts"]
 
 
 def link_section_uses(owner) -> list:
@@ -113,17 +113,38 @@ def columns_moving(model, node: int) -> np.ndarray:
     return np.unique(columns[columns < model.n_dofs])
 
 
+def held_linked_parts(owner, state, rates: bool) -> tuple:
+    """(P, ∂(J v)/∂q at fixed free rates or None) of the reduction at ``state`` (latdyn/assembly/linked.py): with
+    ``rates`` from the evaluation with the inertia tangent and the dependent rates' term (:func:`dependent_rates`),
+    else from the plain evaluation with matrices (``_dependent_motion``). Held per state while ``owner`` holds a
+    ``_linked_parts_held`` dict (the discrete adjoint's outputs, several at one row: AdjointSensitivities.reverse),
+    evaluated anew otherwise."""
+    from latdyn.assembly.linked import evaluate_linked
+
+    held = owner.__dict__.get("_linked_parts_held")
+    key = (id(state), rates)
+    if held is not None and key in held:
+        return held[key][1]
+    if rates:
+        ev = evaluate_linked(owner.model.links, owner.assembler, state, True, 1.0, True, inertia_tangent=True,
+                             rates_term=True)
+        parts = (ev.projection, ev.rates_tangent[0])
+    else:
+        parts = (owner.assembler.evaluate(state, matrices=True).projection, None)
+    if held is not None:   # copies (the next evaluation may reuse the buffers); the state held with them: its id stays
+        parts = tuple(None if part is None else part.copy() for part in parts)
+        held[key] = (state, parts)
+    return parts
+
+
 def dependent_rates(owner, state, dq: np.ndarray, dv: np.ndarray, dvel: np.ndarray, domega: np.ndarray) -> None:
     """(δv, δω) of the nodes that follow rigid links or guides into ``dvel``, ``domega`` (n_nodes, 3, k): their
     rates v_dep = J(q) v are moved by the free rates and by the configuration, δv_dep = J δv + ∂(J v)/∂q δq
     (``dq``, ``dv``: (n_dofs, k)), ∂(J v)/∂q at fixed free rates from the generated ``*_rates_D_q`` kernels
     composed along the link tree (latdyn/assembly/linked.py, ``rates_tangent``)."""
-    from latdyn.assembly.linked import evaluate_linked
-
     model = owner.model
-    ev = evaluate_linked(model.links, owner.assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
-    by_velocity = ev.rates_tangent[0]
-    moved = np.asarray(ev.projection @ dv)
+    projection, by_velocity = held_linked_parts(owner, state, rates=True)
+    moved = np.asarray(projection @ dv)
     turned = np.asarray(by_velocity @ dq).reshape(-1, 6, dq.shape[1])   # one (v, ω) block per dependent node
     for i, node in enumerate(model.links.dependent):
         dofs = model.node_dofs[node]

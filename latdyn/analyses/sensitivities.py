@@ -915,8 +915,10 @@ class ParameterDerivatives:
     def _dependent_motion(self, state, dq: np.ndarray, dx: np.ndarray, dpi: np.ndarray) -> None:
         """(δx, δπ) of the dependent nodes (guided bodies) into ``dx``, ``dpi``: P δq on their rows (the
         projection of latdyn/assembly/linked.py, J of the generated edge kernels)."""
+        from latdyn.analyses.link_sensitivities import held_linked_parts
+
         model = self.model
-        P = self.assembler.evaluate(state, matrices=True).projection
+        P = held_linked_parts(self, state, rates=False)[0]
         full = np.asarray(P @ dq)
         for node in model.links.dependent:
             dofs = model.node_dofs[node]

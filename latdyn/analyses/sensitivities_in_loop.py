@@ -146,7 +146,9 @@ section force whose section values a parameter moves beside geometry parameters 
 controllers' outputs that name t where ``_controller_refusal`` refuses their controllers (an input
 read, …) or their rate in t does not compile, or laws of the state and t whose rate in t is not a value of t alone
 and does not compile, the work accounts (energy_sensitivities.external_work_step)
-with a law of θ, θ̇ or an input in them that does not compile, and the NumPy kernels.
+with a law of θ, θ̇ or an input in them that does not compile, and the NumPy kernels. The discrete adjoint's forward
+pass and its reverse pass's smooth steps (latdyn/analyses/adjoint_in_loop.py) are native on the runs
+:func:`model_refusal` lets through, with rigid links and guides too, not with cables (``adjoint_in_loop.refusal``).
 
 Step matrices of every storage: where a model has S on the supernodal sparse LU (above DENSE_LIMIT coordinates, its
 bandwidth after reverse Cuthill–McKee above BAND_LIMIT: a designer's lattice, with rigid links or not), the loop
@@ -323,10 +325,10 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     names: :func:`_energy_refusal`), or None:
     :func:`refusal`'s part that the discrete
     adjoint's forward pass, which differentiates nothing as it goes, shares (latdyn/analyses/adjoint_in_loop.py,
-    which refuses rigid links and guides itself). ``differentiated`` (:func:`refusal`: the loop differentiates the
-    steps): controllers and explicit time dependence beside events only where :func:`_controller_refusal` and
-    :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), on a model with rigid links or
-    guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the laws' rates, as the Python
+    which refuses cables itself; rigid links and guides it takes). ``differentiated`` (:func:`refusal`: the loop
+    differentiates the steps): controllers and explicit time dependence beside events only where
+    :func:`_controller_refusal` and :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), on
+    a model with rigid links or guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the laws' rates, as the Python
     path's ``_on_free_coordinates``)."""
     scene, model = owner.scene, owner.model
     if not owner.names:

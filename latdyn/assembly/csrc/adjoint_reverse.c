@@ -46,7 +46,11 @@ int64_t latdyn_adjoint_reverse_step(const Model *m, Work *w, SensitivityLoop *s,
     const double am = scheme[0], af = scheme[1], gamma = scheme[2], beta = scheme[3];
     const double beta_p = (1 - am) / (h * h * beta * (1 - af)), gamma_p = gamma / (h * beta);
     const SensitivityStep *step = s->step;
-    exact_matrices(m, w, s, c, t);   /* sensitivity_loop.c */
+    if (s->linked)   /* rigid links or guides: the compiled step's reduction (linked_matrices.c), as the forward step */
+        latdyn_linked_exact_values(m, w, c, t, s->body_kernel, s->body_rows, s->body_gravity, s->body_scratch,
+                                   s->linked_body_D, s->linked_gather, s->linked_count, s->linked_storage, s->mck);
+    else
+        exact_matrices(m, w, s, c, t);   /* sensitivity_loop.c */
     int64_t info = latdyn_sensitivity_step(step, s->mck, tangent, beta_p, gamma_p, s->S, s->factor, s->pivots, 0,
                                            NULL, NULL, NULL, NULL, NULL);
     const Factorization *factorization = step->factorization;
