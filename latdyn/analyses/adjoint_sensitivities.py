@@ -339,7 +339,19 @@ class AdjointSensitivities(TransientSensitivities):
             c_q, c_v, explicit = energy_probe_forms(self, probe, state, _BODY_KEY)
             return c_q, c_v, np.zeros_like(c_q), explicit
         c_q, c_v = self.output_gradient(probe, state)
-        return c_q, c_v, np.zeros_like(c_q), np.zeros(len(self.names))
+        return c_q, c_v, np.zeros_like(c_q), self._point_moves(probe, state)
+
+    def _point_moves(self, probe, state) -> np.ndarray:
+        """(k,) a probe's explicit derivative by the geometry parameters at a fixed state: a point's offset, a
+        fixed or prescribed node and a displacement's start moved (the forward method's
+        :meth:`_probe_derivatives` on zero columns, :meth:`ReferenceGeometry.point_moves`); zero without geometry
+        parameters and for joint probes."""
+        k = len(self.names)
+        if self.geometry is None or probe.kind != "point":
+            return np.zeros(k)
+        zero = np.zeros((self.model.n_dofs, k))
+        return np.asarray(self._probe_derivatives(probe, state, *self._by_parameter(zero, state),
+                                                  self._rates_by_parameter(zero, zero, state)), float)
 
     def output_gradient(self, probe, state) -> tuple:
         """(c_q, c_v) (n,) each: the probe's derivative at ``state`` is c_qᵀδq + c_vᵀδv
@@ -359,10 +371,10 @@ class AdjointSensitivities(TransientSensitivities):
             units[dofs, np.arange(len(dofs))] = 1.0
             still = np.zeros_like(units)
             c_q[dofs] = self._probe_derivatives(probe, state, *self._by_parameter(units, state),
-                                                self._rates_by_parameter(still, units, state))
+                                                self._rates_by_parameter(still, units, state), explicit=False)
             if probe.quantity in ("rate", "velocity"):
                 c_v[dofs] = self._probe_derivatives(probe, state, *self._by_parameter(still, state),
-                                                    self._rates_by_parameter(units, still, state))
+                                                    self._rates_by_parameter(units, still, state), explicit=False)
         return c_q, c_v
 
     def reverse(self, carried: dict, outputs: list) -> tuple:
@@ -515,13 +527,14 @@ class AdjointSensitivities(TransientSensitivities):
             vdot_bar = af / (1 - am) * da0_bar
         if carried.get("numbering_start") is not None and self._with_events():
             self._numbered(carried["numbering_start"])
-        for column, (_, c_v, c_vdot, explicit) in seeds.get(0, []):
+        for column, (c_q, c_v, c_vdot, explicit) in seeds.get(0, []):
+            q_bar[:, column] += c_q   # δq_0 = δX of geometry parameters (0 without)
             v_bar[:, column] += c_v
             vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
             gradient[:, column] += explicit
         if model.n_dofs == 0:
             return gradient
-        return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+        return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar, q_bar)
 
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
@@ -741,8 +754,43 @@ class AdjointSensitivities(TransientSensitivities):
         scipy.sparse."""
         return Transpose(step_matrix.damping), Transpose(step_matrix.stiffness)
 
-    def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:
-        """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄."""
+    def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray, q_bar: np.ndarray) -> np.ndarray:
+        """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄; with geometry
+        parameters also :meth:`_start_moved_transposed`."""
+        return self._through_the_start_at_rest(state, v_bar, s_bar) + self._start_moved_transposed(
+            state, v_bar, s_bar, q_bar)
+
+    def _start_moved_transposed(self, state, v_bar: np.ndarray, s_bar: np.ndarray, q_bar: np.ndarray) -> np.ndarray:
+        """(k, m) the transpose of the start's move by geometry parameters (the forward method's :meth:`start`:
+        δq_0 = D_q = δX of the free nodes, :meth:`ReferenceGeometry.initial_tangent`, δv_0 gains D_ω = ω × δX and
+        a hinge's δa·ω, :meth:`ReferenceGeometry.initial_velocity_tangent`, and the start's accelerations
+        δv̇_0 = δa_0 = Δ(… + K_0 D_q + C_0 D_ω), K_0 the exact K): D_qᵀ(q̄_0 + K_0ᵀ r̄) + D_ωᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄
+        (:meth:`_start_weights_transposed`); zero without geometry parameters."""
+        if self.geometry is None:
+            return np.zeros((len(self.names), q_bar.shape[1]))
+        r_bar = self._start_weights_transposed(state, s_bar)
+        _, C, K = self._matrices(state)
+        moved_q, moved_v = self.geometry.initial_tangent(), self.geometry.initial_velocity_tangent()
+        return moved_q.T @ (q_bar + np.asarray(K.T @ r_bar)) + moved_v.T @ (v_bar + np.asarray(C.T @ r_bar))
+
+    def _start_weights_transposed(self, state, s_bar: np.ndarray) -> np.ndarray:
+        """r̄ = Δᵀ s̄ (n, m): the start's consistent accelerations' map transposed, as
+        :meth:`_through_the_start_at_rest` computes it."""
+        model = self.model
+        ev = self.assembler.evaluate(state, matrices=True)
+        M, split = self._start_mass(ev)
+        if isinstance(M, CSR):
+            return -np.asarray(solve_linear_csr(transposed(M), s_bar)).reshape(s_bar.shape)
+        if split.n_massless == 0:
+            return -np.asarray(solve_linear(_transposed(M), s_bar)).reshape(s_bar.shape)
+        flipped = SimpleNamespace(combined=lambda a, b, c: _transposed(ev.combined(a, b, c)))
+        return np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=s_bar[:, c],
+                                                                                combined=flipped.combined))
+                                for c in range(s_bar.shape[1])])
+
+    def _through_the_start_at_rest(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:
+        """(k, m) E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄: the start where it does not move (no geometry
+        parameter)."""
         model = self.model
         ev = self.assembler.evaluate(state, matrices=True)
         M, split = self._start_mass(ev)   # the forward method's M: a CSR without SciPy where the run's start takes one

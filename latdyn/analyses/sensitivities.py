@@ -232,11 +232,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         beam, which = next((beam, which) for beam, which, hinge in scene.hinges if hinge.friction is not None)
         why = (f"the adjoint does not differentiate friction yet (beams.{beam}.{which}.hinge.friction: a joint that "
                "sticks is an event)")
-    elif any(GEOMETRY_KEY.match(used) for name in scene.solve.sensitivities
-             for used in scene.parameters.depending_on(name)):
-        used = next(used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
-                    if GEOMETRY_KEY.match(used))
-        why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
@@ -933,11 +928,14 @@ class ParameterDerivatives:
             dependent_rates(self, state, dq, dv, rates[0], rates[1])
         return rates
 
-    def _probe_derivatives(self, probe, state, dx, dpi, dtheta, rates=None) -> list:
+    def _probe_derivatives(self, probe, state, dx, dpi, dtheta, rates=None, explicit: bool = True) -> list:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of
         :meth:`_by_parameter` (and, for rate probes, (δv, δω, δθ̇) of :meth:`_rates_by_parameter`): a
         point x + T r moves by δx + δπ × T r, a hinge angle by δθ, a hinge rate by δθ̇, a point's velocity
-        v + ω × T r by δv + δω × T r + ω × (δπ × T r)."""
+        v + ω × T r by δv + δω × T r + ω × (δπ × T r). ``explicit`` (the columns are the parameters'): with
+        a point's moves by geometry parameters at a fixed state (its offset, a held node, a displacement's
+        start: :meth:`ReferenceGeometry.point_moves`); off for columns that are not the parameters' (the
+        discrete adjoint's unit columns, latdyn/analyses/adjoint_sensitivities.py ``output_forms``)."""
         model = self.model
         if is_probe_here(probe):   # section forces, cables, points in a body frame
             return probe_derivatives(self, probe, state, dx, dpi, dtheta, rates)
@@ -952,7 +950,7 @@ class ParameterDerivatives:
         node, offset = model.point(probe.point)
         arm = state.T[node] @ offset
         moved = point_moved(dx[node], dpi[node], arm)    # δ(x + T r), (3, k)
-        if self.geometry is not None:   # a geometry parameter moves the point's offset and its reference
+        if explicit and self.geometry is not None:   # a geometry parameter moves the point's offset and its reference
             offset_moved, reference_moved = self.geometry.point_moves(probe, state)
             moved = moved + offset_moved - (reference_moved if probe.quantity == "displacement" else 0.0)
         if probe.quantity == "velocity":   # δ(v + ω × T r)
