@@ -14,8 +14,8 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
 (:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, explicit time dependence beside events,
-geometry parameters, external work or dissipated energy probes, NumPy kernels; the energies of the state and the
-momenta are taken) and those with rigid links, guides or cables, which :func:`refusal` refuses itself: decided once,
+external work or dissipated energy probes, NumPy kernels; the energies of the state, the momenta and geometry
+parameters are taken) and those with rigid links, guides or cables, which :func:`refusal` refuses itself: decided once,
 at the start.
 
 The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smooth step — no event at its end, a size

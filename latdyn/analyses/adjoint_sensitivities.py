@@ -29,6 +29,13 @@ with directions without inertia it is :func:`latdyn.step.integrators.consistent_
 factors (I − Q_c K_cc⁻¹ Q_cᵀ K)(−Q_m (Q_mᵀ M Q_m)⁻¹ Q_mᵀ)(I − K Q_c K_cc⁻¹ Q_cᵀ) transposed are the same map
 of Mᵀ and Kᵀ (M symmetric: the same split), so Δᵀ is that function on the transposed matrices.
 
+Geometry parameters (latdyn/analyses/geometry_sensitivities.py; docs/parameters.md, "Geometry parameters by the
+adjoint") move the start too: δq_0 = D_q (δX of the free nodes), δv_0 gains D_ω (ω × δX, a hinge's δa·ω) and the
+start's accelerations take K_0 D_q + C_0 D_ω (K_0 exact), so t = 0 adds D_qᵀ(q̄_0 + K_0ᵀ r̄) + D_ωᵀ(v̄_0 + C_0ᵀ r̄)
+(:meth:`_start_moved_transposed`), a row at t = 0 seeded on q̄_0 as well; their ∂r/∂p columns (the generated
+``*_D_reference`` kernels) enter Eᵀw as the other kinds', and a point probe's moves at a fixed state (its offset, a
+held node, a displacement's start) are its explicit part (:meth:`_point_moves`).
+
 Rᵀ = exp(−skew hΔq) and Jᵀ = dexp(−hΔq): the forward operators' 3 × 3 blocks transposed. Per reverse step
 the exact M, C, K are evaluated again at the stored state
 (:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`) and A = β′M + γ′C + K J is assembled and factorised as the forward method's step does, on its held pattern
@@ -67,7 +74,8 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
-stop's onset, events beside laws in t, friction, controllers with states and sampled ones
+stop's onset, events beside laws in t, friction (a stick and a release are events not transposed yet), controllers
+with states and sampled ones
 (continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and

@@ -41,8 +41,8 @@ Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the mode
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
 hinge angle: the velocities they carry into the structure at t = 0 move with its points), rigid links,
 guides, cables, controllers, arc length (its first step's length moves with ∂K/∂p, not generated), a
-kernel variant generated without the reference derivatives; the discrete adjoint refuses geometry
-parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
+kernel variant generated without the reference derivatives. The discrete adjoint takes geometry parameters: the
+start's move, ∂r/∂p and the probes' moves of this module transposed (latdyn/analyses/adjoint_sensitivities.py).
 """
 from __future__ import annotations
 
