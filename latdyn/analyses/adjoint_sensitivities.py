@@ -96,6 +96,7 @@ import numpy as np
 from latdyn.analyses.adjoint_in_loop import accepted
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
@@ -275,7 +276,9 @@ class AdjointSensitivities(TransientSensitivities):
         values and of load components each as one batched product of their element or load forces
         (:meth:`_section_element_forces`, :meth:`_load_pair_forces`) with w at their coordinates, summed into
         their parameters' rows (10³ sections of a lattice, 100 load amplitudes: no (n, k) array, no
-        per-parameter Python); the other parameters' (hinges, bodies, contact, controllers) by
+        per-parameter Python); the geometry parameters' likewise, each pair of an element and a parameter that
+        moves its reference one row of the generated kernels (:meth:`ReferenceGeometry.transposed_product`); the
+        other parameters' (hinges, bodies, contact, controllers) by
         :meth:`residual_derivatives` on all coordinates, transposed onto w there (the free coordinates are
         the first n). With rigid links (the reduction onto minimum coordinates, latdyn/assembly/linked.py)
         ∂r/∂p is the reduced one, formed by :meth:`residual_derivatives` and transposed onto w. ``inertia``:
@@ -292,6 +295,8 @@ class AdjointSensitivities(TransientSensitivities):
             if forces is not None:
                 at, columns, by_use = forces
                 np.add.at(product, columns, np.einsum("ep,epm->em", by_use, weights[dofs[at]]))
+        if self.geometry is not None:   # the pairs of an element and a geometry parameter that moves it
+            product += self.geometry.transposed_product(state, weights, 1.0, inertia, 1.0)
         if self._other_than_batched():
             self._batched_apart = True
             try:
@@ -301,12 +306,20 @@ class AdjointSensitivities(TransientSensitivities):
         return product
 
     def _other_than_batched(self) -> bool:
-        """Whether a parameter enters ∂r/∂p otherwise than through a section value or a load component
-        (a hinge, body, contact, … key, or a controller's output)."""
+        """Whether a parameter enters ∂r/∂p otherwise than through a section value, a load component or a number
+        that places the structure (a hinge, body, contact, … key, or a controller's output)."""
         if "_others" not in self.__dict__:
             self._others = self.controllers is not None or any(
-                not (_SECTION_KEY.match(key) or _LOAD_KEY.match(key)) for key in self.derivatives)
+                not (_SECTION_KEY.match(key) or _LOAD_KEY.match(key) or GEOMETRY_KEY.match(key))
+                for key in self.derivatives)
         return self._others
+
+    def _add_geometry_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool,
+                             weight_factor: float) -> None:
+        """:meth:`ParameterDerivatives._add_geometry_forces`, left out while :meth:`residual_transposed_product`
+        takes the geometry parameters' product apart (:meth:`ReferenceGeometry.transposed_product`)."""
+        if not self.__dict__.get("_batched_apart", False):
+            super()._add_geometry_forces(state, total, load_factor, inertia, weight_factor)
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """:meth:`ParameterDerivatives._section_forces`, left out while :meth:`residual_transposed_product`

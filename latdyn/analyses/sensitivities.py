@@ -435,8 +435,7 @@ class ParameterDerivatives:
         weight_factor = load_factor if (element_gravity or inertia) else 0.0
         if sections:
             self._section_forces(state, total, weight_factor, inertia)
-        if self.geometry is not None:
-            self.geometry.add(state, total, load_factor, inertia, weight_factor)
+        self._add_geometry_forces(state, total, load_factor, inertia, weight_factor)
         self._body_forces(state, total, load_factor, inertia)
         add_link_section_forces(self, state, total, load_factor, inertia)
         self._contact_forces(state, total)
@@ -444,6 +443,13 @@ class ParameterDerivatives:
             self.controllers.add(state, total)
         self._add_load_forces(state, total, load_factor)
         return total if on_all else self._on_free_coordinates(state, total)
+
+    def _add_geometry_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool,
+                             weight_factor: float) -> None:
+        """Add ∂r/∂p of the geometry parameters into ``total`` (all coordinates, k columns;
+        :meth:`ReferenceGeometry.add`), where there are any."""
+        if self.geometry is not None:
+            self.geometry.add(state, total, load_factor, inertia, weight_factor)
 
     def _hinge_uses(self) -> list:
         """(hinge index, which law, {column: derivative law}) of every use of a parameter by a hinge's (or a guide's)
