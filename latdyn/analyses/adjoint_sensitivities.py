@@ -74,8 +74,9 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
-stop's onset, events beside laws in t, friction (a stick and a release are events not transposed yet), controllers
-with states and sampled ones
+stop's onset (a hinge's or a guide's), events beside laws in t, a joint that friction sticks (a stick and a release are
+events not transposed yet: refused when it sticks, :meth:`_refuse_sticking`; friction while the joints slip is taken),
+controllers with states and sampled ones
 (continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
@@ -143,7 +144,29 @@ class AdjointSensitivities(TransientSensitivities):
             self._refuse_events(ev, split)
             if split.n_massless:
                 self._refuse_start(state, ev, split)
+        self._refuse_sticking(state)   # stuck by friction from t = 0 (latdyn.timeloop.events.stick_at_start)
         return carried
+
+    def _refuse_sticking(self, state) -> None:
+        """SceneError (exit 2) naming the friction of the first joint friction holds at ``state``, where one does: a
+        stick and a release are events the reverse pass does not transpose yet (the forward method's stick is a
+        stop's impulse with restitution 0, the held angle's δθ carried through K's column of it while stuck, the
+        release a stop's restart: :meth:`TransientSensitivities._stick_or_release`); friction while every joint slips
+        is a force of the residual (its rate derivative in the exact matrices, its law's values in ∂r/∂p) and taken.
+        Checked at the start and after each step's events (:meth:`after_events`), where the run sticks a joint."""
+        stuck = np.flatnonzero(self.model.stuck)
+        if not len(stuck):
+            return
+        from latdyn.errors import SceneError
+
+        self._refused = True   # nothing for :meth:`finish` to write: the run is refused (exit 2)
+        joint = self.model.hinges[int(stuck[0])]
+        key = (f"bodies.{joint.beam}.guide.friction" if joint.end == "guide"
+               else f"beams.{joint.beam}.{joint.end}.hinge.friction")
+        raise SceneError(self.scene.file, key,
+                         f"at t = {float(state.t):.6g} the joint sticks: the discrete adjoint differentiates friction "
+                         "while the joints slip, not a stick or a release yet; expected solve.sensitivity_method: "
+                         "forward (the default), which does (docs/parameters.md, \"Friction\")")
 
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,
              lands: bool = True) -> dict:
@@ -167,6 +190,7 @@ class AdjointSensitivities(TransientSensitivities):
         """After the events of the step just stored: the numbering and cables' sides the rows and the next
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
         pass transposes the restart, :meth:`_restart_transposed`)."""
+        self._refuse_sticking(new)
         if carried["trajectory"]:
             carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:
@@ -841,6 +865,8 @@ class AdjointSensitivities(TransientSensitivities):
         ``Result.sensitivities`` with the end row alone (``t,<probe>/<NAME>,…``)."""
         from latdyn.results.files import atomic_write_bytes, csv_line
 
+        if self.__dict__.get("_refused", False):   # a joint stuck (:meth:`_refuse_sticking`): the run is refused
+            return
         recorded = writer.result()
         # a run that failed in the events of its last step (a SolverError after the step was stored): the
         # accepted steps before it, as the forward method's carried sensitivities are

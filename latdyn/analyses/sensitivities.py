@@ -219,8 +219,9 @@ def refusal(scene) -> SceneError | None:
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides and
-    geometry parameters, without friction and controllers with states; the forward method's refusals come first,
-    :func:`refusal`)."""
+    geometry parameters, friction while it slips (a joint that sticks is refused when it sticks:
+    ``AdjointSensitivities._refuse_sticking``), without controllers with states; the forward method's refusals come
+    first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
     if scene.solve.analysis != "transient":
@@ -229,10 +230,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
     elif _adjoint_event_refusal(scene) is not None:
         why = _adjoint_event_refusal(scene)
-    elif any(hinge.friction is not None for _, _, hinge in scene.hinges):
-        beam, which = next((beam, which) for beam, which, hinge in scene.hinges if hinge.friction is not None)
-        why = (f"the adjoint does not differentiate friction yet (beams.{beam}.{which}.hinge.friction: a joint that "
-               "sticks is an event)")
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
@@ -308,12 +305,15 @@ def _transient_refusal(scene) -> str | None:
 def _adjoint_event_refusal(scene) -> str | None:
     """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's or a guide's latch (``lock_at``)
     and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links, guides
-    and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a compliant stop's
-    onset, nor events beside laws in t (friction: its own refusal)."""
+    and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a hinge's or a
+    guide's compliant stop's onset, nor events beside laws in t (a stick by friction: refused when it sticks,
+    ``AdjointSensitivities._refuse_sticking``)."""
     if not has_events(scene):
         return None
     compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
-                      if hinge.limits is not None and hinge.contact is not None), None)
+                      if hinge.limits is not None and hinge.contact is not None), None) or next(
+        (f"bodies.{name}.guide.contact" for name, body in scene.bodies.items()   # a guide's: its onset likewise
+         if body.guide is not None and body.guide.limits is not None and body.guide.contact is not None), None)
     if compliant is not None:
         return f"the adjoint does not differentiate a compliant stop's onset yet ({compliant})"
     reel = next((f"cables.{name}.rest_length" for name, cable in scene.cables.items()
