@@ -75,7 +75,7 @@ step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) an
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
 stop's onset (a hinge's or a guide's), events beside laws in t, a joint that friction sticks (a stick and a release are
-events not transposed yet: refused when it sticks, :meth:`_refuse_sticking`; friction while the joints slip is taken),
+events not transposed yet: refused when it sticks, :meth:`_refuse_a_stick`; friction while the joints slip is taken),
 controllers with states and sampled ones
 (continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
@@ -144,16 +144,17 @@ class AdjointSensitivities(TransientSensitivities):
             self._refuse_events(ev, split)
             if split.n_massless:
                 self._refuse_start(state, ev, split)
-        self._refuse_sticking(state)   # stuck by friction from t = 0 (latdyn.timeloop.events.stick_at_start)
+        self._refuse_a_stick(state)   # stuck by friction from t = 0 (latdyn.timeloop.events.stick_at_start)
         return carried
 
-    def _refuse_sticking(self, state) -> None:
+    def _refuse_a_stick(self, state) -> None:
         """SceneError (exit 2) naming the friction of the first joint friction holds at ``state``, where one does: a
         stick and a release are events the reverse pass does not transpose yet (the forward method's stick is a
         stop's impulse with restitution 0, the held angle's δθ carried through K's column of it while stuck, the
         release a stop's restart: :meth:`TransientSensitivities._stick_or_release`); friction while every joint slips
         is a force of the residual (its rate derivative in the exact matrices, its law's values in ∂r/∂p) and taken.
-        Checked at the start and after each step's events (:meth:`after_events`), where the run sticks a joint."""
+        Checked at the start and after each step's events (:meth:`after_events`), where the run sticks a joint. (Not
+        the forward method's :meth:`TransientSensitivities._refuse_sticking`, which refuses what it does not follow.)"""
         stuck = np.flatnonzero(self.model.stuck)
         if not len(stuck):
             return
@@ -190,7 +191,7 @@ class AdjointSensitivities(TransientSensitivities):
         """After the events of the step just stored: the numbering and cables' sides the rows and the next
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
         pass transposes the restart, :meth:`_restart_transposed`)."""
-        self._refuse_sticking(new)
+        self._refuse_a_stick(new)
         if carried["trajectory"]:
             carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:
@@ -865,7 +866,7 @@ class AdjointSensitivities(TransientSensitivities):
         ``Result.sensitivities`` with the end row alone (``t,<probe>/<NAME>,…``)."""
         from latdyn.results.files import atomic_write_bytes, csv_line
 
-        if self.__dict__.get("_refused", False):   # a joint stuck (:meth:`_refuse_sticking`): the run is refused
+        if self.__dict__.get("_refused", False):   # a joint stuck (:meth:`_refuse_a_stick`): the run is refused
             return
         recorded = writer.result()
         # a run that failed in the events of its last step (a SolverError after the step was stored): the

@@ -220,7 +220,7 @@ def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides and
     geometry parameters, friction while it slips (a joint that sticks is refused when it sticks:
-    ``AdjointSensitivities._refuse_sticking``), without controllers with states; the forward method's refusals come
+    ``AdjointSensitivities._refuse_a_stick``), without controllers with states; the forward method's refusals come
     first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
@@ -230,6 +230,8 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
     elif _adjoint_event_refusal(scene) is not None:
         why = _adjoint_event_refusal(scene)
+    elif _adjoint_geometry_refusal(scene) is not None:
+        why = _adjoint_geometry_refusal(scene)
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
@@ -240,6 +242,23 @@ def adjoint_refusal(scene) -> SceneError | None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
                                        "(docs/parameters.md, \"The discrete adjoint\")")
+
+
+def _adjoint_geometry_refusal(scene) -> str | None:
+    """Why the adjoint does not take ``scene``'s geometry parameters, or None: it takes them where the forward method
+    does on 86d57d9's terms (latdyn/analyses/geometry_sensitivities.py ``geometry_refusal``), whose start moves the free
+    nodes alone; beside rigid links or guides (their reduction moves the start and ∂r/∂X: not transposed, nor checked,
+    here) it refuses them, whatever the forward method takes."""
+    used = next((used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
+                 if GEOMETRY_KEY.match(used)), None)
+    if used is None:
+        return None
+    linked = next((f"beams.{name}.rigid" for name, beam in scene.beams.items() if beam.rigid), None) or next(
+        (f"bodies.{name}.guide" for name, body in scene.bodies.items() if body.guide is not None), None)
+    if linked is None:
+        return None
+    return (f"the adjoint does not take geometry parameters ({used}) beside rigid links or guides ({linked}) yet: "
+            "their reduction moves the start and ∂r/∂X")
 
 
 def _law_in_time(scene):
@@ -307,7 +326,7 @@ def _adjoint_event_refusal(scene) -> str | None:
     and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links, guides
     and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a hinge's or a
     guide's compliant stop's onset, nor events beside laws in t (a stick by friction: refused when it sticks,
-    ``AdjointSensitivities._refuse_sticking``)."""
+    ``AdjointSensitivities._refuse_a_stick``)."""
     if not has_events(scene):
         return None
     compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
