@@ -345,3 +345,34 @@ def test_geometry_beside_rigid_links_stays_refused_by_the_adjoint():
     assert refused is not None and refused.key == "solve.sensitivity_method"
     assert "beams.a.rigid" in str(refused) and "bodies.knee.at[0]" in str(refused)
     assert adjoint_refusal(latdyn.load_scene(yaml.safe_load(EVERY_PROBE))) is None
+
+
+def test_the_boom_interrupted_before_its_latch_resumes_to_the_same_derivatives(tmp_path, monkeypatch):
+    """The stored trajectory rides in the checkpoint; the geometry's derivatives are made anew from the scene on
+    resume: interrupted at t = 0.2 (before the latch), resumed, sensitivities.csv and summary.json's probe and event
+    sensitivities are the uninterrupted run's byte for byte."""
+    from tests.resumed_runs import interrupted_and_whole
+
+    out, whole = interrupted_and_whole(yaml.safe_load(BOOM_LATCH), tmp_path, monkeypatch, 0.2)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
+    resumed, uninterrupted = (json.loads((folder / "summary.json").read_text()) for folder in (out, whole))
+    assert resumed["probe_sensitivities"] == uninterrupted["probe_sensitivities"]
+    assert resumed["event_sensitivities"] == uninterrupted["event_sensitivities"]
+
+
+def test_geometry_beside_a_controller_the_adjoint_has_not_checked_stays_refused():
+    """Likewise behind the forward method's refusal today: a controller reading a point (its sensed value moves with
+    the geometry) beside a geometry parameter is refused by the adjoint's own refusal, one reading the hinge's angle
+    and rate taken (tests/test_sensitivities_refusals_lifted.py's PLACED_PD equals the forward method to 2.7e-12,
+    measured; docs/parameters.md, "Geometry parameters by the adjoint")."""
+    from latdyn.analyses.sensitivities import adjoint_refusal
+    from tests.test_sensitivities_refusals_lifted import PLACED_PD
+
+    taken = PLACED_PD.replace("solve: {", "solve: {sensitivity_method: adjoint, ")
+    assert taken != PLACED_PD and adjoint_refusal(latdyn.load_scene(yaml.safe_load(taken))) is None
+    reading = (taken.replace('output: "Kp*(ref - hinge) - Kd*rate + ff*ref"',
+                             'output: "Kp*(ref - hinge) - Kd*rate + tz"')
+               .replace("  probes:\n", "  probes:\n    tz: {point: b.end, quantity: position, component: z}\n"))
+    assert reading.count("tz") == 2
+    refused = adjoint_refusal(latdyn.load_scene(yaml.safe_load(reading)))
+    assert refused is not None and refused.key == "solve.sensitivity_method" and "reading points" in str(refused)

@@ -247,18 +247,33 @@ def adjoint_refusal(scene) -> SceneError | None:
 def _adjoint_geometry_refusal(scene) -> str | None:
     """Why the adjoint does not take ``scene``'s geometry parameters, or None: it takes them where the forward method
     does on 86d57d9's terms (latdyn/analyses/geometry_sensitivities.py ``geometry_refusal``), whose start moves the free
-    nodes alone; beside rigid links or guides (their reduction moves the start and ∂r/∂X: not transposed, nor checked,
-    here) it refuses them, whatever the forward method takes."""
+    nodes alone: beside rigid links or guides (their reduction moves the start and ∂r/∂X) and beside controllers reading
+    points, cables or joint forces or driving loads (their sensed values' ∂/∂X) — not transposed, nor checked, here — it
+    refuses them, whatever the forward method takes."""
     used = next((used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
                  if GEOMETRY_KEY.match(used)), None)
     if used is None:
         return None
     linked = next((f"beams.{name}.rigid" for name, beam in scene.beams.items() if beam.rigid), None) or next(
         (f"bodies.{name}.guide" for name, body in scene.bodies.items() if body.guide is not None), None)
-    if linked is None:
-        return None
-    return (f"the adjoint does not take geometry parameters ({used}) beside rigid links or guides ({linked}) yet: "
-            "their reduction moves the start and ∂r/∂X")
+    if linked is not None:
+        return (f"the adjoint does not take geometry parameters ({used}) beside rigid links or guides ({linked}) yet: "
+                "their reduction moves the start and ∂r/∂X")
+    controllers = getattr(scene, "controllers", None) or {}
+    probes = {p.name: p for p in scene.output.probes}
+    for c in controllers.values():   # the sensors checked beside geometry: section forces, joints' angles and rates
+        sensed = [probes[read] for read in c.reads if read in probes]
+        joints = ("angle", "position", "rate")
+        if any(not (p.kind == "element" or (p.kind in ("hinge", "guide") and p.quantity in joints)) for p in sensed):
+            return (f"the adjoint does not take geometry parameters ({used}) beside a controller reading points, "
+                    f"cables or joint forces ({c.name}) yet; controllers reading section forces and joints' angles "
+                    "and rates it takes")
+    driven = next((key for key in laws_naming(scene, set(controllers))
+                   if not (key.endswith(".hinge.torque") or key.endswith(".guide.force"))), None)
+    if driven is not None:
+        return (f"the adjoint does not take geometry parameters ({used}) beside a controller driving {driven} yet; "
+                "hinge torques and guide forces it takes")
+    return None
 
 
 def _law_in_time(scene):
