@@ -301,9 +301,9 @@ class ReferenceGeometry:
                 target.setdefault((m["beam"], m["side"]), np.zeros(3))[axis] += slope
         for body, moved in body_at.items():
             self.node_moves[model.body_node[body], :, column] += moved
-        # the beams this column moves (an end at a moved body, a moved end point or offset, a turned y_axis): the others'
-        # nodes and variations stay 0 (a lattice's node coordinate moves the few members at its node; every beam a
-        # column cost 1.5 ms a parameter on 72 members)
+        # the beams this column moves (an end at a moved body, a moved end point or offset, a turned y_axis): the
+        # others' nodes and variations stay 0 (a lattice's node coordinate moves the few members at its node; every
+        # beam a column cost 1.5 ms a parameter on 72 members)
         touched = {name for name, _ in end_point} | {name for name, _ in end_offset} | set(y_given) | {
             beam.name for beam in scene.beams.values() if beam.start.body in body_at or beam.end.body in body_at}
         for beam in scene.beams.values():
@@ -442,26 +442,11 @@ class ReferenceGeometry:
         if not len(elements):
             return
         model, k = self.model, self.k
-        geometry, rates, accelerations = self.owner.assembler.native().element_inputs(state)
-        at = geometry[elements]
+        inputs = self.owner.assembler.native().element_inputs(state)
         m = len(elements)
-        variation = self.at_state(state, elements, at)
+        variation = self.at_state(state, elements, inputs[0][elements])
         rows = np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, WIDTH))
-        repeat = lambda a: np.ascontiguousarray(np.tile(a, (k, 1)))  # noqa: E731
-        sections = model.element_sections[elements]
-        forces = np.asarray(self.kernels.beam_internal_force_D_reference(repeat(at), repeat(sections), rows)[1])
-        forces = forces.reshape(k, m, 14)
-        gravity = weight_factor * np.asarray(self.owner.assembler.gravity, float)
-        massive = np.any(sections[:, 5:8] != 0.0, axis=1)
-        if (inertia or np.any(gravity)) and np.any(massive):
-            on = np.flatnonzero(massive)
-            rate = rates[elements[on]] if inertia else np.zeros((len(on), 14))
-            acceleration = accelerations[elements[on]] if inertia else np.zeros((len(on), 14))
-            picked = np.ascontiguousarray(variation[on].transpose(2, 0, 1).reshape(k * len(on), WIDTH))
-            moved = self.kernels.beam_inertia_force_D_reference(
-                repeat(at[on]), repeat(rate), repeat(acceleration), repeat(sections[on]),
-                np.ascontiguousarray(np.tile(gravity[None], (k * len(on), 1))), picked)[1]
-            forces[:, on] += np.asarray(moved).reshape(k, len(on), 14)
+        forces = self.reference_forces(inputs, np.tile(elements, k), rows, inertia, weight_factor).reshape(k, m, 14)
         for column in range(k):
             np.add.at(total[:, column], model.element_dofs[elements], forces[column])
         self._load_arms(state, total, load_factor)
@@ -479,29 +464,40 @@ class ReferenceGeometry:
         out = np.zeros((k, w.shape[1]))
         elements, columns = self.moved_pairs()
         if len(elements):
-            geometry, rates, accelerations = self.owner.assembler.native().element_inputs(state)
-            at = np.ascontiguousarray(geometry[elements])
-            variation = self.pairs_at_state(state, elements, columns, at)                 # (P, WIDTH)
-            sections = np.ascontiguousarray(model.element_sections[elements])
-            forces = np.asarray(self.kernels.beam_internal_force_D_reference(at, sections, variation)[1])
-            forces = forces.reshape(len(elements), 14)
-            gravity = weight_factor * np.asarray(self.owner.assembler.gravity, float)
-            massive = np.any(sections[:, 5:8] != 0.0, axis=1)
-            if (inertia or np.any(gravity)) and np.any(massive):
-                on = np.flatnonzero(massive)
-                rate = rates[elements[on]] if inertia else np.zeros((len(on), 14))
-                acceleration = accelerations[elements[on]] if inertia else np.zeros((len(on), 14))
-                moved = self.kernels.beam_inertia_force_D_reference(
-                    np.ascontiguousarray(at[on]), np.ascontiguousarray(rate), np.ascontiguousarray(acceleration),
-                    np.ascontiguousarray(sections[on]), np.ascontiguousarray(np.tile(gravity[None], (len(on), 1))),
-                    np.ascontiguousarray(variation[on]))[1]
-                forces[on] += np.asarray(moved).reshape(len(on), 14)
+            inputs = self.owner.assembler.native().element_inputs(state)
+            variation = self.pairs_at_state(state, elements, columns, np.ascontiguousarray(inputs[0][elements]))
+            forces = self.reference_forces(inputs, elements, variation, inertia, weight_factor)
             np.add.at(out, columns, np.einsum("pi,pim->pm", forces, w[model.element_dofs[elements]]))
         if self.moved_loads:
             total = np.zeros((model.n_total + 1, k))
             self._load_arms(state, total, load_factor)
             out += total.T @ w
         return out
+
+    def reference_forces(self, inputs: tuple, elements: np.ndarray, variation: np.ndarray, inertia: bool,
+                         weight_factor: float) -> np.ndarray:
+        """(P, 14): one row of the generated ``beam_internal_force_D_reference`` per row of ``variation`` (P, WIDTH, at
+        the state) of element ``elements[i]`` and, with ``inertia`` or gravity (at ``weight_factor``), of
+        ``beam_inertia_force_D_reference`` for the elements with mass; ``inputs``: the state's element geometry, rates
+        and accelerations (``element_inputs``). What :meth:`add` (its k × m rows) and :meth:`transposed_product` (its
+        pairs' rows) are made of."""
+        geometry, rates, accelerations = inputs
+        at = np.ascontiguousarray(geometry[elements])
+        sections = np.ascontiguousarray(self.model.element_sections[elements])
+        forces = np.asarray(self.kernels.beam_internal_force_D_reference(at, sections, variation)[1])
+        forces = forces.reshape(len(elements), 14)
+        gravity = weight_factor * np.asarray(self.owner.assembler.gravity, float)
+        massive = np.any(sections[:, 5:8] != 0.0, axis=1)
+        if (inertia or np.any(gravity)) and np.any(massive):
+            on = np.flatnonzero(massive)
+            rate = rates[elements[on]] if inertia else np.zeros((len(on), 14))
+            acceleration = accelerations[elements[on]] if inertia else np.zeros((len(on), 14))
+            moved = self.kernels.beam_inertia_force_D_reference(
+                np.ascontiguousarray(at[on]), np.ascontiguousarray(rate), np.ascontiguousarray(acceleration),
+                np.ascontiguousarray(sections[on]), np.ascontiguousarray(np.tile(gravity[None], (len(on), 1))),
+                np.ascontiguousarray(variation[on]))[1]
+            forces[on] += np.asarray(moved).reshape(len(on), 14)
+        return forces
 
     def moved_pairs(self) -> tuple[np.ndarray, np.ndarray]:
         """(elements, columns) (P,) each: the pairs whose held reference variation is not zero (ordered by column,
