@@ -14,8 +14,8 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
 (:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, explicit time dependence beside events,
-geometry parameters, external work or dissipated energy probes, NumPy kernels; the energies of the state and the
-momenta are taken) and those with cables, which :func:`refusal` refuses itself: decided once, at the start. On a
+external work or dissipated energy probes, NumPy kernels; the energies of the state, the momenta and geometry
+parameters are taken) and those with cables, which :func:`refusal` refuses itself: decided once, at the start. On a
 model with rigid links or guides the loop's step is the compiled step's reduction, as the forward method's loop takes
 it (its stored state has the dependent nodes completed).
 

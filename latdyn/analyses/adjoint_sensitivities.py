@@ -29,6 +29,13 @@ with directions without inertia it is :func:`latdyn.step.integrators.consistent_
 factors (I − Q_c K_cc⁻¹ Q_cᵀ K)(−Q_m (Q_mᵀ M Q_m)⁻¹ Q_mᵀ)(I − K Q_c K_cc⁻¹ Q_cᵀ) transposed are the same map
 of Mᵀ and Kᵀ (M symmetric: the same split), so Δᵀ is that function on the transposed matrices.
 
+Geometry parameters (latdyn/analyses/geometry_sensitivities.py; docs/parameters.md, "Geometry parameters by the
+adjoint") move the start too: δq_0 = D_q (δX of the free nodes), δv_0 gains D_ω (ω × δX, a hinge's δa·ω) and the
+start's accelerations take K_0 D_q + C_0 D_ω (K_0 exact), so t = 0 adds D_qᵀ(q̄_0 + K_0ᵀ r̄) + D_ωᵀ(v̄_0 + C_0ᵀ r̄)
+(:meth:`_start_moved_transposed`), a row at t = 0 seeded on q̄_0 as well; their ∂r/∂p columns (the generated
+``*_D_reference`` kernels) enter Eᵀw as the other kinds', and a point probe's moves at a fixed state (its offset, a
+held node, a displacement's start) are its explicit part (:meth:`_point_moves`).
+
 Rᵀ = exp(−skew hΔq) and Jᵀ = dexp(−hΔq): the forward operators' 3 × 3 blocks transposed. Per reverse step
 the exact M, C, K are evaluated again at the stored state
 (:meth:`latdyn.assembly.assembler.Assembler.exact_matrix_values`) and A = β′M + γ′C + K J is assembled and factorised as the forward method's step does, on its held pattern
@@ -67,7 +74,9 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
-stop's onset, events beside laws in t, friction, controllers with states and sampled ones
+stop's onset (a hinge's or a guide's), events beside laws in t, a joint that friction sticks (a stick and a release are
+events not transposed yet: refused when it sticks, :meth:`_refuse_a_stick`; friction while the joints slip is taken),
+controllers with states and sampled ones
 (continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
@@ -88,6 +97,7 @@ import numpy as np
 from latdyn.analyses.adjoint_in_loop import accepted
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
@@ -134,7 +144,30 @@ class AdjointSensitivities(TransientSensitivities):
             self._refuse_events(ev, split)
             if split.n_massless:
                 self._refuse_start(state, ev, split)
+        self._refuse_a_stick(state)   # stuck by friction from t = 0 (latdyn.timeloop.events.stick_at_start)
         return carried
+
+    def _refuse_a_stick(self, state) -> None:
+        """SceneError (exit 2) naming the friction of the first joint friction holds at ``state``, where one does: a
+        stick and a release are events the reverse pass does not transpose yet (the forward method's stick is a
+        stop's impulse with restitution 0, the held angle's δθ carried through K's column of it while stuck, the
+        release a stop's restart: :meth:`TransientSensitivities._stick_or_release`); friction while every joint slips
+        is a force of the residual (its rate derivative in the exact matrices, its law's values in ∂r/∂p) and taken.
+        Checked at the start and after each step's events (:meth:`after_events`), where the run sticks a joint. (Not
+        the forward method's :meth:`TransientSensitivities._refuse_sticking`, which refuses what it does not follow.)"""
+        stuck = np.flatnonzero(self.model.stuck)
+        if not len(stuck):
+            return
+        from latdyn.errors import SceneError
+
+        self._refused = True   # nothing for :meth:`finish` to write: the run is refused (exit 2)
+        joint = self.model.hinges[int(stuck[0])]
+        key = (f"bodies.{joint.beam}.guide.friction" if joint.end == "guide"
+               else f"beams.{joint.beam}.{joint.end}.hinge.friction")
+        raise SceneError(self.scene.file, key,
+                         f"at t = {float(state.t):.6g} the joint sticks: the discrete adjoint differentiates friction "
+                         "while the joints slip, not a stick or a release yet; expected solve.sensitivity_method: "
+                         "forward (the default), which does (docs/parameters.md, \"Friction\")")
 
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,
              lands: bool = True) -> dict:
@@ -158,6 +191,7 @@ class AdjointSensitivities(TransientSensitivities):
         """After the events of the step just stored: the numbering and cables' sides the rows and the next
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
         pass transposes the restart, :meth:`_restart_transposed`)."""
+        self._refuse_a_stick(new)
         if carried["trajectory"]:
             carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:
@@ -267,7 +301,9 @@ class AdjointSensitivities(TransientSensitivities):
         values and of load components each as one batched product of their element or load forces
         (:meth:`_section_element_forces`, :meth:`_load_pair_forces`) with w at their coordinates, summed into
         their parameters' rows (10³ sections of a lattice, 100 load amplitudes: no (n, k) array, no
-        per-parameter Python); the other parameters' (hinges, bodies, contact, controllers) by
+        per-parameter Python); the geometry parameters' likewise, each pair of an element and a parameter that
+        moves its reference one row of the generated kernels (:meth:`ReferenceGeometry.transposed_product`); the
+        other parameters' (hinges, bodies, contact, controllers) by
         :meth:`residual_derivatives` on all coordinates, transposed onto w there (the free coordinates are
         the first n). With rigid links (the reduction onto minimum coordinates, latdyn/assembly/linked.py)
         ∂r/∂p is the reduced one, formed by :meth:`residual_derivatives` and transposed onto w. ``inertia``:
@@ -284,6 +320,8 @@ class AdjointSensitivities(TransientSensitivities):
             if forces is not None:
                 at, columns, by_use = forces
                 np.add.at(product, columns, np.einsum("ep,epm->em", by_use, weights[dofs[at]]))
+        if self.geometry is not None:   # the pairs of an element and a geometry parameter that moves it
+            product += self.geometry.transposed_product(state, weights, 1.0, inertia, 1.0)
         if self._other_than_batched():
             self._batched_apart = True
             try:
@@ -293,12 +331,20 @@ class AdjointSensitivities(TransientSensitivities):
         return product
 
     def _other_than_batched(self) -> bool:
-        """Whether a parameter enters ∂r/∂p otherwise than through a section value or a load component
-        (a hinge, body, contact, … key, or a controller's output)."""
+        """Whether a parameter enters ∂r/∂p otherwise than through a section value, a load component or a number
+        that places the structure (a hinge, body, contact, … key, or a controller's output)."""
         if "_others" not in self.__dict__:
             self._others = self.controllers is not None or any(
-                not (_SECTION_KEY.match(key) or _LOAD_KEY.match(key)) for key in self.derivatives)
+                not (_SECTION_KEY.match(key) or _LOAD_KEY.match(key) or GEOMETRY_KEY.match(key))
+                for key in self.derivatives)
         return self._others
+
+    def _add_geometry_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool,
+                             weight_factor: float) -> None:
+        """:meth:`ParameterDerivatives._add_geometry_forces`, left out while :meth:`residual_transposed_product`
+        takes the geometry parameters' product apart (:meth:`ReferenceGeometry.transposed_product`)."""
+        if not self.__dict__.get("_batched_apart", False):
+            super()._add_geometry_forces(state, total, load_factor, inertia, weight_factor)
 
     def _section_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool = False) -> None:
         """:meth:`ParameterDerivatives._section_forces`, left out while :meth:`residual_transposed_product`
@@ -339,7 +385,19 @@ class AdjointSensitivities(TransientSensitivities):
             c_q, c_v, explicit = energy_probe_forms(self, probe, state, _BODY_KEY)
             return c_q, c_v, np.zeros_like(c_q), explicit
         c_q, c_v = self.output_gradient(probe, state)
-        return c_q, c_v, np.zeros_like(c_q), np.zeros(len(self.names))
+        return c_q, c_v, np.zeros_like(c_q), self._point_moves(probe, state)
+
+    def _point_moves(self, probe, state) -> np.ndarray:
+        """(k,) a probe's explicit derivative by the geometry parameters at a fixed state: a point's offset, a
+        fixed or prescribed node and a displacement's start moved (the forward method's
+        :meth:`_probe_derivatives` on zero columns, :meth:`ReferenceGeometry.point_moves`); zero without geometry
+        parameters and for joint probes."""
+        k = len(self.names)
+        if self.geometry is None or probe.kind != "point":
+            return np.zeros(k)
+        zero = np.zeros((self.model.n_dofs, k))
+        return np.asarray(self._probe_derivatives(probe, state, *self._by_parameter(zero, state),
+                                                  self._rates_by_parameter(zero, zero, state)), float)
 
     def output_gradient(self, probe, state) -> tuple:
         """(c_q, c_v) (n,) each: the probe's derivative at ``state`` is c_qᵀδq + c_vᵀδv
@@ -359,10 +417,10 @@ class AdjointSensitivities(TransientSensitivities):
             units[dofs, np.arange(len(dofs))] = 1.0
             still = np.zeros_like(units)
             c_q[dofs] = self._probe_derivatives(probe, state, *self._by_parameter(units, state),
-                                                self._rates_by_parameter(still, units, state))
+                                                self._rates_by_parameter(still, units, state), explicit=False)
             if probe.quantity in ("rate", "velocity"):
                 c_v[dofs] = self._probe_derivatives(probe, state, *self._by_parameter(still, state),
-                                                    self._rates_by_parameter(units, still, state))
+                                                    self._rates_by_parameter(units, still, state), explicit=False)
         return c_q, c_v
 
     def reverse(self, carried: dict, outputs: list) -> tuple:
@@ -529,13 +587,14 @@ class AdjointSensitivities(TransientSensitivities):
             vdot_bar = af / (1 - am) * da0_bar
         if carried.get("numbering_start") is not None and self._with_events():
             self._numbered(carried["numbering_start"])
-        for column, (_, c_v, c_vdot, explicit) in seeds.get(0, []):
+        for column, (c_q, c_v, c_vdot, explicit) in seeds.get(0, []):
+            q_bar[:, column] += c_q   # δq_0 = δX of geometry parameters (0 without)
             v_bar[:, column] += c_v
             vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
             gradient[:, column] += explicit
         if model.n_dofs == 0:
             return gradient
-        return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+        return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar, q_bar)
 
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
@@ -762,8 +821,43 @@ class AdjointSensitivities(TransientSensitivities):
         scipy.sparse."""
         return Transpose(step_matrix.damping), Transpose(step_matrix.stiffness)
 
-    def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:
-        """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄."""
+    def _through_the_start(self, state, v_bar: np.ndarray, s_bar: np.ndarray, q_bar: np.ndarray) -> np.ndarray:
+        """(k, m) what t = 0 adds (module docstring): E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄; with geometry
+        parameters also :meth:`_start_moved_transposed`."""
+        return self._through_the_start_at_rest(state, v_bar, s_bar) + self._start_moved_transposed(
+            state, v_bar, s_bar, q_bar)
+
+    def _start_moved_transposed(self, state, v_bar: np.ndarray, s_bar: np.ndarray, q_bar: np.ndarray) -> np.ndarray:
+        """(k, m) the transpose of the start's move by geometry parameters (the forward method's :meth:`start`:
+        δq_0 = D_q = δX of the free nodes, :meth:`ReferenceGeometry.initial_tangent`, δv_0 gains D_ω = ω × δX and
+        a hinge's δa·ω, :meth:`ReferenceGeometry.initial_velocity_tangent`, and the start's accelerations
+        δv̇_0 = δa_0 = Δ(… + K_0 D_q + C_0 D_ω), K_0 the exact K): D_qᵀ(q̄_0 + K_0ᵀ r̄) + D_ωᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄
+        (:meth:`_start_weights_transposed`); zero without geometry parameters."""
+        if self.geometry is None:
+            return np.zeros((len(self.names), q_bar.shape[1]))
+        r_bar = self._start_weights_transposed(state, s_bar)
+        _, C, K = self._matrices(state)
+        moved_q, moved_v = self.geometry.initial_tangent(), self.geometry.initial_velocity_tangent()
+        return moved_q.T @ (q_bar + np.asarray(K.T @ r_bar)) + moved_v.T @ (v_bar + np.asarray(C.T @ r_bar))
+
+    def _start_weights_transposed(self, state, s_bar: np.ndarray) -> np.ndarray:
+        """r̄ = Δᵀ s̄ (n, m): the start's consistent accelerations' map transposed, as
+        :meth:`_through_the_start_at_rest` computes it."""
+        model = self.model
+        ev = self.assembler.evaluate(state, matrices=True)
+        M, split = self._start_mass(ev)
+        if isinstance(M, CSR):
+            return -np.asarray(solve_linear_csr(transposed(M), s_bar)).reshape(s_bar.shape)
+        if split.n_massless == 0:
+            return -np.asarray(solve_linear(_transposed(M), s_bar)).reshape(s_bar.shape)
+        flipped = SimpleNamespace(combined=lambda a, b, c: _transposed(ev.combined(a, b, c)))
+        return np.column_stack([consistent_acceleration(model, SimpleNamespace(residual=s_bar[:, c],
+                                                                                combined=flipped.combined))
+                                for c in range(s_bar.shape[1])])
+
+    def _through_the_start_at_rest(self, state, v_bar: np.ndarray, s_bar: np.ndarray) -> np.ndarray:
+        """(k, m) E_0ᵀ r̄ + D_vᵀ(v̄_0 + C_0ᵀ r̄), r̄ = Δᵀ s̄: the start where it does not move (no geometry
+        parameter)."""
         model = self.model
         ev = self.assembler.evaluate(state, matrices=True)
         M, split = self._start_mass(ev)   # the forward method's M: a CSR without SciPy where the run's start takes one
@@ -793,6 +887,8 @@ class AdjointSensitivities(TransientSensitivities):
         ``Result.sensitivities`` with the end row alone (``t,<probe>/<NAME>,…``)."""
         from latdyn.results.files import atomic_write_bytes, csv_line
 
+        if self.__dict__.get("_refused", False):   # a joint stuck (:meth:`_refuse_a_stick`): the run is refused
+            return
         recorded = writer.result()
         # a run that failed in the events of its last step (a SolverError after the step was stored): the
         # accepted steps before it, as the forward method's carried sensitivities are

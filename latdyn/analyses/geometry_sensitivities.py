@@ -41,8 +41,8 @@ Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the mode
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
 hinge angle: the velocities they carry into the structure at t = 0 move with its points), rigid links,
 guides, cables, controllers, arc length (its first step's length moves with ∂K/∂p, not generated), a
-kernel variant generated without the reference derivatives; the discrete adjoint refuses geometry
-parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
+kernel variant generated without the reference derivatives. The discrete adjoint takes geometry parameters: the
+start's move, ∂r/∂p and the probes' moves of this module transposed (latdyn/analyses/adjoint_sensitivities.py).
 """
 from __future__ import annotations
 
@@ -301,7 +301,14 @@ class ReferenceGeometry:
                 target.setdefault((m["beam"], m["side"]), np.zeros(3))[axis] += slope
         for body, moved in body_at.items():
             self.node_moves[model.body_node[body], :, column] += moved
+        # the beams this column moves (an end at a moved body, a moved end point or offset, a turned y_axis): the
+        # others' nodes and variations stay 0 (a lattice's node coordinate moves the few members at its node; every
+        # beam a column cost 1.5 ms a parameter on 72 members)
+        touched = {name for name, _ in end_point} | {name for name, _ in end_offset} | set(y_given) | {
+            beam.name for beam in scene.beams.values() if beam.start.body in body_at or beam.end.body in body_at}
         for beam in scene.beams.values():
+            if beam.name not in touched:
+                continue
             grid = []
             for side, end in (("from", beam.start), ("to", beam.end)):
                 offset = end_offset.get((beam.name, side), np.zeros(3))
@@ -435,29 +442,86 @@ class ReferenceGeometry:
         if not len(elements):
             return
         model, k = self.model, self.k
-        geometry, rates, accelerations = self.owner.assembler.native().element_inputs(state)
-        at = geometry[elements]
+        inputs = self.owner.assembler.native().element_inputs(state)
         m = len(elements)
-        variation = self.at_state(state, elements, at)
+        variation = self.at_state(state, elements, inputs[0][elements])
         rows = np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, WIDTH))
-        repeat = lambda a: np.ascontiguousarray(np.tile(a, (k, 1)))  # noqa: E731
-        sections = model.element_sections[elements]
-        forces = np.asarray(self.kernels.beam_internal_force_D_reference(repeat(at), repeat(sections), rows)[1])
-        forces = forces.reshape(k, m, 14)
+        forces = self.reference_forces(inputs, np.tile(elements, k), rows, inertia, weight_factor).reshape(k, m, 14)
+        for column in range(k):
+            np.add.at(total[:, column], model.element_dofs[elements], forces[column])
+        self._load_arms(state, total, load_factor)
+
+    def transposed_product(self, state, w: np.ndarray, load_factor: float, inertia: bool,
+                           weight_factor: float) -> np.ndarray:
+        """(k, m): (∂r/∂p)ᵀ w of the geometry parameters at ``state`` for the m columns of ``w`` (n_total + 1, m; all
+        coordinates), :meth:`add`'s ∂r/∂p transposed onto w without forming it: the same generated kernels on the same
+        rows, but only the (element, parameter) pairs whose reference the parameter moves (:meth:`moved_pairs`: a node
+        coordinate of a lattice moves the few members at that node, where :meth:`add` takes every moved element for
+        every parameter), each pair's 14 forces dotted with w at its element's coordinates; the loads at a moved
+        offset through :meth:`add`'s columns (few). For the discrete adjoint (latdyn/analyses/adjoint_sensitivities.py
+        ``residual_transposed_product``), whose cost it keeps from growing with k as the kernels' rows did."""
+        model, k = self.model, self.k
+        out = np.zeros((k, w.shape[1]))
+        elements, columns = self.moved_pairs()
+        if len(elements):
+            inputs = self.owner.assembler.native().element_inputs(state)
+            variation = self.pairs_at_state(state, elements, columns, np.ascontiguousarray(inputs[0][elements]))
+            forces = self.reference_forces(inputs, elements, variation, inertia, weight_factor)
+            np.add.at(out, columns, np.einsum("pi,pim->pm", forces, w[model.element_dofs[elements]]))
+        if self.moved_loads:
+            total = np.zeros((model.n_total + 1, k))
+            self._load_arms(state, total, load_factor)
+            out += total.T @ w
+        return out
+
+    def reference_forces(self, inputs: tuple, elements: np.ndarray, variation: np.ndarray, inertia: bool,
+                         weight_factor: float) -> np.ndarray:
+        """(P, 14): one row of the generated ``beam_internal_force_D_reference`` per row of ``variation`` (P, WIDTH, at
+        the state) of element ``elements[i]`` and, with ``inertia`` or gravity (at ``weight_factor``), of
+        ``beam_inertia_force_D_reference`` for the elements with mass; ``inputs``: the state's element geometry, rates
+        and accelerations (``element_inputs``). What :meth:`add` (its k × m rows) and :meth:`transposed_product` (its
+        pairs' rows) are made of."""
+        geometry, rates, accelerations = inputs
+        at = np.ascontiguousarray(geometry[elements])
+        sections = np.ascontiguousarray(self.model.element_sections[elements])
+        forces = np.asarray(self.kernels.beam_internal_force_D_reference(at, sections, variation)[1])
+        forces = forces.reshape(len(elements), 14)
         gravity = weight_factor * np.asarray(self.owner.assembler.gravity, float)
         massive = np.any(sections[:, 5:8] != 0.0, axis=1)
         if (inertia or np.any(gravity)) and np.any(massive):
             on = np.flatnonzero(massive)
             rate = rates[elements[on]] if inertia else np.zeros((len(on), 14))
             acceleration = accelerations[elements[on]] if inertia else np.zeros((len(on), 14))
-            picked = np.ascontiguousarray(variation[on].transpose(2, 0, 1).reshape(k * len(on), WIDTH))
             moved = self.kernels.beam_inertia_force_D_reference(
-                repeat(at[on]), repeat(rate), repeat(acceleration), repeat(sections[on]),
-                np.ascontiguousarray(np.tile(gravity[None], (k * len(on), 1))), picked)[1]
-            forces[:, on] += np.asarray(moved).reshape(k, len(on), 14)
-        for column in range(k):
-            np.add.at(total[:, column], model.element_dofs[elements], forces[column])
-        self._load_arms(state, total, load_factor)
+                np.ascontiguousarray(at[on]), np.ascontiguousarray(rate), np.ascontiguousarray(acceleration),
+                np.ascontiguousarray(sections[on]), np.ascontiguousarray(np.tile(gravity[None], (len(on), 1))),
+                np.ascontiguousarray(variation[on]))[1]
+            forces[on] += np.asarray(moved).reshape(len(on), 14)
+        return forces
+
+    def moved_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """(elements, columns) (P,) each: the pairs whose held reference variation is not zero (ordered by column,
+        then element), found once."""
+        held = self.__dict__.get("_moved_pairs")
+        if held is None:
+            columns, elements = np.nonzero(np.any(self.variations != 0.0, axis=1).T)
+            held = self._moved_pairs = (elements.astype(np.int64), columns.astype(np.int64))
+        return held
+
+    def pairs_at_state(self, state, elements: np.ndarray, columns: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """(P, WIDTH): the reference variation of each pair (``elements[i]`` by parameter ``columns[i]``) at ``state``,
+        as :meth:`at_state` takes it (the same generated ``reference_variation_at_state`` on the same rows)."""
+        variation = np.ascontiguousarray(self.variations[elements, :, columns])            # (P, WIDTH)
+        for end in (0, 1):
+            inputs = self.end_inputs(state, elements, at, end)
+            rows = np.ascontiguousarray(np.concatenate(
+                [variation[:, 12 + 3 * end:15 + 3 * end], variation[:, 6 + 3 * end:9 + 3 * end],
+                 variation[:, 19 + 3 * end:22 + 3 * end]], axis=1))
+            moved = np.asarray(self.kernels.reference_variation_at_state(*inputs, rows)[0]).reshape(len(elements), 9)
+            variation[:, 12 + 3 * end:15 + 3 * end] = moved[:, 0:3]
+            variation[:, 6 + 3 * end:9 + 3 * end] = moved[:, 3:6]
+            variation[:, 19 + 3 * end:22 + 3 * end] = moved[:, 6:9]
+        return variation
 
     def at_state(self, state, elements: np.ndarray, at: np.ndarray) -> np.ndarray:
         """The reference variations of ``elements`` (m, WIDTH, k) at ``state``, whose element geometry blocks are

@@ -218,8 +218,10 @@ def refusal(scene) -> SceneError | None:
 
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides,
-    without controllers with states; the forward method's refusals come first, :func:`refusal`)."""
+    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides and
+    geometry parameters, friction while it slips (a joint that sticks is refused when it sticks:
+    ``AdjointSensitivities._refuse_a_stick``), without controllers with states; the forward method's refusals come
+    first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
     if scene.solve.analysis != "transient":
@@ -228,15 +230,8 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
     elif _adjoint_event_refusal(scene) is not None:
         why = _adjoint_event_refusal(scene)
-    elif any(hinge.friction is not None for _, _, hinge in scene.hinges):
-        beam, which = next((beam, which) for beam, which, hinge in scene.hinges if hinge.friction is not None)
-        why = (f"the adjoint does not differentiate friction yet (beams.{beam}.{which}.hinge.friction: a joint that "
-               "sticks is an event)")
-    elif any(GEOMETRY_KEY.match(used) for name in scene.solve.sensitivities
-             for used in scene.parameters.depending_on(name)):
-        used = next(used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
-                    if GEOMETRY_KEY.match(used))
-        why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
+    elif _adjoint_geometry_refusal(scene) is not None:
+        why = _adjoint_geometry_refusal(scene)
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
     elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
@@ -247,6 +242,38 @@ def adjoint_refusal(scene) -> SceneError | None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
                                        "(docs/parameters.md, \"The discrete adjoint\")")
+
+
+def _adjoint_geometry_refusal(scene) -> str | None:
+    """Why the adjoint does not take ``scene``'s geometry parameters, or None: it takes them where the forward method
+    does on 86d57d9's terms (latdyn/analyses/geometry_sensitivities.py ``geometry_refusal``), whose start moves the free
+    nodes alone: beside rigid links or guides (their reduction moves the start and ∂r/∂X) and beside controllers reading
+    points, cables or joint forces or driving loads (their sensed values' ∂/∂X) — not transposed, nor checked, here — it
+    refuses them, whatever the forward method takes."""
+    used = next((used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
+                 if GEOMETRY_KEY.match(used)), None)
+    if used is None:
+        return None
+    linked = next((f"beams.{name}.rigid" for name, beam in scene.beams.items() if beam.rigid), None) or next(
+        (f"bodies.{name}.guide" for name, body in scene.bodies.items() if body.guide is not None), None)
+    if linked is not None:
+        return (f"the adjoint does not take geometry parameters ({used}) beside rigid links or guides ({linked}) yet: "
+                "their reduction moves the start and ∂r/∂X")
+    controllers = getattr(scene, "controllers", None) or {}
+    probes = {p.name: p for p in scene.output.probes}
+    for c in controllers.values():   # the sensors checked beside geometry: section forces, joints' angles and rates
+        sensed = [probes[read] for read in c.reads if read in probes]
+        joints = ("angle", "position", "rate")
+        if any(not (p.kind == "element" or (p.kind in ("hinge", "guide") and p.quantity in joints)) for p in sensed):
+            return (f"the adjoint does not take geometry parameters ({used}) beside a controller reading points, "
+                    f"cables or joint forces ({c.name}) yet; controllers reading section forces and joints' angles "
+                    "and rates it takes")
+    driven = next((key for key in laws_naming(scene, set(controllers))
+                   if not (key.endswith(".hinge.torque") or key.endswith(".guide.force"))), None)
+    if driven is not None:
+        return (f"the adjoint does not take geometry parameters ({used}) beside a controller driving {driven} yet; "
+                "hinge torques and guide forces it takes")
+    return None
 
 
 def _law_in_time(scene):
@@ -312,12 +339,15 @@ def _transient_refusal(scene) -> str | None:
 def _adjoint_event_refusal(scene) -> str | None:
     """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's or a guide's latch (``lock_at``)
     and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links, guides
-    and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a compliant stop's
-    onset, nor events beside laws in t (friction: its own refusal)."""
+    and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a hinge's or a
+    guide's compliant stop's onset, nor events beside laws in t (a stick by friction: refused when it sticks,
+    ``AdjointSensitivities._refuse_a_stick``)."""
     if not has_events(scene):
         return None
     compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
-                      if hinge.limits is not None and hinge.contact is not None), None)
+                      if hinge.limits is not None and hinge.contact is not None), None) or next(
+        (f"bodies.{name}.guide.contact" for name, body in scene.bodies.items()   # a guide's: its onset likewise
+         if body.guide is not None and body.guide.limits is not None and body.guide.contact is not None), None)
     if compliant is not None:
         return f"the adjoint does not differentiate a compliant stop's onset yet ({compliant})"
     reel = next((f"cables.{name}.rest_length" for name, cable in scene.cables.items()
@@ -439,8 +469,7 @@ class ParameterDerivatives:
         weight_factor = load_factor if (element_gravity or inertia) else 0.0
         if sections:
             self._section_forces(state, total, weight_factor, inertia)
-        if self.geometry is not None:
-            self.geometry.add(state, total, load_factor, inertia, weight_factor)
+        self._add_geometry_forces(state, total, load_factor, inertia, weight_factor)
         self._body_forces(state, total, load_factor, inertia)
         add_link_section_forces(self, state, total, load_factor, inertia)
         self._contact_forces(state, total)
@@ -448,6 +477,13 @@ class ParameterDerivatives:
             self.controllers.add(state, total)
         self._add_load_forces(state, total, load_factor)
         return total if on_all else self._on_free_coordinates(state, total)
+
+    def _add_geometry_forces(self, state, total: np.ndarray, load_factor: float, inertia: bool,
+                             weight_factor: float) -> None:
+        """Add ∂r/∂p of the geometry parameters into ``total`` (all coordinates, k columns;
+        :meth:`ReferenceGeometry.add`), where there are any."""
+        if self.geometry is not None:
+            self.geometry.add(state, total, load_factor, inertia, weight_factor)
 
     def _hinge_uses(self) -> list:
         """(hinge index, which law, {column: derivative law}) of every use of a parameter by a hinge's (or a guide's)
@@ -935,11 +971,14 @@ class ParameterDerivatives:
             dependent_rates(self, state, dq, dv, rates[0], rates[1])
         return rates
 
-    def _probe_derivatives(self, probe, state, dx, dpi, dtheta, rates=None) -> list:
+    def _probe_derivatives(self, probe, state, dx, dpi, dtheta, rates=None, explicit: bool = True) -> list:
         """The derivatives of ``probe`` at ``state`` by every parameter along (δx, δπ, δθ) of
         :meth:`_by_parameter` (and, for rate probes, (δv, δω, δθ̇) of :meth:`_rates_by_parameter`): a
         point x + T r moves by δx + δπ × T r, a hinge angle by δθ, a hinge rate by δθ̇, a point's velocity
-        v + ω × T r by δv + δω × T r + ω × (δπ × T r)."""
+        v + ω × T r by δv + δω × T r + ω × (δπ × T r). ``explicit`` (the columns are the parameters'): with
+        a point's moves by geometry parameters at a fixed state (its offset, a held node, a displacement's
+        start: :meth:`ReferenceGeometry.point_moves`); off for columns that are not the parameters' (the
+        discrete adjoint's unit columns, latdyn/analyses/adjoint_sensitivities.py ``output_forms``)."""
         model = self.model
         if is_probe_here(probe):   # section forces, cables, points in a body frame
             return probe_derivatives(self, probe, state, dx, dpi, dtheta, rates)
@@ -954,7 +993,7 @@ class ParameterDerivatives:
         node, offset = model.point(probe.point)
         arm = state.T[node] @ offset
         moved = point_moved(dx[node], dpi[node], arm)    # δ(x + T r), (3, k)
-        if self.geometry is not None:   # a geometry parameter moves the point's offset and its reference
+        if explicit and self.geometry is not None:   # a geometry parameter moves the point's offset and its reference
             offset_moved, reference_moved = self.geometry.point_moves(probe, state)
             moved = moved + offset_moved - (reference_moved if probe.quantity == "displacement" else 0.0)
         if probe.quantity == "velocity":   # δ(v + ω × T r)
