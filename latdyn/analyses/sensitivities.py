@@ -70,7 +70,7 @@ guides' laws and cables' EA, damping, rest length and rhoA; probes other than po
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
 (latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
 body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
-runs without guides), and energies and momenta where latdyn/analyses/energy_sensitivities.py refuses them;
+runs), and energies and momenta where latdyn/analyses/energy_sensitivities.py refuses them;
 (rigid links and guides are differentiated
 through the reduction: latdyn/analyses/link_sensitivities.py). A static path does not apply rigid stops
 and latches (``limits`` without ``contact``, ``lock_at``: events of the time loop, docs/static_paths.md): its rows
@@ -183,9 +183,9 @@ def refusal(scene) -> SceneError | None:
                 return refused
             continue
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
-        # a point's velocity v + ω × T r: δv, δω carried by the transient step (a guided body's
-        # dependent nodes' velocities would need the projection's rate derivative: not yet)
-        velocity = (transient and not guided and probe.kind == "point" and probe.quantity == "velocity"
+        # a point's velocity v + ω × T r: δv, δω carried by the transient step (a guided body's or a rigid
+        # link's dependent node: P δv + ∂(J v)/∂q δq, latdyn/analyses/link_sensitivities.py dependent_rates)
+        velocity = (transient and probe.kind == "point" and probe.quantity == "velocity"
                     and probe.frame == "global")
         slide = probe.kind == "guide" and probe.quantity in ("position", "rate") and transient
         joint = probe.kind == "hinge" and (probe.quantity == "angle" or (transient and probe.quantity == "rate"))
@@ -203,7 +203,7 @@ def refusal(scene) -> SceneError | None:
                           "point positions and displacements in the global frame, hinge angles, element section "
                           "forces, cable tensions and lengths, points in a body's frame, energies and momenta and, in "
                           "transient runs, hinge "
-                          "rates and torques, guide positions, rates and forces, point velocities (without guides) and "
+                          "rates and torques, guide positions, rates and forces, point velocities and "
                           "controllers' outputs and states "
                           "are")
     rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
@@ -926,8 +926,8 @@ class ParameterDerivatives:
         """(δv, δω, δθ̇) of every node and hinge from the free-coordinate sensitivities of the rates ``dv``
         (n_dofs, k) — the transient step's carried δv: the rates are vectors (ω spatial), so δω is the
         derivative of ω's components. Free nodes and hinges; with ``dq`` and ``state`` the nodes that follow
-        rigid links too, P δv + ∂(J v)/∂q δq (:func:`latdyn.analyses.link_sensitivities.dependent_rates`;
-        a guided model's dependent nodes' rate probes are refused)."""
+        rigid links or guides too, P δv + ∂(J v)/∂q δq (:func:`latdyn.analyses.link_sensitivities.dependent_rates`:
+        a guided body's with the generated ``prismatic_link_edge_rates_D_q``)."""
         rates = self._on_free_nodes_and_hinges(dv)
         if self.model.links is not None and dq is not None and dv.shape[1]:
             dependent_rates(self, state, dq, dv, rates[0], rates[1])
