@@ -8,6 +8,15 @@ reduction, whose rates δv_dep = P δv + ∂(J v)/∂q δq come from the generat
 already took). Against Richardson-extrapolated central differences of whole runs (``solve.tol`` 1e-12), the loop of
 steps on and off to the bit, the adjoint against the forward method, the CLI against the API.
 
+2. A parameter in a hinge's torque or a guide's force that names a continuous controller (``"Kt*pd + 0.1*Kt*Kt"``,
+τ = a y + b with a, b of the parameter): ∂τ/∂p at fixed y is a derivative law reading the controller's output at the
+state, as the step's own laws read it (the scene's ``controller_outputs``, the compiled derivative laws bound to them
+on both paths); y's own δy is the step's matrix's coupling and, for a parameter inside the output too,
+``ControllerTerms.add``'s a dy/dp. At a rigid stop the impulse weight's (∂K/∂p) w of such a parameter is the difference
+of the static ∂r/∂p along w, which now reads y at the moved states (``TransientSensitivities._controller_outputs_at``;
+left at the step's outputs the wheel's stop was 1.8e-7 off, the same at steps 1e-3 … 1e-5). A load component that names
+a controller and a parameter, and static paths, stay refused.
+
 Every case here was refused on 86d57d9 (SceneError naming ``solve.sensitivities``)."""
 from __future__ import annotations
 
@@ -18,9 +27,11 @@ import pytest
 import yaml
 
 import latdyn
+from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, the_loop_off_writes_the_same
 from tests.reference_runs import reference_runs
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
+from tests.test_sensitivities_controllers import WHEEL
 from tests.test_sensitivities_guides import GUIDE_3D, STOP_3D
 from tests.test_sensitivities_refusals_lifted import BEAD_ON_GIMBAL, _adjoint_error, _both
 
@@ -37,7 +48,8 @@ _SLIDE = "    s: {guide: slider, quantity: position}\n"
 GUIDE_VELOCITY = (GUIDE_3D.replace("parameters: {k:", "parameters: {Kv: 0.8, k:")
                   .replace('rest: "rest"}}', 'rest: "rest", force: "damp"}}')
                   .replace("solve: {", 'controllers:\n  damp: {output: "-Kv*slider_vz - 0.3*Kv*tip_vy"}\nsolve: {')
-                  .replace(_SLIDE, _SLIDE + _VELOCITIES + "    tip_vy: {point: tip, quantity: velocity, component: y}\n")
+                  .replace(_SLIDE, _SLIDE + _VELOCITIES
+                           + "    tip_vy: {point: tip, quantity: velocity, component: y}\n")
                   .replace("sensitivities: [k, m, EI, rest]", "sensitivities: [Kv, k, m, EI]"))
 #: the slider hitting its rigid stop (e = 0.5) with the velocity probes
 STOP_VELOCITY = STOP_3D.replace(_SLIDE, _SLIDE + _VELOCITIES)
@@ -120,3 +132,74 @@ def test_a_points_velocity_beside_guides_through_the_cli_equals_the_api(tmp_path
     columns = dict(zip(header.split(","), (float(x) for x in last.split(","))))
     assert columns["slider_vz/Kv"] == api.summary["probe_sensitivities"]["slider_vz"]["end"]["Kv"]
     the_loop_off_writes_the_same(tmp_path, out)
+
+
+# -------------------------------------------------- 2. a parameter in a hinge torque or guide force naming a controller
+#: the wheel on a hinge out of the coordinate planes turned by chained controllers
+#: (tests/test_sensitivities_controllers.py), its torque Kt pd + 0.1 Kt² (pd clipped from 0.15 s to 0.20 s), Kt inside
+#: pd's output too
+WHEEL_KT = (WHEEL.replace("parameters: {Kp", "parameters: {Kt: 2.0, Kp")
+            .replace('torque: "2*pd + 0.1"', 'torque: "Kt*pd + 0.1*Kt*Kt"')
+            .replace('- 0.5*(tip_x - 0.66)"', '- 0.5*Kt*(tip_x - 0.66)"')
+            .replace("sensitivities: [Kp, a0, g, k, Kl]", "sensitivities: [Kt, Kp, k]"))
+#: the same with a set point of the angle (no law in t) and a rigid stop at 0.2 rad (e = 0.8), hit twice
+WHEEL_KT_STOPS = (WHEEL_KT.replace('lead: {output: "a0 + g*sin(3*t)"}', 'lead: {output: "a0 + 0.3*angle"}')
+                  .replace('torque: "Kt*pd + 0.1*Kt*Kt"',
+                           'torque: "Kt*pd + 0.1*Kt*Kt", limits: [-1, 0.2], restitution: 0.8')
+                  .replace("t_end: 0.5", "t_end: 0.4"))
+#: the mass on the skew guide at the flexible arm's tip, the guide's force Kf damp + 0.1 Kf of a controller of the
+#: slide, hitting its rigid stop (e = 0.5)
+GUIDE_KF_STOP = (STOP_3D.replace("parameters: {k:", "parameters: {Kf: 1.5, Kv: 0.8, k:")
+                 .replace("restitution: 0.5}}", 'restitution: 0.5, force: "Kf*damp + 0.1*Kf"}}')
+                 .replace("solve: {", 'controllers:\n  damp: {output: "-Kv*s_rate - 0.5*s"}\nsolve: {')
+                 .replace("sensitivities: [k, m, EI, rest]", "sensitivities: [Kf, Kv, k]"))
+assert "Kt*pd" in WHEEL_KT and "restitution: 0.8" in WHEEL_KT_STOPS and "Kf*damp" in GUIDE_KF_STOP
+
+
+@pytest.mark.parametrize("text, name, events, tolerance", [
+    (WHEEL_KT, "Kt", [], 1e-6), (WHEEL_KT_STOPS, "Kt", ["stop", "stop"], 1e-7), (GUIDE_KF_STOP, "Kf", ["stop"], 1e-7)],
+    ids=["wheel", "wheel-stops", "guide-stop"])
+def test_a_parameter_in_a_joint_law_naming_a_controller_agrees_with_richardson_central_differences(text, name, events,
+                                                                                                  tolerance):
+    """Measured (every probe's worst over the rows, relative to its largest; the event times too): the wheel Kt 1.9e-8
+    (Kt in the torque alone 1.7e-8); its stops Kt 2.4e-9; the guide's stop Kf 1.5e-8 (without the stop Kf 3.3e-8, Kv
+    2.4e-8). With the impulse weight's difference reading y at the step's outputs (not the moved states') the stops
+    were 3.7e-7 and 9.0e-7 off: hence 1e-7 there."""
+    result = _run(text)
+    assert [e["kind"] for e in result.summary["events"]] == events
+    assert _richardson_error(text, result, name) <= tolerance
+
+
+@pytest.mark.parametrize("text", [WHEEL_KT, WHEEL_KT_STOPS, GUIDE_KF_STOP], ids=["wheel", "wheel-stops", "guide-stop"])
+def test_a_parameter_in_a_joint_law_naming_a_controller_is_the_same_with_the_loop_on_and_off(text):
+    """The loop takes the smooth steps (50 of 50, 38 of 42, 59 of 61) to the per-step Python path's bits; the adjoint
+    gives the forward method's where it takes the run (no law in t beside the events: measured 1.7e-13 on the wheel's
+    stops, 6.5e-14 on the guide's)."""
+    runs = runs_with_the_loop_on_and_off(text)
+    assert_same_sensitivities(runs[True], runs[False], nonzero="each")
+    assert runs[True].summary["sensitivity_steps_in_loop"] > 0
+    if text is not WHEEL_KT:   # WHEEL_KT's lead is a law in t beside no event: the adjoint takes it too
+        forward, adjoint = _both(text)
+        assert _adjoint_error(forward, adjoint) <= 1e-10
+
+
+def test_a_parameter_in_a_joint_law_naming_a_controller_through_the_cli_equals_the_api(tmp_path):
+    """``latdyn run`` of the wheel's stops: summary.json's probe and event sensitivities those of ``latdyn.run`` to the
+    bit; the loop off in a fresh process writes the same files."""
+    run, out = latdyn_run(tmp_path, WHEEL_KT_STOPS)
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    api = latdyn.run(latdyn.load_scene(yaml.safe_load(WHEEL_KT_STOPS)))
+    assert summary["probe_sensitivities"] == api.summary["probe_sensitivities"]
+    assert summary["event_sensitivities"] == api.summary["event_sensitivities"]
+    the_loop_off_writes_the_same(tmp_path, out)
+
+
+def test_a_load_naming_a_controller_and_a_parameter_stays_refused():
+    """A load component's derivative law is one of t alone: ``"0.5*push + Kl"`` stays refused naming the key."""
+    data = yaml.safe_load(WHEEL)
+    data["loads"][0]["moment"] = ["0.5*push + Kl", 0, 0]
+    with pytest.raises(SceneError) as info:
+        latdyn.run(latdyn.load_scene(data))
+    assert info.value.key == "solve.sensitivities"
+    assert "used at loads[0].moment[0], a law that names a controller" in str(info.value)

@@ -394,14 +394,18 @@ class ParameterDerivatives:
         # where the key uses the parameter
         self.derivatives: dict[str, dict[int, object]] = {}
         parsed: dict[str, object] = {}   # one law per derivative text (many parameters' derivatives read alike)
-        inputs = tuple(self.scene.inputs.names)   # held: a derivative law reads their current values
+        # held: a derivative law reads the inputs' current values and, a hinge's or guide's law that names a
+        # controller (transient runs), its output's at the state: ∂τ/∂p at fixed y, whose δy the step's matrix
+        # carries (the coupling ∂τ/∂y ∂y/∂s) and ControllerTerms its explicit part (∂τ/∂y dy/dp)
+        outputs = getattr(self.scene, "controller_outputs", None)
+        inputs = tuple(self.scene.inputs.names) + (tuple(outputs.names) if outputs is not None else ())
         for column, name in enumerate(self.names):
             for key in params.depending_on(name):
                 if _CONTROLLER_KEY.match(key):   # a law in the controller's sensors: ControllerTerms
                     continue
                 text = params.derivative(key, name, inputs)
                 if text not in parsed:
-                    with reading_inputs(self.scene.inputs):
+                    with reading_inputs(self.scene.inputs, outputs):
                         parsed[text] = parse_hinge_law(text, self.scene.file, key)
                 self.derivatives.setdefault(key, {})[column] = parsed[text]
         self._values_at: tuple[float, dict] = (float("nan"), {})
@@ -1296,6 +1300,12 @@ def _sensed_force_laws(scene, probe) -> tuple:
     return (f"bodies.{probe.body}.guide.",), [joint.stiffness, joint.damping, joint.force]
 
 
+def _driven_joint_law(key: str) -> bool:
+    """Whether ``key`` is a hinge's torque or a guide's force (the laws a continuous controller drives as a y + b)."""
+    hinge, guide = _HINGE_KEY.match(key), _GUIDE_KEY.match(key)
+    return bool((hinge and hinge["law"] == "torque") or (guide and guide["law"] == "force"))
+
+
 class ControllerTerms:
     """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
     sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
@@ -1381,21 +1391,27 @@ class ControllerTerms:
                         "latch, a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
                         "rates in t) are not computed yet; states whose rates do not name t are")
         return ControllerTerms.parameter_in_a_reading_law(scene, "expected the parameter inside the controller's "
-                                                                 "output instead")
+                                                                 "output, or in a hinge's torque or a guide's force, "
+                                                                 "instead", joint_laws=True)
 
     @staticmethod
-    def parameter_in_a_reading_law(scene, expected: str) -> str | None:
+    def parameter_in_a_reading_law(scene, expected: str, joint_laws: bool = False) -> str | None:
         """Why a parameter of ``solve.sensitivities`` used in a law that names a controller (a hinge torque,
         guide force or load component scaled by it, ``"k*(ctl)"``) keeps the sensitivities from being
-        computed, ending in ``expected``; or None. Its derivative names the controller, which the
-        derivative laws cannot read: transient runs take the parameter inside the controller's output
-        instead, static paths neither (seed 6 case 11 of the sensitivity fuzzer)."""
+        computed, ending in ``expected``; or None. With ``joint_laws`` (transient runs) a hinge's torque and a
+        guide's force are taken: τ = a y + b (latdyn/assembly/control.py), ∂τ/∂p = y ∂a/∂p + ∂b/∂p at fixed y is a
+        derivative law reading the controller's output at the state as the step's laws read it (the scene's
+        ``controller_outputs``: :class:`ParameterDerivatives`), y's own δy is the step's matrix's coupling a ∂y/∂s
+        and, for a parameter inside the output too, :meth:`add`'s a dy/dp; at an event the difference of the static
+        ∂r/∂p along w reads y at the moved states (``TransientSensitivities._controller_outputs_at``). A load
+        component's derivative law is one of t alone (:meth:`ParameterDerivatives._add_load_forces`) and a static
+        path runs no controller between its laws: both stay refused (seed 6 case 11 of the sensitivity fuzzer)."""
         if not getattr(scene, "controllers", None):
             return None
         readers = ControllerTerms._laws_naming(scene, set(scene.controllers))
         for name in scene.solve.sensitivities:
             for used in scene.parameters.depending_on(name):
-                if used in readers:
+                if used in readers and not (joint_laws and _driven_joint_law(used)):
                     written = scene.parameters.uses[used][0]
                     return (f"parameter {name!r} is used at {used}, a law that names a controller ({written!r}: "
                             f"a hinge torque, guide force or load component): {expected}")
