@@ -21,7 +21,9 @@ a controller and a parameter, and static paths, stay refused.
 counts it) by the generated ``cable_force``'s residual rows at c = 0 and its ``cable_strain_energy``, ``reel_force``
 outputs; the lumped point masses' kinetic and potential energy and momenta as the joint bodies' rows they are, by rhoA
 and the rest length through their masses (``energy_sensitivities._StateForms._cables``). The external work and the
-dissipated energy with cables stay refused.
+dissipated energy with cables stay refused. And by a rigid link's section ρA, ρIy, ρIz: its joint body's mass and
+inertia move (``rigid_link_inertia`` of the derivative values, as ∂r/∂p takes them), its energies and momenta as a
+body's by its mass and inertia (``energy_sensitivities._StateForms._link_blocks``).
 
 Every case here was refused on 86d57d9 (SceneError naming ``solve.sensitivities``)."""
 from __future__ import annotations
@@ -40,7 +42,8 @@ from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_
 from tests.test_sensitivities_cables import CABLE_3D
 from tests.test_sensitivities_controllers import WHEEL
 from tests.test_sensitivities_guides import GUIDE_3D, STOP_3D
-from tests.test_sensitivities_refusals_lifted import BEAD_ON_GIMBAL, _adjoint_error, _both
+from tests.test_sensitivities_refusals_lifted import BEAD_ON_GIMBAL, ENERGIES, _adjoint_error, _both
+from tests.test_sensitivities_rigid_links import GIMBAL
 
 #: a point's velocity: the guided slider's in the global frame and in the arm tip's axes, the tip's and the arm's
 #: middle node's in the slider's axes
@@ -222,24 +225,33 @@ MASSIVE_CABLE_ENERGIES = (CABLE_ENERGIES.replace('damping: "c"}', 'damping: "c",
                           .replace("parameters: {EA", "parameters: {rho: 0.3, EA")
                           .replace("sensitivities: [EA, L, EI, c]", "sensitivities: [rho, L, EA]")
                           .replace("t_end: 0.25", "t_end: 0.12"))
+#: the gimbal of two rigid rings (section ρA = rho, ρIy = 0.001 rho) carrying a flexible boom, under gravity, its
+#: energies and momenta probed
+GIMBAL_ENERGIES = (GIMBAL.replace("sections:", "gravity: [0, 0, -9.81]\nsections:", 1)
+                   .replace("    tip_x:", ENERGIES + "    V: {energy: potential}\n    tip_x:"))
 assert "U: {energy: strain}" in CABLE_ENERGIES and 'rhoA: "rho"' in MASSIVE_CABLE_ENERGIES
+assert "gravity:" in GIMBAL_ENERGIES and "V: {energy: potential}" in GIMBAL_ENERGIES
 
 
-@pytest.mark.parametrize("text, name, changes", [(CABLE_ENERGIES, "EA", 4), (MASSIVE_CABLE_ENERGIES, "rho", 4)],
-                         ids=["stay", "stay-with-mass"])
-def test_energies_and_momenta_with_cables_agree_with_richardson_central_differences(text, name, changes):
+@pytest.mark.parametrize("text, name, changes", [(CABLE_ENERGIES, "EA", 4), (MASSIVE_CABLE_ENERGIES, "rho", 4),
+                                                 (GIMBAL_ENERGIES, "rho", 0)],
+                         ids=["stay", "stay-with-mass", "rigid-links-rho"])
+def test_energies_and_momenta_with_cables_or_by_a_rigid_links_rho_agree_with_richardson(text, name, changes):
     """Measured (every probe's worst over the rows, relative to its largest; the cable's changes' times too): the stay
     EA 6.5e-9, c 1.9e-7, EI 1.3e-8, L 1.8e-7 (steps 1e-5 relative); with mass rho 1.4e-8, EA 1.6e-8, L 4.9e-9 (steps
-    1e-6 relative; to 0.25 s, eight changes: rho 1.9e-8, EA 1.9e-8, L 6.9e-8). With the cable rows of the strain energy of the wrong sign U and E were 1.2–21 off (EA, c, EI)."""
+    1e-6 relative; to 0.25 s, eight changes: rho 1.9e-8, EA 1.9e-8, L 6.9e-8); the gimbal by its rings' rho 2.1e-9
+    (its latch, without gravity, 4.8e-9; with the rings' mass and inertia left out of the forms T, U, px, hz were
+    0.94–3.3 off). With the cable rows of the strain energy of the wrong sign U and E were 1.2–21 off (EA, c, EI)."""
     result = _run(text)
     assert len(result.summary["events"]) == changes
     assert _richardson_error(text, result, name) <= 1e-6
 
 
-@pytest.mark.parametrize("text", [CABLE_ENERGIES, MASSIVE_CABLE_ENERGIES], ids=["stay", "stay-with-mass"])
-def test_energies_and_momenta_with_cables_are_the_same_with_the_loop_on_and_off(text):
+@pytest.mark.parametrize("text", [CABLE_ENERGIES, MASSIVE_CABLE_ENERGIES, GIMBAL_ENERGIES],
+                         ids=["stay", "stay-with-mass", "rigid-links-rho"])
+def test_energies_and_momenta_with_cables_or_by_a_rigid_links_rho_are_the_same_with_the_loop_on_and_off(text):
     """The loop takes the smooth steps (46 of 62, 15 of 60) to the Python path's bits; the adjoint gives the forward
-    method's (measured 7.8e-12, 1.0e-12; the gimbal's tether 7.0e-12)."""
+    method's (measured 7.8e-12, 1.0e-12, the gimbal 1.5e-12; the gimbal's tether 7.0e-12)."""
     runs = runs_with_the_loop_on_and_off(text)
     assert_same_sensitivities(runs[True], runs[False], nonzero="each")
     assert runs[True].summary["sensitivity_steps_in_loop"] > 0

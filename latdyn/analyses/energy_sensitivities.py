@@ -52,8 +52,9 @@ discrete adjoint seeds its rows with them (:func:`probe_forms`).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
 adjoint`` naming that key): the external work and the dissipated energy with cables and any energy or momentum beside a
-reel (:func:`_cable_refusal`; a row's energies and momenta with cables are differentiated, :meth:`_StateForms._cables`),
-energy and momentum probes with geometry parameters — with guides they are
+reel (:func:`_cable_refusal`; a row's energies and momenta with cables are differentiated, :meth:`_StateForms._cables`,
+and by a rigid link's ρA, ρIy, ρIz, :meth:`_StateForms._link_blocks`), energy and momentum probes with geometry
+parameters — with guides they are
 computed as without (the external work of a prescribed motion too: its drive's reaction is the reduced residual's row
 of the prescribed coordinate, :func:`_drive_reactions`): a guided body is a dependent node of the links' reduction, its δq = J δq and
 its rates' δv_dep = J δv + ∂(J v)/∂q δq (latdyn/analyses/link_sensitivities.py ``dependent_rates``, the generated
@@ -136,14 +137,6 @@ def _why_not(scene, probe) -> str | None:
         if used is not None:
             return (f"parameter {name!r} places the structure ({used}): energy and momentum sensitivities by "
                     "geometry parameters are not computed yet")
-    links = [name for name, beam in scene.beams.items() if getattr(beam, "rigid", False)]
-    if links:
-        for name in _solve_names(scene):
-            used = next((u for u in scene.parameters.depending_on(name)
-                         if any(u.startswith(f"sections.{scene.beams[b].section.name}.") for b in links)), None)
-            if used is not None:
-                return (f"parameter {name!r} is a value of a rigid link's section ({used}): energy and momentum "
-                        "sensitivities by a rigid link's own mass and inertia are not computed yet")
     if probe.kind == "energy" and quantity in ("strain", "total"):
         for name in _solve_names(scene):
             used = next((u for u in scene.parameters.depending_on(name) if _STOP_EXPONENT.match(u)), None)
@@ -484,6 +477,35 @@ class _StateForms:
                 explicit[0, column] += 0.5 * u[b] @ moved
                 explicit[3:6, column] += moved[0:3]
                 explicit[6:9, column] += np.cross(state.x[node], moved[0:3]) + moved[3:6]
+        for b, node, column, changed in self._link_blocks(state, block):   # a rigid link's ρA, ρIy, ρIz
+            moved = momentum_of(changed)[b]
+            explicit[2, column] += weight_of(changed)[b, 0:3] @ (state.x[node] + state.T[node] @ model.body_com[b])
+            explicit[0, column] += 0.5 * u[b] @ moved
+            explicit[3:6, column] += moved[0:3]
+            explicit[6:9, column] += np.cross(state.x[node], moved[0:3]) + moved[3:6]
+
+    def _link_blocks(self, state, block: np.ndarray) -> list:
+        """(body row, node, column, the joint bodies' block with that row's ∂(m, c, I)/∂p) of each use of a parameter
+        by a rigid link's section ρA, ρIy or ρIz: its joint body's mass and inertia move, linear in them at the link's
+        fixed centre of mass (``rigid_link_inertia`` of the section's derivative values, as
+        latdyn/analyses/link_sensitivities.py ``add_link_section_forces`` takes ∂r/∂p), so its kinetic and potential
+        energy and momenta move as a body's by its mass and inertia (:meth:`_bodies`)."""
+        from latdyn.analyses.link_sensitivities import link_section_uses
+        from latdyn.model.model import rigid_link_inertia
+
+        model = self.model
+        if model.links is None:
+            return []
+        out = []
+        for beam, b, node, value, laws in link_section_uses(self.owner):
+            for column, law in laws.items():
+                moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
+                moved[value] = law.value(0.0, 0.0, state.t)
+                mass, _, turning = rigid_link_inertia(beam, **moved)
+                changed = np.zeros_like(block)
+                changed[b, 0], changed[b, 1:4], changed[b, 4:13] = mass, model.body_com[b], turning.reshape(9)
+                out.append((b, node, column, changed))
+        return out
 
     def _hinges(self, state, by_q, by_rates, explicit) -> None:
         """The hinge springs' potential, as latdyn_energies counts it: ½ k s² of a constant k, and
