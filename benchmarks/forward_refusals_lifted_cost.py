@@ -10,12 +10,13 @@ import time
 import yaml
 
 import latdyn
-from tests.test_sensitivities_refusals_lifted2 import (BEAD_VELOCITY, CABLE_ENERGIES, GUIDE_KF_STOP, GUIDE_VELOCITY,
-                                                       MASSIVE_CABLE_ENERGIES, WHEEL_KT_STOPS)
+from tests.test_sensitivities_refusals_lifted2 import (BEAD_VELOCITY, CABLE_ENERGIES, GIMBAL_ENERGIES, GUIDE_KF_STOP,
+                                                       GUIDE_VELOCITY, MASSIVE_CABLE_ENERGIES, WHEEL_KT_STOPS)
 
 SCENES = {"guide-velocity-controller": GUIDE_VELOCITY, "bead-on-gimbal-velocity": BEAD_VELOCITY,
           "wheel-Kt-stops": WHEEL_KT_STOPS, "guide-Kf-stop": GUIDE_KF_STOP,
-          "stay-energies": CABLE_ENERGIES, "massive-stay-energies": MASSIVE_CABLE_ENERGIES}
+          "stay-energies": CABLE_ENERGIES, "massive-stay-energies": MASSIVE_CABLE_ENERGIES,
+          "gimbal-energies-rho": GIMBAL_ENERGIES}
 KINDS = ("without", "forward", "adjoint")
 
 
