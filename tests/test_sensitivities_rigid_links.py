@@ -366,21 +366,8 @@ def test_energies_by_a_links_section_agree_with_richardson_central_differences()
     """Found in review: energies and momenta by a rigid link's ρ missed the link's own mass (kinetic energy
     −0.145 against 0.038): refused until 86d57d9, built since (energy_sensitivities._StateForms._link_blocks; the
     whole case in tests/test_sensitivities_refusals_lifted2.py). The kinetic energy by the rings' rho against
-    Richardson-extrapolated central differences of whole runs: measured 2.9e-10. The adjoint's seeds of section
+    Richardson-extrapolated central differences of whole runs (every probe): measured 1.3e-9. The adjoint's seeds of section
     forces, body frames and energies, which missed the links' reduction (a root moment 2.30 against 0.163), are built
     too (tests/test_sensitivities_refusals_lifted.py)."""
-    data = yaml.safe_load(GIMBAL)
-    data["output"]["probes"]["T"] = {"energy": "kinetic"}
-    data["solve"]["sensitivities"] = ["rho"]
-    computed = latdyn.run(latdyn.load_scene(data)).sensitivities[("T", "rho")]
-    del data["solve"]["sensitivities"]
-    central = []
-    for step in (8e-5, 4e-5):
-        runs = []
-        for sign in (1, -1):
-            moved = yaml.safe_load(yaml.safe_dump(data))
-            moved["parameters"]["rho"] = 0.8 + sign * step
-            runs.append(latdyn.run(latdyn.load_scene(moved)).probes["T"])
-        central.append((runs[0] - runs[1]) / (2 * step))
-    expected = (4 * central[1] - central[0]) / 3
-    assert np.abs(computed - expected).max() <= 1e-6 * np.abs(expected).max()
+    text = GIMBAL.replace("    tip_x:", "    T: {energy: kinetic}\n    tip_x:")
+    assert _agree(_run(text, "rho"), text, "rho", tolerance=1e-6) >= 0.0
