@@ -141,14 +141,13 @@ def test_a_number_with_an_exponent_does_not_read_a_controller(tmp_path):
 
 
 @pytest.mark.parametrize("change, key", [
-    (lambda d: d["beams"]["arm"]["start"]["hinge"].update(torque="1e2*k*e2*1e-2"), "beams.arm.start.hinge.torque"),
     (lambda d: d.update(loads=[{"at": "tip", "force": [0, 0, 0], "moment": [0, "0.5*e2*k", 0], "frame": "tip"}]),
      "loads[0].moment[1]"),
 ])
 def test_a_law_that_reads_a_controller_with_a_parameter_is_still_refused(tmp_path, change, key):
-    """The other direction: a hinge torque or a load component that reads the controller and a parameter
-    (its gain would depend on the parameter) is refused, before anything is compiled, naming the law's key
-    (CLI exit 2, and the API)."""
+    """The other direction: a load component that reads the controller and a parameter (its gain would depend on
+    the parameter) is refused, before anything is compiled, naming the law's key (the API; a hinge torque is
+    differentiated since: :func:`test_a_hinge_torque_that_reads_a_controller_with_a_parameter_is_differentiated`)."""
     data = yaml.safe_load(E2_ARM)
     change(data)
     with pytest.raises(SceneError) as info:
@@ -319,3 +318,27 @@ def test_a_variant_without_the_reference_derivatives_is_refused_before_compiling
     assert info.value.expected.startswith("geometry parameters need the kernels beam_internal_force_D_reference and "
                                           "beam_inertia_force_D_reference (reference block of 25), which the "
                                           "generated variant 'default_xy' does not hold yet")
+
+
+def test_a_hinge_torque_that_reads_a_controller_with_a_parameter_is_differentiated():
+    """The torque ``1e2*k*e2*1e-2`` (refused on 86d57d9, "a law that names a controller"; the number 1e2 reads no
+    controller): ∂τ/∂k = e2 at fixed output (tests/test_sensitivities_refusals_lifted2.py). Against
+    Richardson-extrapolated central differences of whole runs: measured angle 3.4e-10, rate 1.0e-8, tip_z 2.8e-10."""
+    data = yaml.safe_load(E2_ARM)
+    data["beams"]["arm"]["start"]["hinge"]["torque"] = "1e2*k*e2*1e-2"
+    sensitivities = latdyn.run(latdyn.load_scene(data)).sensitivities
+    del data["solve"]["sensitivities"]
+
+    def run(k):
+        moved = yaml.safe_load(yaml.safe_dump(data))
+        moved["parameters"]["k"] = k
+        return latdyn.run(latdyn.load_scene(moved))
+
+    central = []
+    for step in (3e-4, 1.5e-4):
+        up, down = run(3.0 + step), run(3.0 - step)
+        central.append({name: (up.probes[name] - down.probes[name]) / (2 * step) for name in up.probes})
+    for probe in ("angle", "rate", "tip_z"):
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        error = np.abs(sensitivities[(probe, "k")] - expected).max() / np.abs(expected).max()
+        assert error <= 1e-6, (probe, error)

@@ -52,7 +52,7 @@ from tests.test_sensitivities_rigid_links import GIMBAL, LATCH, STOP, TETHER
 
 #: the gimbal of rigid links with a bead on a skew guide fixed to its inner ring (a body that follows the links),
 #: held by a spring between rigid stops (e = 0.6), which it hits three times (t = 0.043, 0.117, 0.195 s) as the
-#: gimbal spins; the rates' probes left out (a point's velocity with guides is not differentiated)
+#: gimbal spins; the rates' probes left out (a point's velocity with guides: test_sensitivities_refusals_lifted2.py)
 BEAD_ON_GIMBAL = GIMBAL.replace("parameters: {k1: 6.0,", "parameters: {ks: 30.0, ms: 0.15, k1: 6.0,").replace(
     "  tip: {at: [1.0, 0.25, 0.55]",
     "  bead: {at: [0.5, -0.1, 0.4], mass: \"ms\", inertia: [0.0003, 0.0004, 0.0005],\n"

@@ -362,17 +362,12 @@ def test_the_work_and_energies_of_a_gimbal_agree_with_richardson_central_differe
     _agree(_run(WORKING), WORKING, name, tolerance=1e-6)
 
 
-@pytest.mark.parametrize("change, key, expected", [
-    (lambda d: d["output"]["probes"].update(T={"energy": "kinetic"}), "solve.sensitivities",
-     "a rigid link's own mass and inertia"),
-], ids=["energy-by-link-rho"])
-def test_energies_by_a_links_section_are_refused(change, key, expected):
+def test_energies_by_a_links_section_agree_with_richardson_central_differences():
     """Found in review: energies and momenta by a rigid link's ρ missed the link's own mass (kinetic energy
-    −0.145 against 0.038): refused until it is built. The adjoint's seeds of section forces, body frames and
-    energies, which missed the links' reduction (a root moment 2.30 against 0.163) and were refused here too, are
-    built now (tests/test_sensitivities_refusals_lifted.py)."""
-    data = yaml.safe_load(GIMBAL)
-    change(data)
-    with pytest.raises(SceneError) as refused:
-        latdyn.run(latdyn.load_scene(data))
-    assert refused.value.key == key and expected in str(refused.value)
+    −0.145 against 0.038): refused until 86d57d9, built since (energy_sensitivities._StateForms._link_blocks; the
+    whole case in tests/test_sensitivities_refusals_lifted2.py). The kinetic energy by the rings' rho against
+    Richardson-extrapolated central differences of whole runs (every probe): measured 1.3e-9. The adjoint's seeds of section
+    forces, body frames and energies, which missed the links' reduction (a root moment 2.30 against 0.163), are built
+    too (tests/test_sensitivities_refusals_lifted.py)."""
+    text = GIMBAL.replace("    tip_x:", "    T: {energy: kinetic}\n    tip_x:")
+    assert _agree(_run(text, "rho"), text, "rho", tolerance=1e-6) >= 0.0

@@ -51,7 +51,10 @@ as −skew(f) δx), so that the forward method contracts them with δq, δq̇ (:
 discrete adjoint seeds its rows with them (:func:`probe_forms`).
 
 What is refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``; under ``sensitivity_method:
-adjoint`` naming that key): energy and momentum probes with cables, geometry parameters — with guides they are
+adjoint`` naming that key): the external work and the dissipated energy with cables and any energy or momentum beside a
+reel (:func:`_cable_refusal`; a row's energies and momenta with cables are differentiated, :meth:`_StateForms._cables`,
+and by a rigid link's ρA, ρIy, ρIz, :meth:`_StateForms._link_blocks`), energy and momentum probes with geometry
+parameters — with guides they are
 computed as without (the external work of a prescribed motion too: its drive's reaction is the reduced residual's row
 of the prescribed coordinate, :func:`_drive_reactions`): a guided body is a dependent node of the links' reduction, its δq = J δq and
 its rates' δv_dep = J δv + ∂(J v)/∂q δq (latdyn/analyses/link_sensitivities.py ``dependent_rates``, the generated
@@ -125,22 +128,15 @@ def _why_not(scene, probe) -> str | None:
     quantity = probe.quantity
     if probe.kind == "energy" and quantity not in _ENERGIES:
         return f"the {quantity} energy is not differentiated (kinetic, strain, potential, external_work, dissipated, total are)"
-    if scene.cables:
-        return "energy and momentum sensitivities with cables are not computed yet"
+    why = _cable_refusal(scene, probe)
+    if why is not None:
+        return why
     guided = [name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None]
     for name in _solve_names(scene):
         used = next((u for u in scene.parameters.depending_on(name) if GEOMETRY_KEY.match(u)), None)
         if used is not None:
             return (f"parameter {name!r} places the structure ({used}): energy and momentum sensitivities by "
                     "geometry parameters are not computed yet")
-    links = [name for name, beam in scene.beams.items() if getattr(beam, "rigid", False)]
-    if links:
-        for name in _solve_names(scene):
-            used = next((u for u in scene.parameters.depending_on(name)
-                         if any(u.startswith(f"sections.{scene.beams[b].section.name}.") for b in links)), None)
-            if used is not None:
-                return (f"parameter {name!r} is a value of a rigid link's section ({used}): energy and momentum "
-                        "sensitivities by a rigid link's own mass and inertia are not computed yet")
     if probe.kind == "energy" and quantity in ("strain", "total"):
         for name in _solve_names(scene):
             used = next((u for u in scene.parameters.depending_on(name) if _STOP_EXPONENT.match(u)), None)
@@ -176,6 +172,25 @@ def _why_not(scene, probe) -> str | None:
                         "which depends on t (the event's time moves the power there), is not differentiated yet")
         if getattr(scene, "controllers", None):
             return "the external work with controllers is not differentiated yet"
+    return None
+
+
+def _cable_refusal(scene, probe) -> str | None:
+    """Why the energy or momentum ``probe`` is not differentiated beside ``scene``'s cables, or None: a row's energies
+    and momenta are (:meth:`_StateForms._cables`: the elements' strain energy, their lumped masses' kinetic and
+    potential energy and momenta as joint bodies' rows, by rhoA and the rest length too); the work accounts (external
+    work, dissipated energy: a reel's work, a damped element's dissipation, summed over the steps) and a reel's strain
+    energy (its rest length moves with t, and with an event's time) are not."""
+    if not scene.cables:
+        return None
+    if probe.kind == "energy" and probe.quantity in _ACCOUNTS:
+        return (f"the {probe.quantity.replace('_', ' ')} with cables (a reel's work, a damped element's dissipation) "
+                "is not differentiated yet (a row's kinetic, strain, potential and total energy and its momenta are)")
+    reel = next((name for name, cable in scene.cables.items() if not getattr(cable.rest_length, "is_constant", True)),
+                None)
+    if reel is not None:
+        return (f"energy and momentum sensitivities with a cable whose rest length depends on t (cables.{reel}."
+                "rest_length: its strain energy moves with t) are not computed yet; expected a constant rest length")
     return None
 
 
@@ -335,6 +350,8 @@ class _StateForms:
             self._bodies(state, *forms)
         if len(model.hinges):
             self._hinges(state, *forms)
+        if model.cables is not None and len(model.cables):
+            self._cables(state, forms[0], forms[2])
         self._last = (key, forms)
         return forms
 
@@ -460,6 +477,35 @@ class _StateForms:
                 explicit[0, column] += 0.5 * u[b] @ moved
                 explicit[3:6, column] += moved[0:3]
                 explicit[6:9, column] += np.cross(state.x[node], moved[0:3]) + moved[3:6]
+        for b, node, column, changed in self._link_blocks(state, block):   # a rigid link's ρA, ρIy, ρIz
+            moved = momentum_of(changed)[b]
+            explicit[2, column] += weight_of(changed)[b, 0:3] @ (state.x[node] + state.T[node] @ model.body_com[b])
+            explicit[0, column] += 0.5 * u[b] @ moved
+            explicit[3:6, column] += moved[0:3]
+            explicit[6:9, column] += np.cross(state.x[node], moved[0:3]) + moved[3:6]
+
+    def _link_blocks(self, state, block: np.ndarray) -> list:
+        """(body row, node, column, the joint bodies' block with that row's ∂(m, c, I)/∂p) of each use of a parameter
+        by a rigid link's section ρA, ρIy or ρIz: its joint body's mass and inertia move, linear in them at the link's
+        fixed centre of mass (``rigid_link_inertia`` of the section's derivative values, as
+        latdyn/analyses/link_sensitivities.py ``add_link_section_forces`` takes ∂r/∂p), so its kinetic and potential
+        energy and momenta move as a body's by its mass and inertia (:meth:`_bodies`)."""
+        from latdyn.analyses.link_sensitivities import link_section_uses
+        from latdyn.model.model import rigid_link_inertia
+
+        model = self.model
+        if model.links is None:
+            return []
+        out = []
+        for beam, b, node, value, laws in link_section_uses(self.owner):
+            for column, law in laws.items():
+                moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
+                moved[value] = law.value(0.0, 0.0, state.t)
+                mass, _, turning = rigid_link_inertia(beam, **moved)
+                changed = np.zeros_like(block)
+                changed[b, 0], changed[b, 1:4], changed[b, 4:13] = mass, model.body_com[b], turning.reshape(9)
+                out.append((b, node, column, changed))
+        return out
 
     def _hinges(self, state, by_q, by_rates, explicit) -> None:
         """The hinge springs' potential, as latdyn_energies counts it: ½ k s² of a constant k, and
@@ -527,6 +573,80 @@ class _StateForms:
                 changed[0, 2] = law.value(0.0, 0.0, state.t)
                 explicit[1, column] += float(np.asarray(self.kernels.hinge_force(
                     np.ascontiguousarray(at[i:i + 1]), nothing[:1], changed)[6]).reshape(-1)[0])
+
+    def _cables(self, state, by_q, explicit) -> None:
+        """The cables' forms: the strain energy U = ½ EA (ℓ − L0)²/L0 of each element latdyn_energies counts (held
+        taut, or stretched: csrc/evaluate.c ``cables``), ∂U/∂q = N_el ∂ℓ/∂q, the generated ``cable_force``'s residual rows
+        at c = 0,
+        ∂U/∂p = U/EA ∂EA/∂p + ∂U/∂L0 share ∂L/∂p (``cable_strain_energy``, ``reel_force`` of the same kernel); a cable's
+        lumped point masses (½ ρA L(0)/elements at each end of each element, joint bodies' rows appended by
+        latdyn/model/cables.py) are in :meth:`_bodies`' forms already, their masses' ∂m/∂p = ½ (∂ρA/∂p L(0) + ρA
+        ∂L(0)/∂p)/elements here, as a body's mass (kinetic, potential, momenta: linear in m at a fixed centre of
+        mass, the end's offset)."""
+        from latdyn.analyses.parameter_keys import CABLE_KEY
+        from latdyn.analyses.probe_derivatives import _cable_terms
+
+        model, kernels, owner = self.model, self.kernels, self.owner
+        terms = _cable_terms(owner)
+        cables = model.cables
+        taut = terms.taut(state)
+        uses = [(CABLE_KEY.match(key), laws) for key, laws in owner.derivatives.items() if CABLE_KEY.match(key)]
+        for e in range(len(cables)):
+            geometry, velocity, section = terms.inputs(state, e, c=0.0)
+            out = kernels.cable_force(*(np.ascontiguousarray(a[None]) for a in (geometry, velocity, section)))
+            stretch = float(np.asarray(out[3]).reshape(5)[2])
+            if not (taut[e] or stretch > 0.0):   # slack: latdyn_energies counts no strain energy
+                continue
+            a, b = (int(n) for n in cables.nodes[e])
+            dofs = np.concatenate([model.node_dofs[a], model.node_dofs[b]])
+            np.add.at(by_q[1], dofs, np.asarray(out[0]).reshape(12))   # the residual's rows: ∂U/∂q at c = 0
+            energy, by_rest = float(np.asarray(out[4]).reshape(-1)[0]), float(np.asarray(out[5]).reshape(-1)[0])
+            for match, laws in uses:
+                if cables.names.index(match["cable"]) != int(cables.cable[e]):
+                    continue
+                for column, law in laws.items():
+                    value = law.value(0.0, 0.0, state.t)
+                    if match["value"] == "EA":
+                        explicit[1, column] += energy / cables.EA[e] * value
+                    elif match["value"] == "rest_length":
+                        explicit[1, column] += by_rest * cables.share[e] * value
+        self._cable_masses(state, explicit, uses)
+
+    def _cable_masses(self, state, explicit, uses) -> None:
+        """∂m/∂p of the cables' lumped point masses (:meth:`_cables`) into ``explicit``: each as a body's mass."""
+        from latdyn.analyses.probe_derivatives import _cable_terms
+
+        model, kernels = self.model, self.kernels
+        rows = _cable_terms(self.owner).mass_rows
+        masses = [(match, laws) for match, laws in uses if match["value"] in ("rhoA", "rest_length")]
+        if not rows or not masses:
+            return
+        nodes = model.body_nodes
+        scene_cables = list(self.owner.scene.cables.values())
+        for match, laws in masses:
+            k = model.cables.names.index(match["cable"])
+            if k not in rows:
+                continue
+            cable = scene_cables[k]
+            for column, law in laws.items():
+                value = law.value(0.0, 0.0, 0.0)
+                rate = (value * cable.rest_length.value(0.0) if match["value"] == "rhoA"
+                        else cable.rhoA * value) / cable.elements
+                for b in rows[k]:
+                    node = nodes[b]
+                    frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
+                    u = np.concatenate([state.v[node], state.w[node]])
+                    changed = np.zeros((1, 13))
+                    changed[0, 0], changed[0, 1:4] = 0.5 * rate, model.body_com[b]
+                    moving = np.ascontiguousarray(np.concatenate([np.zeros(3), u])[None])
+                    moved = np.asarray(kernels.joint_body(frame, moving, changed, np.zeros((1, 3)))[0]).reshape(6)
+                    gravity = np.asarray(self.owner.assembler.gravity, float)[None]
+                    weight = np.asarray(kernels.joint_body(frame, np.zeros((1, 9)), changed,
+                                                           np.ascontiguousarray(gravity))[0]).reshape(6)
+                    explicit[2, column] += weight[0:3] @ (state.x[node] + state.T[node] @ model.body_com[b])
+                    explicit[0, column] += 0.5 * u @ moved
+                    explicit[3:6, column] += moved[0:3]
+                    explicit[6:9, column] += np.cross(state.x[node], moved[0:3]) + moved[3:6]
 
     def _spring_torques(self, theta, rest, stiffness) -> np.ndarray:
         """k s of every hinge (the generated ``hinge_force``'s spring torque, without contact)."""

@@ -45,8 +45,9 @@ stiffness, :func:`_link_masses`) and reduced, and the geometric term of each col
 added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
 differenced along w by the caller (:func:`exact_parameters` False): geometry parameters (no kernel holds ∂(K w)/∂X:
 ``beam_internal_force_D_reference`` is ∂F/∂X alone), a hinge law that names an input or a controller (its value is
-the runtime's), every parameter of a run whose state an event moved in time through a prescribed motion, a reel or
-a controller's output in t (:func:`time_generated`), and with rigid links or guides every parameter beside
+the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
+every parameter of a run whose state an event moved in time through a prescribed motion, a reel or a controller's
+output in t (:func:`time_generated`), and with rigid links or guides every parameter beside
 controllers, held angles or a time shift (their terms through the reduction are not separated).
 
 The weight's move along the rates, ∂(K w)/∂v δv, is not a parameter's part: latdyn/analyses/weight_derivative.py

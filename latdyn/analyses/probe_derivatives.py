@@ -44,7 +44,8 @@ prescribed node (:meth:`ReferenceGeometry.held_moves`) and a displacement's star
 are the global ones at t = 0).
 
 Refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): a point's velocity in a body frame in a
-static path or with guides (as in the global frame); by geometry parameters, a variant generated without
+static path (as in the global frame; beside guides it is taken: the guided body's rates are a dependent node's,
+latdyn/analyses/link_sensitivities.py ``dependent_rates``); by geometry parameters, a variant generated without
 ``beam_section_forces_D_reference`` (at run time, naming the variant to regenerate).
 """
 from __future__ import annotations
@@ -69,10 +70,6 @@ def refusal(scene, probe) -> str | None:
     if probe.kind == "point" and probe.quantity == "velocity":
         if scene.solve.analysis != "transient":
             return f"{what}: a velocity is differentiated in transient runs only"
-        guided = sorted(name for name, body in scene.bodies.items() if getattr(body, "guide", None) is not None)
-        if guided:
-            return (f"{what}: point velocities with guides (bodies.{guided[0]}.guide) are not differentiated yet "
-                    "(the dependent nodes' rates)")
     return None
 
 

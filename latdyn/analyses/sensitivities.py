@@ -70,7 +70,7 @@ guides' laws and cables' EA, damping, rest length and rhoA; probes other than po
 global frame, hinge angles and guide positions and, in transient runs, rates, point velocities and joint forces
 (latdyn/analyses/joint_force_sensitivities.py), element section forces, cable tensions and lengths and points in a
 body's frame (latdyn/analyses/probe_derivatives.py: static and transient; a body frame's velocity in transient
-runs without guides), and energies and momenta where latdyn/analyses/energy_sensitivities.py refuses them;
+runs), and energies and momenta where latdyn/analyses/energy_sensitivities.py refuses them;
 (rigid links and guides are differentiated
 through the reduction: latdyn/analyses/link_sensitivities.py). A static path does not apply rigid stops
 and latches (``limits`` without ``contact``, ``lock_at``: events of the time loop, docs/static_paths.md): its rows
@@ -183,9 +183,9 @@ def refusal(scene) -> SceneError | None:
                 return refused
             continue
         point = probe.kind == "point" and probe.quantity in ("position", "displacement") and probe.frame == "global"
-        # a point's velocity v + ω × T r: δv, δω carried by the transient step (a guided body's
-        # dependent nodes' velocities would need the projection's rate derivative: not yet)
-        velocity = (transient and not guided and probe.kind == "point" and probe.quantity == "velocity"
+        # a point's velocity v + ω × T r: δv, δω carried by the transient step (a guided body's or a rigid
+        # link's dependent node: P δv + ∂(J v)/∂q δq, latdyn/analyses/link_sensitivities.py dependent_rates)
+        velocity = (transient and probe.kind == "point" and probe.quantity == "velocity"
                     and probe.frame == "global")
         slide = probe.kind == "guide" and probe.quantity in ("position", "rate") and transient
         joint = probe.kind == "hinge" and (probe.quantity == "angle" or (transient and probe.quantity == "rate"))
@@ -203,7 +203,7 @@ def refusal(scene) -> SceneError | None:
                           "point positions and displacements in the global frame, hinge angles, element section "
                           "forces, cable tensions and lengths, points in a body's frame, energies and momenta and, in "
                           "transient runs, hinge "
-                          "rates and torques, guide positions, rates and forces, point velocities (without guides) and "
+                          "rates and torques, guide positions, rates and forces, point velocities and "
                           "controllers' outputs and states "
                           "are")
     rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
@@ -424,14 +424,18 @@ class ParameterDerivatives:
         # where the key uses the parameter
         self.derivatives: dict[str, dict[int, object]] = {}
         parsed: dict[str, object] = {}   # one law per derivative text (many parameters' derivatives read alike)
-        inputs = tuple(self.scene.inputs.names)   # held: a derivative law reads their current values
+        # held: a derivative law reads the inputs' current values and, a hinge's or guide's law that names a
+        # controller (transient runs), its output's at the state: ∂τ/∂p at fixed y, whose δy the step's matrix
+        # carries (the coupling ∂τ/∂y ∂y/∂s) and ControllerTerms its explicit part (∂τ/∂y dy/dp)
+        outputs = getattr(self.scene, "controller_outputs", None)
+        inputs = tuple(self.scene.inputs.names) + (tuple(outputs.names) if outputs is not None else ())
         for column, name in enumerate(self.names):
             for key in params.depending_on(name):
                 if _CONTROLLER_KEY.match(key):   # a law in the controller's sensors: ControllerTerms
                     continue
                 text = params.derivative(key, name, inputs)
                 if text not in parsed:
-                    with reading_inputs(self.scene.inputs):
+                    with reading_inputs(self.scene.inputs, outputs):
                         parsed[text] = parse_hinge_law(text, self.scene.file, key)
                 self.derivatives.setdefault(key, {})[column] = parsed[text]
         self._values_at: tuple[float, dict] = (float("nan"), {})
@@ -964,8 +968,8 @@ class ParameterDerivatives:
         """(δv, δω, δθ̇) of every node and hinge from the free-coordinate sensitivities of the rates ``dv``
         (n_dofs, k) — the transient step's carried δv: the rates are vectors (ω spatial), so δω is the
         derivative of ω's components. Free nodes and hinges; with ``dq`` and ``state`` the nodes that follow
-        rigid links too, P δv + ∂(J v)/∂q δq (:func:`latdyn.analyses.link_sensitivities.dependent_rates`;
-        a guided model's dependent nodes' rate probes are refused)."""
+        rigid links or guides too, P δv + ∂(J v)/∂q δq (:func:`latdyn.analyses.link_sensitivities.dependent_rates`:
+        a guided body's with the generated ``prismatic_link_edge_rates_D_q``)."""
         rates = self._on_free_nodes_and_hinges(dv)
         if self.model.links is not None and dq is not None and dv.shape[1]:
             dependent_rates(self, state, dq, dv, rates[0], rates[1])
@@ -1337,6 +1341,12 @@ def _sensed_force_laws(scene, probe) -> tuple:
     return (f"bodies.{probe.body}.guide.",), [joint.stiffness, joint.damping, joint.force]
 
 
+def _driven_joint_law(key: str) -> bool:
+    """Whether ``key`` is a hinge's torque or a guide's force (the laws a continuous controller drives as a y + b)."""
+    hinge, guide = _HINGE_KEY.match(key), _GUIDE_KEY.match(key)
+    return bool((hinge and hinge["law"] == "torque") or (guide and guide["law"] == "force"))
+
+
 class ControllerTerms:
     """∂r/∂p through continuous controllers (SCENE.md ``controllers`` without ``rate``) for transient
     sensitivities. A controller's output y = clip(f(t, s; p)) is a law of its sensors s (probes read at
@@ -1422,21 +1432,27 @@ class ControllerTerms:
                         "latch, a stop, a compliant stop's onset, a cable's change: the event time moves the states' "
                         "rates in t) are not computed yet; states whose rates do not name t are")
         return ControllerTerms.parameter_in_a_reading_law(scene, "expected the parameter inside the controller's "
-                                                                 "output instead")
+                                                                 "output, or in a hinge's torque or a guide's force, "
+                                                                 "instead", joint_laws=True)
 
     @staticmethod
-    def parameter_in_a_reading_law(scene, expected: str) -> str | None:
+    def parameter_in_a_reading_law(scene, expected: str, joint_laws: bool = False) -> str | None:
         """Why a parameter of ``solve.sensitivities`` used in a law that names a controller (a hinge torque,
         guide force or load component scaled by it, ``"k*(ctl)"``) keeps the sensitivities from being
-        computed, ending in ``expected``; or None. Its derivative names the controller, which the
-        derivative laws cannot read: transient runs take the parameter inside the controller's output
-        instead, static paths neither (seed 6 case 11 of the sensitivity fuzzer)."""
+        computed, ending in ``expected``; or None. With ``joint_laws`` (transient runs) a hinge's torque and a
+        guide's force are taken: τ = a y + b (latdyn/assembly/control.py), ∂τ/∂p = y ∂a/∂p + ∂b/∂p at fixed y is a
+        derivative law reading the controller's output at the state as the step's laws read it (the scene's
+        ``controller_outputs``: :class:`ParameterDerivatives`), y's own δy is the step's matrix's coupling a ∂y/∂s
+        and, for a parameter inside the output too, :meth:`add`'s a dy/dp; at an event the difference of the static
+        ∂r/∂p along w reads y at the moved states (``TransientSensitivities._controller_outputs_at``). A load
+        component's derivative law is one of t alone (:meth:`ParameterDerivatives._add_load_forces`) and a static
+        path runs no controller between its laws: both stay refused (seed 6 case 11 of the sensitivity fuzzer)."""
         if not getattr(scene, "controllers", None):
             return None
         readers = ControllerTerms._laws_naming(scene, set(scene.controllers))
         for name in scene.solve.sensitivities:
             for used in scene.parameters.depending_on(name):
-                if used in readers:
+                if used in readers and not (joint_laws and _driven_joint_law(used)):
                     written = scene.parameters.uses[used][0]
                     return (f"parameter {name!r} is used at {used}, a law that names a controller ({written!r}: "
                             f"a hinge torque, guide force or load component): {expected}")

@@ -118,6 +118,8 @@ the run.
 """
 from __future__ import annotations
 
+import contextlib
+
 from contextlib import nullcontext
 from pathlib import Path
 from types import SimpleNamespace
@@ -996,11 +998,32 @@ class TransientSensitivities(ParameterDerivatives):
             eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
 
             def static(moved):
-                return self.residual_derivatives(moved, 1.0, sections=linked, element_gravity=False)
+                with self._controller_outputs_at(moved):   # a derivative law naming a controller reads y there
+                    return self.residual_derivatives(moved, 1.0, sections=linked, element_gravity=False)
 
             moved = (static(assembler.advance(state, eta * w)) - static(assembler.advance(state, -eta * w))) / (2 * eta)
             out[:, ~exact] += moved[:, ~exact]
         return out
+
+    @contextlib.contextmanager
+    def _controller_outputs_at(self, moved):
+        """Within the block the scene's controller outputs are the continuous controllers' at ``moved``
+        (``latdyn_controller_outputs_at``), put back after it, where a parameter's derivative law names a controller
+        (a hinge torque or guide force ``Kt*pd``: ∂τ/∂p = pd at fixed output, whose move along w, ∂y/∂q w, the
+        difference of the static ∂r/∂p in :meth:`_stiffness_derivative` then holds; left at the step's outputs it
+        was 1.8e-7 of the angle off Richardson differences after a rigid stop)."""
+        outputs = getattr(self.scene, "controller_outputs", None)
+        named = set(outputs.names) if outputs is not None else set()
+        if not named or not any(named & set(getattr(law, "input_names", ()))
+                                for laws in self.derivatives.values() for law in laws.values()):
+            yield
+            return
+        held = outputs.values.copy()
+        self.assembler.native(True).controller_outputs_at(moved)
+        try:
+            yield
+        finally:
+            outputs.values[:] = held
 
     def _linked_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
         """(∂K/∂p) w (n, k) with rigid links or guides (no controllers, held angles or time shift: their terms are in
