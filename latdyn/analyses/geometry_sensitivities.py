@@ -36,11 +36,22 @@ gains T δr), a displacement's reference with δX + δr; a load there by the gen
 machinery of latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's
 ∂/∂p from ∂r/∂p).
 
+Beside rigid links and guides (:func:`_linked_refusal`) a parameter is taken where it moves each rigid link and each
+guided body together with the part it hangs from (a rigid translation of every linked subtree, or none): the links'
+and guides' reference geometry (an edge's o, b and a, latdyn/model/links.py; a link's inertia; a closure's data) is
+then that of p, and so are the reduction's J and Pᵀ (translation-invariant). A dependent node moves with its root: at
+a fixed state by nothing where the root is free (its position is the coordinates'), by the root's δX where the root is
+fixed or prescribed (:attr:`ReferenceGeometry.held`: such a node's reference point in the elements' variations, in
+:meth:`ReferenceGeometry.held_moves`); its δX of the start is its root's (:attr:`ReferenceGeometry.node_moves`, a
+displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX.
+
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
-hinge angle: the velocities they carry into the structure at t = 0 move with its points), rigid links,
-guides, cables, controllers, arc length (its first step's length moves with ∂K/∂p, not generated), a
+hinge angle: the velocities they carry into the structure at t = 0 move with its points), a parameter that moves a
+rigid link's or a guide's own geometry (a link's length or direction, an end's offset, its y_axis or hinge axes, a
+slider-crank's closed loop, a guide's origin on its body: the reduction's ∂J/∂X is not generated), guides beside a
+given initial_velocity.angular (the slides' initial rates move with the points), cables, controllers, arc length (its first step's length moves with ∂K/∂p, not generated), a
 kernel variant generated without the reference derivatives; the discrete adjoint refuses geometry
 parameters (latdyn/analyses/sensitivities.py ``adjoint_refusal``).
 """
@@ -51,7 +62,7 @@ import re
 import numpy as np
 
 from latdyn.analyses.parameter_keys import has_events, laws_naming
-from latdyn.model.model import FIXED, FREE, PRESCRIBED
+from latdyn.model.model import DEPENDENT, FIXED, FREE, PRESCRIBED
 
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "model_refusal", "ReferenceGeometry"]
 
@@ -91,14 +102,90 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
         return (f"{where}: with a prescribed translation ({moving[0]}) driving a closed loop with free joints, the "
                 "joint rates that close the loop at t = 0 move with the points (latdyn/assembly/initial.py), which "
                 "is not differentiated yet")
-    if any(beam.rigid for beam in scene.beams.values()) or any(b.guide is not None for b in scene.bodies.values()):
-        return f"{where}: geometry sensitivities with rigid links or guides are not computed yet"
+    why = _linked_refusal(scene, name)
+    if why is not None:
+        return f"{where}: {why}"
     if scene.cables:
         return f"{where}: geometry sensitivities with cables (their attachment points move) are not computed yet"
     if getattr(scene, "controllers", None):
         why = _controllers_refusal(scene)
         if why is not None:
             return f"{where}: geometry sensitivities with controllers {why} are not computed yet"
+    return None
+
+
+def _scene_moves(scene, name: str) -> dict:
+    """The moves by ``name`` of the numbers that place the structure, from the scene alone: {"at": {body: δat},
+    "point": {(beam, side): δ(grid point)}, "offset": {(beam, side): δoffset}, "y": {beam: δy_axis},
+    "axis": {(beam, end): δaxis}} (side "from"/"to", end "start"/"end"; a grid point at a body moves with its
+    ``at`` and its offset, a free one with its ``from``/``to``)."""
+    moves = {"at": {}, "point": {}, "offset": {}, "y": {}, "axis": {}, "free": {}}
+    for key in scene.parameters.depending_on(name):
+        m = GEOMETRY_KEY.match(key)
+        if m is None:
+            continue
+        slope, axis = _slope(scene, key, name), int(m["axis"])
+        if m["body"] is not None:
+            target = moves["at"].setdefault(m["body"], np.zeros(3))
+        elif m["y"] is not None:
+            target = moves["y"].setdefault(m["beam"], np.zeros(3))
+        elif m["hinge"] is not None:
+            target = moves["axis"].setdefault((m["beam"], m["hinge"]), np.zeros(3))
+        else:
+            target = moves["offset" if m["offset"] else "free"].setdefault((m["beam"], m["side"]), np.zeros(3))
+        target[axis] += slope
+    for beam in scene.beams.values():
+        for side, end in (("from", beam.start), ("to", beam.end)):
+            moved = (moves["at"].get(end.body, np.zeros(3)) + moves["offset"].get((beam.name, side), np.zeros(3))
+                     if end.body is not None else moves["free"].get((beam.name, side), np.zeros(3)))
+            moves["point"][(beam.name, side)] = moved
+    return moves
+
+
+def _linked_refusal(scene, name: str) -> str | None:
+    """Why the geometry parameter ``name`` is not exact beside rigid links and guides (a phrase), or None. Taken:
+    a parameter that moves each rigid link and each guided body together with the part it hangs from (a rigid
+    translation of every linked subtree, or none), so that no link's or guide's reference geometry — a link's
+    offset from its parent body (o), its arm (b) and length, its hinge axes and inertia, a guide's origin on the
+    body it slides on — moves with it: the reduction's J, its closure equations and the links' bodies are then
+    those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). The moves of that reference
+    geometry (∂J/∂X and the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
+    rigid = [beam for beam in scene.beams.values() if beam.rigid]
+    guided = [body for body in scene.bodies.values() if body.guide is not None]
+    if not (rigid or guided):
+        return None
+    moves = _scene_moves(scene, name)
+    unmoved = np.zeros(3)
+    if guided and np.any(np.asarray(scene.initial_velocity.angular, float) != 0.0):
+        return ("with guides and a given initial_velocity.angular, the slides' initial rates move with the points, "
+                "which is not differentiated yet")
+    closing = {beam.end.body for beam in rigid if beam.end.body is not None and
+               scene.bodies[beam.end.body].guide is not None}
+    for beam in rigid:
+        start, end = moves["point"][(beam.name, "from")], moves["point"][(beam.name, "to")]
+        what = None
+        if np.any(end != start):
+            what = "its length or direction (its end points moved apart)"
+        elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in ("from", "to")):
+            what = "an end's offset (the link's point on its parent body)"
+        elif np.any(moves["y"].get(beam.name, unmoved) != 0.0):
+            what = "its y_axis (its inertia's axes)"
+        elif any(np.any(moves["axis"].get((beam.name, end), unmoved) != 0.0) for end in ("start", "end")):
+            what = "a hinge axis"
+        elif beam.end.body in closing and np.any(start != 0.0):
+            what = "the slider-crank loop it closes (its pin or slider moved)"
+        if what is not None:
+            return (f"it moves the rigid link {beam.name!r}'s reference geometry ({what}): geometry sensitivities "
+                    "that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not computed yet; "
+                    "taken: a parameter that moves each rigid link with the part it hangs from")
+    for body in guided:
+        parent = moves["at"].get(body.guide.on, unmoved) if body.guide.on is not None else unmoved
+        moved = moves["at"].get(body.name, unmoved)
+        if np.any(moved != parent) or (body.name in closing and np.any(moved != 0.0)):
+            on = repr(body.guide.on) if body.guide.on is not None else "the ground"
+            return (f"it moves the guide of {body.name!r} relative to {on} (the guide's origin): geometry "
+                    "sensitivities that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not "
+                    "computed yet; taken: a parameter that moves each guided body with the part it slides on")
     return None
 
 
@@ -251,6 +338,13 @@ class ReferenceGeometry:
                     uses.setdefault(column, {})[key] = float(law.value(0.0, 0.0, 0.0))
         self._refuse_without_kernels()
         n_nodes, n_elements = len(model.nodes), len(model.element_nodes)
+        #: the nodes no coordinate carries: fixed and prescribed ones (x = at + translation(t)) and the dependent
+        #: nodes of rigid links and guides whose root is one (they move with it: :func:`_linked_refusal`)
+        links = model.links
+        roots = links.root if links is not None else {}
+        self.held = np.array([node.kind in (FIXED, PRESCRIBED) or (
+            node.kind == DEPENDENT and model.nodes[roots[i]].kind in (FIXED, PRESCRIBED))
+            for i, node in enumerate(model.nodes)], bool)
         #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, WIDTH, k) less the
         #: parts that depend on the state (ψ, δo and δh are in node axes here: φ, δr_g and δa), δr_g of the
         #: beams' ends
@@ -302,6 +396,11 @@ class ReferenceGeometry:
         for body, moved in body_at.items():
             self.node_moves[model.body_node[body], :, column] += moved
         for beam in scene.beams.values():
+            if beam.rigid:   # its link node: free at a free start point, else it follows its parent (below)
+                if beam.start.body is None:
+                    self.node_moves[model.beam_nodes[beam.name][0], :, column] = end_point.get(
+                        (beam.name, "from"), np.zeros(3))
+                continue
             grid = []
             for side, end in (("from", beam.start), ("to", beam.end)):
                 offset = end_offset.get((beam.name, side), np.zeros(3))
@@ -335,8 +434,12 @@ class ReferenceGeometry:
             v[0, 6:9] = end_offset.get((beam.name, "from"), np.zeros(3))
             v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
             self.variations[elements, :, column] = v
-        # the fixed and prescribed ends' reference points (x = at + translation(t)); a free node's is the state's
-        fixed = np.array([node.kind in (FIXED, PRESCRIBED) for node in model.nodes], bool)
+        if model.links is not None:   # a dependent node moves with its parent (_linked_refusal: edges unmoved)
+            for edge in model.links.edges:
+                self.node_moves[edge.child, :, column] = self.node_moves[edge.parent, :, column]
+        # the held ends' reference points (x = at + translation(t), and the links that follow them); a free
+        # node's, and a dependent node's on a free root, is the state's
+        fixed = self.held
         for end in (0, 1):
             ends = model.element_nodes[:, end]
             self.variations[:, 3 * end:3 * end + 3, column] = np.where(
@@ -394,8 +497,9 @@ class ReferenceGeometry:
 
     def held_moves(self, node: int) -> np.ndarray:
         """(3, k): δX of ``node`` where no coordinate carries it — a fixed or prescribed node (x = at +
-        translation(t)) moves with its ``at`` at a fixed state —, zero for a node whose position is the state's."""
-        if self.model.nodes[node].kind in (FIXED, PRESCRIBED):
+        translation(t)) moves with its ``at`` at a fixed state, and a dependent node of rigid links or guides with
+        its fixed or prescribed root (:attr:`held`) —, zero for a node whose position is the state's."""
+        if self.held[node]:
             return self.node_moves[node]
         return np.zeros((3, self.k))
 

@@ -1,0 +1,127 @@
+"""Geometry parameters beside rigid links and guides (issue 34; latdyn/analyses/geometry_sensitivities.py
+``_linked_refusal``, docs/parameters.md "Geometry parameters").
+
+Taken: a parameter that moves each rigid link and each guided body together with the part it hangs from — a rigid
+translation of every linked subtree, or none — while it moves flexible beams' ends: the links' and guides' reference
+geometry (o, b, a, a guide's origin, a link's inertia) and so the reduction's J and closure equations are those of p; a
+dependent node moves with its root (the state's where the root is free, δX of the root where it is fixed or
+prescribed: ``ReferenceGeometry.held``). Each case was refused on 86d57d9 ("geometry sensitivities with rigid links or
+guides are not computed yet") and is checked against Richardson-extrapolated central differences of whole runs
+(≤ 1e-6 of each probe's largest), through the API and the CLI (to the bit), the loop of steps on and off (to the bit).
+A parameter that moves a link's or a guide's own geometry (a ring's offset, a hinge point, a guide's origin) stays
+refused, naming the link or the guided body."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from latdyn.errors import SceneError
+from tests.cli_runs import latdyn_run
+from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
+from tests.test_sensitivities_events import _run as _api_run
+from tests.test_sensitivities_guide_energies import _agree
+from tests.test_sensitivities_guides import GUIDE_3D
+from tests.test_sensitivities_rigid_links import GIMBAL
+
+#: the gimbal of rigid links on skew hinges (spinning at the start) with its fixed base, both rings and the boom's root
+#: placed along the skew direction (1, 0.5, −0.3) by X, the boom's tip left where it is: X moves the flexible boom's
+#: length and frame, the links' dependent nodes with their fixed root (held: δX at a fixed state)
+GIMBAL_PLACED = GIMBAL.replace("parameters: {k1: 6.0,", "parameters: {X: 0.1, k1: 6.0,").replace(
+    "base: {at: [0, 0, 0], fixed: true}", 'base: {at: ["X", "0.5*X", "-0.3*X"], fixed: true}').replace(
+    "outer: {at: [0.3, 0.1, 0.2],", 'outer: {at: ["0.3 + X", "0.1 + 0.5*X", "0.2 - 0.3*X"],').replace(
+    "inner: {at: [0.45, -0.05, 0.35],", 'inner: {at: ["0.45 + X", "-0.05 + 0.5*X", "0.35 - 0.3*X"],').replace(
+    "sensitivities: [k1, m, P, EI, rho]", "sensitivities: [X, k1]")
+#: the same gimbal with its boom's tip placed by Y (a free body at a flexible beam's end beside the links)
+GIMBAL_TIP = GIMBAL.replace("parameters: {k1: 6.0,", "parameters: {Y: 0.25, k1: 6.0,").replace(
+    "tip: {at: [1.0, 0.25, 0.55],", 'tip: {at: [1.0, "Y", "0.3 + Y"],').replace(
+    "sensitivities: [k1, m, P, EI, rho]", "sensitivities: [Y, m]")
+#: the mass on a skew guide at the tip of a flexible arm under gravity, the tip and the slider on it placed by L (the
+#: arm's length; the guide's origin on the tip unmoved): the guided body's root, the tip, is free
+GUIDE_PLACED = GUIDE_3D.replace("parameters: {k: 40.0,", "parameters: {L: 1.0, k: 40.0,").replace(
+    "tip: {at: [0.6666666666666666, 0.3333333333333333, 0.6666666666666666],",
+    'tip: {at: ["0.6666666666666666*L", "0.3333333333333333*L", "0.6666666666666666*L"],').replace(
+    "slider: {at: [0.7, 0.35, 0.7],",
+    'slider: {at: ["0.6666666666666666*L + 0.0333333333333333", "0.3333333333333333*L + 0.0166666666666667", '
+    '"0.6666666666666666*L + 0.0333333333333333"],').replace("sensitivities: [k, m, EI, rest]", "sensitivities: [L, k]")
+for _scene in (GIMBAL_PLACED, GIMBAL_TIP, GUIDE_PLACED):
+    assert _scene.count('"') >= 6 and "sensitivities: [" in _scene
+assert '"0.3 + X"' in GIMBAL_PLACED and '"0.3 + Y"' in GIMBAL_TIP and '"0.6666666666666666*L"' in GUIDE_PLACED
+
+
+@pytest.mark.parametrize("text, name", [(GIMBAL_PLACED, "X"), (GIMBAL_TIP, "Y"), (GUIDE_PLACED, "L")],
+                         ids=["gimbal-placed", "gimbal-tip", "guide-placed"])
+def test_a_geometry_parameter_beside_links_and_guides_agrees_with_richardson(text, name):
+    """Refused on 86d57d9. Measured (every probe over the rows, relative to its largest): see docs/performance.md
+    "Geometry parameters with rigid links and guides (issue 34)"."""
+    assert _agree(_api_run(text, name), text, name) <= 1e-6
+
+
+@pytest.mark.parametrize("text", [GIMBAL_PLACED, GUIDE_PLACED], ids=["gimbal-placed", "guide-placed"])
+def test_the_loop_of_steps_gives_the_per_step_paths_sensitivities(text):
+    """The runs with the sensitivities' loop of steps on and off: every column, the probe sensitivities, to the bit; the
+    loop took every step (30 and 80)."""
+    runs = runs_with_the_loop_on_and_off(text)
+    assert_same_sensitivities(runs[True], runs[False], nonzero="some", in_loop_but=0)
+
+
+def test_the_placed_gimbal_through_the_cli_equals_the_api(tmp_path):
+    """``latdyn run`` of GIMBAL_PLACED as typed: sensitivities.csv's columns and summary.json's probe sensitivities
+    those of ``latdyn.run`` on the same text (to the bit)."""
+    import json
+
+    run, out = latdyn_run(tmp_path, GIMBAL_PLACED)
+    assert run.returncode == 0, run.stderr
+    api = latdyn.run(latdyn.load_scene(yaml.safe_load(GIMBAL_PLACED)))
+    assert json.loads((out / "summary.json").read_text())["probe_sensitivities"] == api.summary["probe_sensitivities"]
+    rows = [line.split(",") for line in (out / "sensitivities.csv").read_text().splitlines()]
+    for column in ("tip_x/X", "vo/X", "a2/X", "a1/k1"):
+        at = rows[0].index(column)
+        assert np.array_equal([float(row[at]) for row in rows[1:]], api.sensitivities[tuple(column.split("/"))])
+
+
+#: what stays refused: the outer ring placed alone (gim1's length and gim2's hinge point on it move), the inner ring's
+#: hinge axis, the slider placed alone on the tip (the guide's origin), the whole arm with a spin and a guide
+@pytest.mark.parametrize("text, expected", [
+    (GIMBAL.replace("outer: {at: [0.3, 0.1, 0.2],", 'outer: {at: ["X", 0.1, 0.2],').replace(
+        "parameters: {k1", "parameters: {X: 0.3, k1").replace("sensitivities: [k1,", "sensitivities: [X, k1,"),
+     "rigid link 'gim1'"),
+    (GIMBAL.replace("axis: [1.0, -0.4, 0.3]", 'axis: [1.0, "X", 0.3]').replace(
+        "parameters: {k1", "parameters: {X: -0.4, k1").replace("sensitivities: [k1,", "sensitivities: [X, k1,"),
+     "rigid link 'gim2'"),
+    (GUIDE_3D.replace("slider: {at: [0.7, 0.35, 0.7],", 'slider: {at: ["X", 0.35, 0.7],').replace(
+        "parameters: {k", "parameters: {X: 0.7, k").replace("sensitivities: [k,", "sensitivities: [X, k,"),
+     "the guide of 'slider' relative to 'tip'"),
+    (GUIDE_PLACED.replace("solve:", "initial_velocity: {angular: [0, 0, 1.0]}\nsolve:"), "initial_velocity.angular"),
+], ids=["ring-offset", "hinge-axis", "guide-origin", "spin-with-guide"])
+def test_what_moves_a_links_or_guides_geometry_stays_refused(tmp_path, text, expected):
+    """Named (the link or the guided body, what moves), through the API (SceneError naming solve.sensitivities) and
+    the CLI (exit 2, no traceback)."""
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert refused.value.key == "solve.sensitivities" and expected in str(refused.value), str(refused.value)
+    run, _ = latdyn_run(tmp_path, text)
+    assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
+
+
+#: GIMBAL_PLACED statically under gravity (load control, 3 steps), without its spin and its rate probes
+STATIC_PLACED = "\n".join(line for line in GIMBAL_PLACED.replace(
+    "solve: {analysis: transient, dt: 0.01, t_end: 0.3, sensitivities: [X, k1]}",
+    "gravity: [0, 0, -9.81]\nsolve: {analysis: static, method: load-control, steps: 3, sensitivities: [X, k1]}").replace(
+    "initial_velocity: {angular: [0.5, -0.3, 2.0]}\n", "").splitlines()
+    if not line.lstrip().startswith(("vo:", "vi:", "r2:"))) + "\n"
+assert "method: load-control" in STATIC_PLACED and "angular" not in STATIC_PLACED and "vo:" not in STATIC_PLACED
+
+
+def test_the_placed_gimbal_under_gravity_agrees_with_richardson_on_a_static_path():
+    """Load control: every row's sensitivities by X against Richardson-extrapolated central differences of whole static
+    runs (1e-3 and 5e-4 of X), relative to each probe's largest. Measured 2.9e-10 (the first ring's angle)."""
+    result = _api_run(STATIC_PLACED, "X")
+    central = []
+    for step in (1e-4, 5e-5):
+        up, down = _api_run(STATIC_PLACED, "X", X=0.1 + step), _api_run(STATIC_PLACED, "X", X=0.1 - step)
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
+    for probe in central[0]:
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        assert np.abs(result.sensitivities[(probe, "X")] - expected).max() <= 1e-6 * np.abs(expected).max(), probe
