@@ -20,9 +20,11 @@ import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
+from tests.test_sensitivities_events import _agree as _event_agree
 from tests.test_sensitivities_events import _run as _api_run
 from tests.test_sensitivities_guide_energies import _agree
 from tests.test_sensitivities_guides import GUIDE_3D
+from tests.test_sensitivities_refusals_lifted import PLACED_AXIAL, PLACED_PD
 from tests.test_sensitivities_rigid_links import GIMBAL
 
 #: the gimbal of rigid links on skew hinges (spinning at the start) with its fixed base, both rings and the boom's root
@@ -125,3 +127,44 @@ def test_the_placed_gimbal_under_gravity_agrees_with_richardson_on_a_static_path
     for probe in central[0]:
         expected = (4 * central[1][probe] - central[0][probe]) / 3
         assert np.abs(result.sensitivities[(probe, "X")] - expected).max() <= 1e-6 * np.abs(expected).max(), probe
+
+
+#: controllers reading points that a geometry parameter moves at a fixed state: the 3D arm's hinge PD also reading the
+#: knee's displacement along x (X places the knee: the displacement's reference moves by δX); the arm's axial-force
+#: feedback reading its tip's height instead of the hinge (b's free end: its position is the state's, so its explicit
+#: part is nothing); the placed gimbal's inner hinge driven by a PD of the outer ring's height (a node that follows the
+#: links from the fixed base: it moves by the base's δX at a fixed state)
+PD_KNEE = PLACED_PD.replace('"Kp*(ref - hinge) - Kd*rate + ff*ref"', '"Kp*(ref - hinge) - Kd*rate + ff*ref - 30*kx"').replace(
+    "    rate: {hinge: b.start, quantity: rate}\n",
+    "    rate: {hinge: b.start, quantity: rate}\n    kx: {point: knee, quantity: displacement, component: x}\n")
+AXIAL_TIP = PLACED_AXIAL.replace('"-Ka*ax - 2*hinge"', '"-Ka*ax - 2*tip_z"')
+GIMBAL_PD = GIMBAL_PLACED.replace('damping: "c2"}}}', 'damping: "c2", torque: "pd"}}}').replace(
+    "solve:", 'controllers:\n  pd: {output: "-3*(outer_y - 0.15) - 0.5*a2"}\nsolve:')
+assert "30*kx" in PD_KNEE and "2*tip_z" in AXIAL_TIP and "outer_y - 0.15" in GIMBAL_PD
+
+
+@pytest.mark.parametrize("text", [PD_KNEE, AXIAL_TIP, GIMBAL_PD], ids=["pd-knee-displacement", "axial-tip-height",
+                                                                       "gimbal-pd-ring-height"])
+def test_a_controller_reading_a_placed_point_agrees_with_richardson(text):
+    """Refused on 86d57d9 ("reading point probes"). The point's ∂s/∂X at a fixed state (its probe's explicit part,
+    ReferenceGeometry.point_moves) through ∂f/∂s (ControllerTerms.sensed_force_slopes); the per-step path (the loop of
+    steps refuses it, naming the point). Measured: the knee's displacement 2.1e-8, the tip's height 3.7e-9, the gimbal's ring 2.8e-8; without
+    the point's ∂s/∂X 15.1 and 0.50 off (the tip's the same: nothing)."""
+    result = _api_run(text, "X")
+    assert result.summary["sensitivity_steps_in_loop"] == 0
+    assert _agree(result, text, "X") <= 1e-6
+
+
+#: the placed gimbal's inner ring latching at −0.1 rad (t = 0.2558 s)
+LATCH_PLACED = GIMBAL_PLACED.replace('damping: "c2"}}}', 'damping: "c2", lock_at: -0.1}}}').replace(
+    "t_end: 0.3", "t_end: 0.4")
+assert "lock_at: -0.1" in LATCH_PLACED
+
+
+def test_a_latch_on_the_placed_gimbal_agrees_with_richardson():
+    """Refused on 86d57d9. The latch's time and every probe over the rows by X against Richardson-extrapolated central
+    differences of whole runs (tests/test_sensitivities_events.py ``_agree``: the event time to 1e-7 relative). Measured
+    3.5e-8 (a rigid stop there instead, four impacts, 1.5e-8: not run here)."""
+    result = _api_run(LATCH_PLACED, "X")
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    assert _event_agree(result, LATCH_PLACED, "X") <= 1e-6

@@ -193,10 +193,12 @@ def _controllers_refusal(scene) -> str | None:
     """What of ``scene``'s controllers keeps geometry sensitivities from being exact (a phrase completing "with
     controllers …"), or None. Taken: continuous controllers without states, in transient runs without events, that read section
     forces (their ∂S/∂X from the generated ``beam_section_forces_D_reference`` through ∂f/∂s:
-    latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), hinge and guide angles and rates (free
-    coordinates: no reference in them), inputs and earlier controllers, and drive hinge torques or guide forces (a
-    joint's coordinate: no reference either). Other sensors (points, whose displacement and offsets hold the reference;
-    cables, joint forces), actuators (loads, placed at points) and static paths are not differentiated by geometry yet."""
+    latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), points' positions and displacements
+    (their ∂s/∂X at a fixed state the probe's explicit part, :meth:`ReferenceGeometry.point_moves`, through ∂f/∂s
+    alike: ``sensitivities.is_placed_point``), hinge and guide angles and rates (free coordinates: no reference in
+    them), inputs and earlier controllers, and drive hinge torques or guide forces (a joint's coordinate: no reference
+    either). Other sensors (points' velocities, cables, joint forces), actuators (loads, placed at points) and static
+    paths are not differentiated by geometry yet."""
 
     controllers = scene.controllers
     if scene.solve.analysis != "transient":
@@ -210,9 +212,10 @@ def _controllers_refusal(scene) -> str | None:
             if probe is None:   # an input or an earlier controller
                 continue
             joint = probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate")
-            if not (joint or probe.kind == "element"):
-                return (f"reading {probe.kind} probes ({c.name} reads {read!r}: section forces, joint angles and rates "
-                        "are taken)")
+            point = probe.kind == "point" and probe.quantity in ("position", "displacement")
+            if not (joint or point or probe.kind == "element"):
+                return (f"reading {probe.kind} probes ({c.name} reads {read!r}: section forces, joint angles and rates, "
+                        "points' positions and displacements are taken)")
     for key in laws_naming(scene, set(controllers)):
         if not (key.endswith(".hinge.torque") or key.endswith(".guide.force")):
             return f"driving {key} (hinge torques and guide forces are taken)"
