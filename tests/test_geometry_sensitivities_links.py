@@ -24,6 +24,7 @@ from tests.test_sensitivities_events import _agree as _event_agree
 from tests.test_sensitivities_events import _run as _api_run
 from tests.test_sensitivities_guide_energies import _agree
 from tests.test_sensitivities_guides import GUIDE_3D
+from tests.test_sensitivities_in_loop_controller_reads import ARM_TORQUE
 from tests.test_sensitivities_refusals_lifted import PLACED_AXIAL, PLACED_PD
 from tests.test_sensitivities_rigid_links import GIMBAL
 
@@ -168,3 +169,39 @@ def test_a_latch_on_the_placed_gimbal_agrees_with_richardson():
     result = _api_run(LATCH_PLACED, "X")
     assert [e["kind"] for e in result.summary["events"]] == ["latch"]
     assert _event_agree(result, LATCH_PLACED, "X") <= 1e-6
+
+
+#: a free joint's torque as the sensor and a load as the actuator beside a geometry parameter: the placed gimbal's inner
+#: hinge driven by a PD of the outer hinge's spring torque (a law of θ: no reference in it); the 3D arm's hinge torque
+#: read by a clipped controller that drives a load at the second beam's free end (its offset unmoved), the knee placed
+#: by X
+GIMBAL_TORQUE = GIMBAL_PLACED.replace('damping: "c2"}}}', 'damping: "c2", torque: "pd"}}}').replace(
+    "solve:", 'controllers:\n  pd: {output: "-0.8*tq1 - 0.5*a2"}\nsolve:').replace(
+    "    a1: {hinge: gim1.start, quantity: angle}\n",
+    "    a1: {hinge: gim1.start, quantity: angle}\n    tq1: {hinge: gim1.start, quantity: torque}\n")
+TORQUE_TO_LOAD = ARM_TORQUE.replace("parameters: {E: 1.0,", "parameters: {X: 1.0, E: 1.0,").replace(
+    "knee: {at: [1, 0, 0]", "knee: {at: [X, 0, 0]").replace("sensitivities: [E, F, Kt]", "sensitivities: [X, Kt]")
+assert "0.8*tq1" in GIMBAL_TORQUE and "at: [X, 0, 0]" in TORQUE_TO_LOAD and "[X, Kt]" in TORQUE_TO_LOAD
+
+
+@pytest.mark.parametrize("text", [GIMBAL_TORQUE, TORQUE_TO_LOAD], ids=["gimbal-torque-sensor", "torque-to-load"])
+def test_a_joint_force_sensor_and_a_load_actuator_beside_geometry(text):
+    """Refused on 86d57d9 ("reading hinge probes", "driving loads[2]…"). Against Richardson-extrapolated central
+    differences of whole runs (measured 2.1e-8 and 1.9e-8), and the loop of steps (every step) to the bit with the
+    per-step path."""
+    runs = runs_with_the_loop_on_and_off(text)
+    assert_same_sensitivities(runs[True], runs[False], nonzero="each", in_loop_but=0)
+    assert _agree(runs[True], text, "X") <= 1e-6
+
+
+def test_a_load_actuator_at_a_moved_offset_stays_refused(tmp_path):
+    """TORQUE_TO_LOAD with its actuated load at the first beam's end, whose offset on the knee X moves (the load's arm
+    moves with X and its values are the controller's: not differentiated there), named through the API and the CLI."""
+    text = TORQUE_TO_LOAD.replace("a: {from: base, to: knee,", 'a: {from: base, to: {body: knee, offset: [0, 0, "0.05*X"]},')
+    text = text.replace('- {at: b.end, force: [0, "0.3*relief"', '- {at: a.end, force: [0, "0.3*relief"')
+    assert "0.05*X" in text and 'at: a.end, force: [0, "0.3*relief"' in text
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert refused.value.key == "solve.sensitivities" and "a load at an end whose offset" in str(refused.value)
+    run, _ = latdyn_run(tmp_path, text)
+    assert run.returncode == 2 and "loads[2]" in run.stderr and "Traceback" not in run.stderr

@@ -196,9 +196,11 @@ def _controllers_refusal(scene) -> str | None:
     latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), points' positions and displacements
     (their ∂s/∂X at a fixed state the probe's explicit part, :meth:`ReferenceGeometry.point_moves`, through ∂f/∂s
     alike: ``sensitivities.is_placed_point``), hinge and guide angles and rates (free coordinates: no reference in
-    them), inputs and earlier controllers, and drive hinge torques or guide forces (a joint's coordinate: no reference
-    either). Other sensors (points' velocities, cables, joint forces), actuators (loads, placed at points) and static
-    paths are not differentiated by geometry yet."""
+    them), free joints' torques and forces (:func:`_free_joint_force`: laws of θ, θ̇, t), inputs and earlier
+    controllers, and drive hinge torques or guide forces (a joint's coordinate: no reference either) or loads at points
+    whose offset no parameter moves (their nodes' rows, as without geometry). Other sensors (points' velocities, cables,
+    prescribed or frictional joints' forces), loads at a moved offset (its arm moves, its values are the controller's)
+    and static paths are not differentiated by geometry yet."""
 
     controllers = scene.controllers
     if scene.solve.analysis != "transient":
@@ -213,15 +215,41 @@ def _controllers_refusal(scene) -> str | None:
                 continue
             joint = probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate")
             point = probe.kind == "point" and probe.quantity in ("position", "displacement")
-            if not (joint or point or probe.kind == "element"):
+            if not (joint or point or probe.kind == "element" or _free_joint_force(scene, probe)):
                 return (f"reading {probe.kind} probes ({c.name} reads {read!r}: section forces, joint angles and rates, "
-                        "points' positions and displacements are taken)")
+                        "free joints' torques and forces, points' positions and displacements are taken)")
+    moved_ends = {end for name in scene.solve.sensitivities
+                  for end, offset in _scene_moves(scene, name)["offset"].items() if np.any(offset != 0.0)}
     for key in laws_naming(scene, set(controllers)):
+        load = re.match(r"^loads\[(\d+)\]\.", key)
+        if load is not None:
+            at = scene.loads[int(load[1])].at
+            end = None if getattr(at, "beam", None) is None else (
+                at.beam, "from" if at.node == 0 else "to" if at.node == scene.beams[at.beam].elements else None)
+            if end not in moved_ends:
+                continue
+            return (f"driving {key}, a load at an end whose offset a parameter moves (hinge torques, guide forces and "
+                    "loads at unmoved offsets are taken)")
         if not (key.endswith(".hinge.torque") or key.endswith(".guide.force")):
-            return f"driving {key} (hinge torques and guide forces are taken)"
+            return f"driving {key} (hinge torques, guide forces and loads are taken)"
     if has_events(scene):
         return "beside events (a latch, a stop)"
     return None
+
+
+def _free_joint_force(scene, probe) -> bool:
+    """Whether ``probe`` reads a free joint's torque or force: its law's value f(θ, θ̇, t), which holds no reference
+    (no geometry parameter moves it at a fixed state; its laws' own parameters: ``sensitivities.moved_forces``), not a
+    prescribed joint's reaction, nor a joint with friction (its stick is a reaction)."""
+    if probe.quantity not in ("torque", "force"):
+        return False
+    if probe.kind == "hinge":
+        joint = next((h for beam, end, h in scene.hinges if (beam, end) == (probe.beam, probe.end)), None)
+        return joint is not None and joint.angle is None and joint.friction is None
+    if probe.kind == "guide":
+        joint = scene.bodies[probe.body].guide
+        return joint is not None and joint.position is None and joint.friction is None
+    return False
 
 
 def _closed_loop(scene) -> bool:
