@@ -205,3 +205,33 @@ def test_a_load_actuator_at_a_moved_offset_stays_refused(tmp_path):
     assert refused.value.key == "solve.sensitivities" and "a load at an end whose offset" in str(refused.value)
     run, _ = latdyn_run(tmp_path, text)
     assert run.returncode == 2 and "loads[2]" in run.stderr and "Traceback" not in run.stderr
+
+
+#: controllers with states beside a geometry parameter, reading joints alone: the placed arm's hinge PI (its integral
+#: Z of the angle's error, leaking) and the placed gimbal's inner hinge driven by an integral Q of both hinges' angles
+PI_ARM = PLACED_PD.replace('pd: {output: "Kp*(ref - hinge) - Kd*rate + ff*ref"}',
+                           'pd: {output: "Kp*(ref - hinge) + ff*ref + 6*Z", states: {Z: "ref - hinge - 0.3*Z"}}')
+GIMBAL_INTEGRAL = GIMBAL_PLACED.replace('damping: "c2"}}}', 'damping: "c2", torque: "integ"}}}').replace(
+    "solve:", 'controllers:\n  integ: {output: "-2*a2 - 4*Q", states: {Q: "a2 + 0.1*a1"}}\nsolve:')
+assert "6*Z" in PI_ARM and "4*Q" in GIMBAL_INTEGRAL
+
+
+@pytest.mark.parametrize("text, in_loop", [(PI_ARM, 0), (GIMBAL_INTEGRAL, 30)], ids=["arm-pi", "gimbal-integral"])
+def test_controller_states_reading_joints_beside_geometry(text, in_loop):
+    """Refused on 86d57d9 ("with states or sampled"). Against Richardson-extrapolated central differences of whole runs
+    (measured 3.0e-8 and 2.2e-8); the loop of steps on and off to the bit (the gimbal's 30 steps in it, the arm's PI on
+    the per-step path on both)."""
+    runs = runs_with_the_loop_on_and_off(text)
+    assert runs[True].summary["sensitivity_steps_in_loop"] == in_loop
+    assert_same_sensitivities(runs[True], runs[False], nonzero="each")
+    assert _agree(runs[True], text, "X") <= 1e-6
+
+
+def test_states_beside_a_controller_reading_a_placed_point_stay_refused():
+    """With states, a sensor that holds the reference (a point) is refused, naming the state's controller."""
+    text = PD_KNEE.replace('"Kp*(ref - hinge) - Kd*rate + ff*ref - 30*kx"', '"Kp*(ref - hinge) + ff*ref - 30*kx + 6*Z", '
+                           'states: {Z: "ref - hinge - 0.3*Z"}')
+    assert "6*Z" in text
+    with pytest.raises(SceneError) as refused:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert refused.value.key == "solve.sensitivities" and "with states (pd)" in str(refused.value)
