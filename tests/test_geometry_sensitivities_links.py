@@ -36,10 +36,10 @@ GIMBAL_PLACED = GIMBAL.replace("parameters: {k1: 6.0,", "parameters: {X: 0.1, k1
     "outer: {at: [0.3, 0.1, 0.2],", 'outer: {at: ["0.3 + X", "0.1 + 0.5*X", "0.2 - 0.3*X"],').replace(
     "inner: {at: [0.45, -0.05, 0.35],", 'inner: {at: ["0.45 + X", "-0.05 + 0.5*X", "0.35 - 0.3*X"],').replace(
     "sensitivities: [k1, m, P, EI, rho]", "sensitivities: [X, k1]")
-#: the same gimbal with its boom's tip placed by Y (a free body at a flexible beam's end beside the links)
-GIMBAL_TIP = GIMBAL.replace("parameters: {k1: 6.0,", "parameters: {Y: 0.25, k1: 6.0,").replace(
-    "tip: {at: [1.0, 0.25, 0.55],", 'tip: {at: [1.0, "Y", "0.3 + Y"],').replace(
-    "sensitivities: [k1, m, P, EI, rho]", "sensitivities: [Y, m]")
+#: the placed gimbal on a base whose translation is prescribed (the links' root prescribed: x = at + translation(t))
+GIMBAL_CARRIED = GIMBAL_PLACED.replace('base: {at: ["X", "0.5*X", "-0.3*X"], fixed: true}',
+                                       'base: {at: ["X", "0.5*X", "-0.3*X"], motion: {translation: ["0.05*sin(3*t)", 0, '
+                                       '"0.02*t*t"]}}')
 #: the mass on a skew guide at the tip of a flexible arm under gravity, the tip and the slider on it placed by L (the
 #: arm's length; the guide's origin on the tip unmoved): the guided body's root, the tip, is free
 GUIDE_PLACED = GUIDE_3D.replace("parameters: {k: 40.0,", "parameters: {L: 1.0, k: 40.0,").replace(
@@ -48,16 +48,17 @@ GUIDE_PLACED = GUIDE_3D.replace("parameters: {k: 40.0,", "parameters: {L: 1.0, k
     "slider: {at: [0.7, 0.35, 0.7],",
     'slider: {at: ["0.6666666666666666*L + 0.0333333333333333", "0.3333333333333333*L + 0.0166666666666667", '
     '"0.6666666666666666*L + 0.0333333333333333"],').replace("sensitivities: [k, m, EI, rest]", "sensitivities: [L, k]")
-for _scene in (GIMBAL_PLACED, GIMBAL_TIP, GUIDE_PLACED):
+for _scene in (GIMBAL_PLACED, GIMBAL_CARRIED, GUIDE_PLACED):
     assert _scene.count('"') >= 6 and "sensitivities: [" in _scene
-assert '"0.3 + X"' in GIMBAL_PLACED and '"0.3 + Y"' in GIMBAL_TIP and '"0.6666666666666666*L"' in GUIDE_PLACED
+assert '"0.3 + X"' in GIMBAL_PLACED and "0.02*t*t" in GIMBAL_CARRIED and '"0.6666666666666666*L"' in GUIDE_PLACED
 
 
-@pytest.mark.parametrize("text, name", [(GIMBAL_PLACED, "X"), (GIMBAL_TIP, "Y"), (GUIDE_PLACED, "L")],
-                         ids=["gimbal-placed", "gimbal-tip", "guide-placed"])
+@pytest.mark.parametrize("text, name", [(GIMBAL_PLACED, "X"), (GIMBAL_CARRIED, "X"), (GUIDE_PLACED, "L")],
+                         ids=["gimbal-placed", "gimbal-carried", "guide-placed"])
 def test_a_geometry_parameter_beside_links_and_guides_agrees_with_richardson(text, name):
-    """Refused on 86d57d9. Measured (every probe over the rows, relative to its largest): see docs/performance.md
-    "Geometry parameters with rigid links and guides (issue 34)"."""
+    """Refused on 86d57d9. Measured (every probe over the rows, relative to its largest): the placed gimbal 1.6e-8 (the
+    rings' velocities 3.6 off while a held root's δX counted in them), on its prescribed base 3.3e-8, the guide placed
+    by L 1.4e-9 (the gimbal's tip placed alone by Y, not run here, 9.1e-9)."""
     assert _agree(_api_run(text, name), text, name) <= 1e-6
 
 
