@@ -3,7 +3,8 @@ links and guides (issue 34)").
 
 The cost of the sensitivities by a geometry parameter on the scenes of tests/test_geometry_sensitivities_links.py (the
 placed gimbal of rigid links, the mass on a guide at a placed arm's tip, a PD reading the placed knee's displacement, the
-placed gimbal's PD of a spring torque, a latch on the placed gimbal) and, to compare, the same scenes by a parameter that
+placed gimbal's PD of a spring torque, a latch on the placed gimbal, the gimbal on a prescribed base, controllers with
+states and sampled) and, to compare, the same scenes by a parameter that
 is not geometry (k1, k) and the arm placed without links (tests/test_sensitivities_refusals_lifted.py PLACED_PD): each
 scene's run in process without sensitivities, by its first parameter alone and by both, five rounds alternating after
 one warm run, medians of CPU (``time.process_time``) and wall. Run it under ``chrt -f 10`` where the machine is loaded.
@@ -22,8 +23,9 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import latdyn  # noqa: E402
-from tests.test_geometry_sensitivities_links import (GIMBAL_PLACED, GIMBAL_TORQUE, GUIDE_PLACED,  # noqa: E402
-                                                     LATCH_PLACED, PD_KNEE)
+from tests.test_geometry_sensitivities_links import (GIMBAL_CARRIED, GIMBAL_INTEGRAL, GIMBAL_PLACED,  # noqa: E402
+                                                     GIMBAL_TORQUE, GUIDE_PLACED, LATCH_PLACED, PD_KNEE, PI_ARM,
+                                                     SAMPLED_ARM)
 from tests.test_sensitivities_refusals_lifted import PLACED_PD  # noqa: E402
 
 #: name -> (scene, its parameters in the order measured: the first alone, then both)
@@ -36,6 +38,10 @@ SCENES = {
     "PD of the knee's displacement": (PD_KNEE, ["X", "Kp"]),
     "gimbal, PD of a spring torque": (GIMBAL_TORQUE, ["X", "k1"]),
     "latch on the placed gimbal": (LATCH_PLACED, ["X", "k1"]),
+    "gimbal on a prescribed base": (GIMBAL_CARRIED, ["X", "k1"]),
+    "gimbal, an integral of its angles": (GIMBAL_INTEGRAL, ["X", "k1"]),
+    "arm placed, a PI (per-step path)": (PI_ARM, ["X", "Kp"]),
+    "arm placed, sampled at 50 Hz": (SAMPLED_ARM, ["X", "Kp"]),
 }
 
 

@@ -191,8 +191,9 @@ def _linked_refusal(scene, name: str) -> str | None:
 
 def _controllers_refusal(scene) -> str | None:
     """What of ``scene``'s controllers keeps geometry sensitivities from being exact (a phrase completing "with
-    controllers …"), or None. Taken: continuous controllers (with states too where every controller reads joints' angles and
-    rates, inputs or controllers alone: no sensor that holds the reference), in transient runs without events, that read section
+    controllers …"), or None. Taken: continuous controllers (with states, and sampled ones, too where every controller
+    reads joints' angles and rates, inputs or controllers alone: no sensor that holds the reference), in transient runs
+    without events, that read section
     forces (their ∂S/∂X from the generated ``beam_section_forces_D_reference`` through ∂f/∂s:
     latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), points' positions and displacements
     (their ∂s/∂X at a fixed state the probe's explicit part, :meth:`ReferenceGeometry.point_moves`, through ∂f/∂s
@@ -207,18 +208,17 @@ def _controllers_refusal(scene) -> str | None:
     if scene.solve.analysis != "transient":
         return "on a static path (transient runs take them)"
     probes = {p.name: p for p in scene.output.probes}
-    stated = [c.name for c in controllers.values() if c.states]
+    stated = [c.name for c in controllers.values() if c.states or c.sampled]
     for c in controllers.values():
-        if c.sampled:
-            return f"sampled ({c.name})"
         for read in c.reads:
             probe = probes.get(read)
             if probe is None:   # an input or an earlier controller
                 continue
             joint = probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate")
             if stated and not joint:
-                return (f"with states ({stated[0]}) beside a controller reading a {probe.kind} probe ({c.name} reads "
-                        f"{read!r}: with states, joints' angles and rates, inputs and controllers are taken)")
+                return (f"with states or sampled ({stated[0]}) beside a controller reading a {probe.kind} probe "
+                        f"({c.name} reads {read!r}: with states or samples, joints' angles and rates, inputs and "
+                        "controllers are taken)")
             point = probe.kind == "point" and probe.quantity in ("position", "displacement")
             if not (joint or point or probe.kind == "element" or _free_joint_force(scene, probe)):
                 return (f"reading {probe.kind} probes ({c.name} reads {read!r}: section forces, joint angles and rates, "
