@@ -244,3 +244,30 @@ def test_states_beside_a_controller_reading_a_placed_point_stay_refused():
     with pytest.raises(SceneError) as refused:
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     assert refused.value.key == "solve.sensitivities" and "with states or sampled (pd)" in str(refused.value)
+
+
+#: events beside controllers and a geometry parameter: the placed gimbal's spring-torque PD with its inner hinge
+#: latching at −0.1 rad; the PD reading the placed knee's displacement with the arm's hinge latching at 0.3 rad; the
+#: placed gimbal's integral with its inner hinge bouncing twice off a rigid stop at −0.1 rad (e = 0.8)
+TORQUE_LATCH = GIMBAL_TORQUE.replace('damping: "c2", torque', 'damping: "c2", lock_at: -0.1, torque').replace(
+    "t_end: 0.3", "t_end: 0.4")
+KNEE_LATCH = PD_KNEE.replace('stiffness: 2.0, damping: 0.2, torque: "pd"}',
+                             'stiffness: 2.0, damping: 0.2, torque: "pd", lock_at: 0.3}')
+INTEGRAL_STOP = GIMBAL_INTEGRAL.replace('damping: "c2", torque',
+                                        'damping: "c2", limits: [-0.1, 1.0], restitution: 0.8, torque')
+assert "lock_at: -0.1" in TORQUE_LATCH and "lock_at: 0.3" in KNEE_LATCH and "restitution: 0.8" in INTEGRAL_STOP
+
+
+@pytest.mark.parametrize("text, events, in_loop", [(TORQUE_LATCH, ["latch"], 39), (KNEE_LATCH, ["latch"], 0),
+                                                   (INTEGRAL_STOP, ["stop", "stop"], 28)],
+                         ids=["torque-pd-latch", "knee-pd-latch", "integral-stop"])
+def test_controllers_beside_geometry_through_events(text, events, in_loop):
+    """Refused on 86d57d9 ("beside events", or rigid links). The probes and the events' times by X against
+    Richardson-extrapolated central differences of whole runs (tests/test_sensitivities_events.py ``_agree``): measured
+    1.1e-8, 2.7e-8, 3.0e-8; the loop of steps on and off to the bit (its steps but those at and after the events in it,
+    the point-reading PD's on the per-step path)."""
+    runs = runs_with_the_loop_on_and_off(text)
+    assert [e["kind"] for e in runs[True].summary["events"]] == events
+    assert runs[True].summary["sensitivity_steps_in_loop"] == in_loop
+    assert_same_sensitivities(runs[True], runs[False], nonzero="each")
+    assert _event_agree(runs[True], text, "X") <= 1e-6

@@ -61,7 +61,7 @@ import re
 
 import numpy as np
 
-from latdyn.analyses.parameter_keys import has_events, laws_naming
+from latdyn.analyses.parameter_keys import laws_naming
 from latdyn.model.model import DEPENDENT, FIXED, FREE, PRESCRIBED
 
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "model_refusal", "ReferenceGeometry"]
@@ -193,7 +193,7 @@ def _controllers_refusal(scene) -> str | None:
     """What of ``scene``'s controllers keeps geometry sensitivities from being exact (a phrase completing "with
     controllers …"), or None. Taken: continuous controllers (with states, and sampled ones, too where every controller
     reads joints' angles and rates, inputs or controllers alone: no sensor that holds the reference), in transient runs
-    without events, that read section
+    (through latches and rigid stops too: the events' machinery takes them as any parameter), that read section
     forces (their ∂S/∂X from the generated ``beam_section_forces_D_reference`` through ∂f/∂s:
     latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), points' positions and displacements
     (their ∂s/∂X at a fixed state the probe's explicit part, :meth:`ReferenceGeometry.point_moves`, through ∂f/∂s
@@ -237,8 +237,6 @@ def _controllers_refusal(scene) -> str | None:
                     "loads at unmoved offsets are taken)")
         if not (key.endswith(".hinge.torque") or key.endswith(".guide.force")):
             return f"driving {key} (hinge torques, guide forces and loads are taken)"
-    if has_events(scene):
-        return "beside events (a latch, a stop)"
     return None
 
 
