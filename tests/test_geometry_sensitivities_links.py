@@ -70,17 +70,23 @@ def test_the_loop_of_steps_gives_the_per_step_paths_sensitivities(text):
     assert_same_sensitivities(runs[True], runs[False], nonzero="some", in_loop_but=0)
 
 
-def test_the_placed_gimbal_through_the_cli_equals_the_api(tmp_path):
-    """``latdyn run`` of GIMBAL_PLACED as typed: sensitivities.csv's columns and summary.json's probe sensitivities
+@pytest.mark.parametrize("name", ["GIMBAL_PLACED", "TORQUE_LATCH", "KNEE_LATCH"])
+def test_the_placed_gimbal_through_the_cli_equals_the_api(tmp_path, name):
+    """``latdyn run`` of the scene as typed (the placed gimbal; with a torque PD and a latch; the arm's PD of the placed
+    knee's displacement with a latch): sensitivities.csv's columns and summary.json's probe and event sensitivities
     those of ``latdyn.run`` on the same text (to the bit)."""
     import json
 
-    run, out = latdyn_run(tmp_path, GIMBAL_PLACED)
+    text = globals()[name]
+    run, out = latdyn_run(tmp_path, text)
     assert run.returncode == 0, run.stderr
-    api = latdyn.run(latdyn.load_scene(yaml.safe_load(GIMBAL_PLACED)))
-    assert json.loads((out / "summary.json").read_text())["probe_sensitivities"] == api.summary["probe_sensitivities"]
+    api = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["probe_sensitivities"] == api.summary["probe_sensitivities"]
+    assert summary.get("event_sensitivities") == api.summary.get("event_sensitivities")
     rows = [line.split(",") for line in (out / "sensitivities.csv").read_text().splitlines()]
-    for column in ("tip_x/X", "vo/X", "a2/X", "a1/k1"):
+    columns = ("tip_x/X", "vo/X", "a2/X", "a1/k1") if name != "KNEE_LATCH" else ("tip_z/X", "kx/X", "hinge/Kp")
+    for column in columns:
         at = rows[0].index(column)
         assert np.array_equal([float(row[at]) for row in rows[1:]], api.sensitivities[tuple(column.split("/"))])
 
