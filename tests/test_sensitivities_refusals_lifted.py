@@ -24,8 +24,9 @@ Newton evaluation: at the default tolerance 5e-6 off the differences).
 3. A geometry parameter with continuous controllers without states that read section forces, joints' angles and
 rates, inputs or earlier controllers and drive joints (no events): the sensed section force's own ∂S/∂X from the
 generated ``beam_section_forces_D_reference`` through ∂f/∂s (``ControllerTerms.sensed_force_slopes``; the force counts as
-moved by any geometry parameter), the rest as without controllers. Points, cables and joint forces as sensors, loads
-as actuators and events stay refused (naming ``solve.sensitivities``).
+moved by any geometry parameter), the rest as without controllers. Points' velocities, cables and joint forces as
+sensors, loads as actuators and events stay refused (naming ``solve.sensitivities``; points' positions and
+displacements are taken now: tests/test_geometry_sensitivities_links.py).
 
 Every case but the kept refusals was refused on 10be92c (SceneError naming ``solve.sensitivity_method`` or
 ``solve.sensitivities``) or, nothing free, wrong."""
@@ -323,6 +324,20 @@ def test_a_geometry_parameter_beside_a_pd_takes_the_loop_and_equals_the_per_step
     assert_same_sensitivities(runs[True], runs[False], in_loop_but=0, nonzero="each")
 
 
+def test_a_geometry_parameter_beside_controllers_and_a_latch_agrees_with_richardson():
+    """PLACED_AXIAL's hinge latching at 0.05 rad (refused on 86d57d9, "beside events", the case the refusal test above
+    held): its probes and the latch's time by X against Richardson-extrapolated central differences of whole runs
+    (tests/test_sensitivities_events.py ``_agree``). Measured 8.3e-9."""
+    from tests.test_sensitivities_events import _agree as _event_agree
+
+    text = PLACED_AXIAL.replace('stiffness: 30.0, damping: 0.2, torque: "ax_ctl"}',
+                                'stiffness: 30.0, damping: 0.2, lock_at: 0.05, torque: "ax_ctl"}')
+    assert "lock_at: 0.05" in text
+    result = _run(text, "X")
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    assert _event_agree(result, text, "X") <= 1e-6
+
+
 def test_a_sensed_section_force_placed_by_a_parameter_through_the_cli(tmp_path):
     """``latdyn run`` of PLACED_AXIAL as typed: sensitivities.csv's columns those of ``latdyn.run`` (to the bit)."""
     run, out = latdyn_run(tmp_path, PLACED_AXIAL)
@@ -335,14 +350,15 @@ def test_a_sensed_section_force_placed_by_a_parameter_through_the_cli(tmp_path):
 
 
 @pytest.mark.parametrize("change, expected", [
-    (lambda text: text.replace('"-Ka*ax - 2*hinge"', '"-Ka*ax - 2*tip_z"'), "reading point probes"),
-    (lambda text: text.replace(
-        "stiffness: 30.0, damping: 0.2, torque: \"ax_ctl\"}", "stiffness: 30.0, damping: 0.2, lock_at: 0.3, "
-        "torque: \"ax_ctl\"}"), "beside events"),
-], ids=["point-sensor", "events"])
+    (lambda text: text.replace('"-Ka*ax - 2*hinge"', '"-Ka*ax - 2*tip_vz"').replace(
+        "    hinge: {hinge: b.start, quantity: angle}\n",
+        "    hinge: {hinge: b.start, quantity: angle}\n    tip_vz: {point: b.end, quantity: velocity, component: z}\n"),
+     "reading point probes"),
+], ids=["point-velocity-sensor"])
 def test_what_geometry_beside_controllers_does_not_take_stays_refused(tmp_path, change, expected):
-    """A guard (refused on 10be92c too, by the general message): a point sensor (its displacement holds the reference)
-    and events beside the controllers, named, exit 2 through the CLI without a traceback."""
+    """A guard (refused on 10be92c too, by the general message): a point's velocity as a sensor beside the controllers,
+    named, exit 2 through the CLI without a traceback. (A point's position as the sensor and events beside the
+    controllers, refused here before, are taken now: below and tests/test_geometry_sensitivities_links.py.)"""
     text = change(PLACED_AXIAL)
     assert text != PLACED_AXIAL
     with pytest.raises(SceneError) as refused:

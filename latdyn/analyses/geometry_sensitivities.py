@@ -36,13 +36,27 @@ gains T δr), a displacement's reference with δX + δr; a load there by the gen
 machinery of latdyn/analyses/transient_sensitivities.py takes them as any parameter (its impulse weight's
 ∂/∂p from ∂r/∂p).
 
+Beside rigid links and guides (:func:`_linked_refusal`) a parameter is taken where it moves each rigid link and each
+guided body together with the part it hangs from (a rigid translation of every linked subtree, or none): the links'
+and guides' reference geometry (an edge's o, b and a, latdyn/model/links.py; a link's inertia; a closure's data) is
+then that of p, and so are the reduction's J and Pᵀ (translation-invariant). A dependent node moves with its root: at
+a fixed state by nothing where the root is free (its position is the coordinates'), by the root's δX where the root is
+fixed or prescribed (:attr:`ReferenceGeometry.held`: such a node's reference point in the elements' variations, in
+:meth:`ReferenceGeometry.held_moves`); its δX of the start is its root's (:attr:`ReferenceGeometry.node_moves`, a
+displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX.
+
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
-hinge angle: the velocities they carry into the structure at t = 0 move with its points), rigid links,
-guides, cables, controllers, arc length (its first step's length moves with ∂K/∂p, not generated), a
-kernel variant generated without the reference derivatives. The discrete adjoint takes geometry parameters: the
-start's move, ∂r/∂p and the probes' moves of this module transposed (latdyn/analyses/adjoint_sensitivities.py).
+hinge angle: the velocities they carry into the structure at t = 0 move with its points), a parameter that moves a
+rigid link's or a guide's own geometry (a link's length or direction, an end's offset, its y_axis or hinge axes, a
+slider-crank's closed loop, a guide's origin on its body: the reduction's ∂J/∂X is not generated), guides beside a
+given initial_velocity.angular (the slides' initial rates move with the points), cables, controllers, arc length (its
+first step's length moves with ∂K/∂p, not generated), a kernel variant generated without the reference derivatives.
+The discrete adjoint takes geometry parameters: the start's move, ∂r/∂p and the probes' moves of this module
+transposed (latdyn/analyses/adjoint_sensitivities.py), not yet beside rigid links or guides or beside controllers
+reading points, cables or joints' forces or driving loads (latdyn/analyses/sensitivities.py
+``_adjoint_geometry_refusal``).
 """
 from __future__ import annotations
 
@@ -50,8 +64,8 @@ import re
 
 import numpy as np
 
-from latdyn.analyses.parameter_keys import has_events, laws_naming
-from latdyn.model.model import FIXED, FREE, PRESCRIBED
+from latdyn.analyses.parameter_keys import laws_naming
+from latdyn.model.model import DEPENDENT, FIXED, FREE, PRESCRIBED
 
 __all__ = ["GEOMETRY_KEY", "geometry_refusal", "model_refusal", "ReferenceGeometry"]
 
@@ -91,8 +105,9 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
         return (f"{where}: with a prescribed translation ({moving[0]}) driving a closed loop with free joints, the "
                 "joint rates that close the loop at t = 0 move with the points (latdyn/assembly/initial.py), which "
                 "is not differentiated yet")
-    if any(beam.rigid for beam in scene.beams.values()) or any(b.guide is not None for b in scene.bodies.values()):
-        return f"{where}: geometry sensitivities with rigid links or guides are not computed yet"
+    why = _linked_refusal(scene, name)
+    if why is not None:
+        return f"{where}: {why}"
     if scene.cables:
         return f"{where}: geometry sensitivities with cables (their attachment points move) are not computed yet"
     if getattr(scene, "controllers", None):
@@ -102,36 +117,145 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
     return None
 
 
+def _scene_moves(scene, name: str) -> dict:
+    """The moves by ``name`` of the numbers that place the structure, from the scene alone: {"at": {body: δat},
+    "point": {(beam, side): δ(grid point)}, "offset": {(beam, side): δoffset}, "y": {beam: δy_axis},
+    "axis": {(beam, end): δaxis}} (side "from"/"to", end "start"/"end"; a grid point at a body moves with its
+    ``at`` and its offset, a free one with its ``from``/``to``)."""
+    moves = {"at": {}, "point": {}, "offset": {}, "y": {}, "axis": {}, "free": {}}
+    for key in scene.parameters.depending_on(name):
+        m = GEOMETRY_KEY.match(key)
+        if m is None:
+            continue
+        slope, axis = _slope(scene, key, name), int(m["axis"])
+        if m["body"] is not None:
+            target = moves["at"].setdefault(m["body"], np.zeros(3))
+        elif m["y"] is not None:
+            target = moves["y"].setdefault(m["beam"], np.zeros(3))
+        elif m["hinge"] is not None:
+            target = moves["axis"].setdefault((m["beam"], m["hinge"]), np.zeros(3))
+        else:
+            target = moves["offset" if m["offset"] else "free"].setdefault((m["beam"], m["side"]), np.zeros(3))
+        target[axis] += slope
+    for beam in scene.beams.values():
+        for side, end in (("from", beam.start), ("to", beam.end)):
+            moved = (moves["at"].get(end.body, np.zeros(3)) + moves["offset"].get((beam.name, side), np.zeros(3))
+                     if end.body is not None else moves["free"].get((beam.name, side), np.zeros(3)))
+            moves["point"][(beam.name, side)] = moved
+    return moves
+
+
+def _linked_refusal(scene, name: str) -> str | None:
+    """Why the geometry parameter ``name`` is not exact beside rigid links and guides (a phrase), or None. Taken:
+    a parameter that moves each rigid link and each guided body together with the part it hangs from (a rigid
+    translation of every linked subtree, or none), so that no link's or guide's reference geometry — a link's
+    offset from its parent body (o), its arm (b) and length, its hinge axes and inertia, a guide's origin on the
+    body it slides on — moves with it: the reduction's J, its closure equations and the links' bodies are then
+    those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). The moves of that reference
+    geometry (∂J/∂X and the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
+    rigid = [beam for beam in scene.beams.values() if beam.rigid]
+    guided = [body for body in scene.bodies.values() if body.guide is not None]
+    if not (rigid or guided):
+        return None
+    moves = _scene_moves(scene, name)
+    unmoved = np.zeros(3)
+    if guided and np.any(np.asarray(scene.initial_velocity.angular, float) != 0.0):
+        return ("with guides and a given initial_velocity.angular, the slides' initial rates move with the points, "
+                "which is not differentiated yet")
+    closing = {beam.end.body for beam in rigid if beam.end.body is not None and
+               scene.bodies[beam.end.body].guide is not None}
+    for beam in rigid:
+        start, end = moves["point"][(beam.name, "from")], moves["point"][(beam.name, "to")]
+        what = None
+        if np.any(end != start):
+            what = "its length or direction (its end points moved apart)"
+        elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in ("from", "to")):
+            what = "an end's offset (the link's point on its parent body)"
+        elif np.any(moves["y"].get(beam.name, unmoved) != 0.0):
+            what = "its y_axis (its inertia's axes)"
+        elif any(np.any(moves["axis"].get((beam.name, end), unmoved) != 0.0) for end in ("start", "end")):
+            what = "a hinge axis"
+        elif beam.end.body in closing and np.any(start != 0.0):
+            what = "the slider-crank loop it closes (its pin or slider moved)"
+        if what is not None:
+            return (f"it moves the rigid link {beam.name!r}'s reference geometry ({what}): geometry sensitivities "
+                    "that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not computed yet; "
+                    "taken: a parameter that moves each rigid link with the part it hangs from")
+    for body in guided:
+        parent = moves["at"].get(body.guide.on, unmoved) if body.guide.on is not None else unmoved
+        moved = moves["at"].get(body.name, unmoved)
+        if np.any(moved != parent) or (body.name in closing and np.any(moved != 0.0)):
+            on = repr(body.guide.on) if body.guide.on is not None else "the ground"
+            return (f"it moves the guide of {body.name!r} relative to {on} (the guide's origin): geometry "
+                    "sensitivities that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not "
+                    "computed yet; taken: a parameter that moves each guided body with the part it slides on")
+    return None
+
+
 def _controllers_refusal(scene) -> str | None:
     """What of ``scene``'s controllers keeps geometry sensitivities from being exact (a phrase completing "with
-    controllers …"), or None. Taken: continuous controllers without states, in transient runs without events, that read section
+    controllers …"), or None. Taken: continuous controllers (with states, and sampled ones, too where every controller
+    reads joints' angles and rates, inputs or controllers alone: no sensor that holds the reference), in transient runs
+    (through latches and rigid stops too: the events' machinery takes them as any parameter), that read section
     forces (their ∂S/∂X from the generated ``beam_section_forces_D_reference`` through ∂f/∂s:
-    latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), hinge and guide angles and rates (free
-    coordinates: no reference in them), inputs and earlier controllers, and drive hinge torques or guide forces (a
-    joint's coordinate: no reference either). Other sensors (points, whose displacement and offsets hold the reference;
-    cables, joint forces), actuators (loads, placed at points) and static paths are not differentiated by geometry yet."""
+    latdyn/analyses/sensitivities.py ``ControllerTerms.sensed_force_slopes``), points' positions and displacements
+    (their ∂s/∂X at a fixed state the probe's explicit part, :meth:`ReferenceGeometry.point_moves`, through ∂f/∂s
+    alike: ``sensitivities.is_placed_point``), hinge and guide angles and rates (free coordinates: no reference in
+    them), free joints' torques and forces (:func:`_free_joint_force`: laws of θ, θ̇, t), inputs and earlier
+    controllers, and drive hinge torques or guide forces (a joint's coordinate: no reference either) or loads at points
+    whose offset no parameter moves (their nodes' rows, as without geometry). Other sensors (points' velocities, cables,
+    prescribed or frictional joints' forces), loads at a moved offset (its arm moves, its values are the controller's)
+    and static paths are not differentiated by geometry yet."""
 
     controllers = scene.controllers
     if scene.solve.analysis != "transient":
         return "on a static path (transient runs take them)"
     probes = {p.name: p for p in scene.output.probes}
+    stated = [c.name for c in controllers.values() if c.states or c.sampled]
     for c in controllers.values():
-        if c.states or c.sampled:
-            return f"with states or sampled ({c.name})"
         for read in c.reads:
             probe = probes.get(read)
             if probe is None:   # an input or an earlier controller
                 continue
             joint = probe.kind in ("hinge", "guide") and probe.quantity in ("angle", "position", "rate")
-            if not (joint or probe.kind == "element"):
-                return (f"reading {probe.kind} probes ({c.name} reads {read!r}: section forces, joint angles and rates "
-                        "are taken)")
+            if stated and not joint:
+                return (f"with states or sampled ({stated[0]}) beside a controller reading a {probe.kind} probe "
+                        f"({c.name} reads {read!r}: with states or samples, joints' angles and rates, inputs and "
+                        "controllers are taken)")
+            point = probe.kind == "point" and probe.quantity in ("position", "displacement")
+            if not (joint or point or probe.kind == "element" or _free_joint_force(scene, probe)):
+                return (f"reading {probe.kind} probes ({c.name} reads {read!r}: section forces, joint angles and rates, "
+                        "free joints' torques and forces, points' positions and displacements are taken)")
+    moved_ends = {end for name in scene.solve.sensitivities
+                  for end, offset in _scene_moves(scene, name)["offset"].items() if np.any(offset != 0.0)}
     for key in laws_naming(scene, set(controllers)):
+        load = re.match(r"^loads\[(\d+)\]\.", key)
+        if load is not None:
+            at = scene.loads[int(load[1])].at
+            end = None if getattr(at, "beam", None) is None else (
+                at.beam, "from" if at.node == 0 else "to" if at.node == scene.beams[at.beam].elements else None)
+            if end not in moved_ends:
+                continue
+            return (f"driving {key}, a load at an end whose offset a parameter moves (hinge torques, guide forces and "
+                    "loads at unmoved offsets are taken)")
         if not (key.endswith(".hinge.torque") or key.endswith(".guide.force")):
-            return f"driving {key} (hinge torques and guide forces are taken)"
-    if has_events(scene):
-        return "beside events (a latch, a stop)"
+            return f"driving {key} (hinge torques, guide forces and loads are taken)"
     return None
+
+
+def _free_joint_force(scene, probe) -> bool:
+    """Whether ``probe`` reads a free joint's torque or force: its law's value f(θ, θ̇, t), which holds no reference
+    (no geometry parameter moves it at a fixed state; its laws' own parameters: ``sensitivities.moved_forces``), not a
+    prescribed joint's reaction, nor a joint with friction (its stick is a reaction)."""
+    if probe.quantity not in ("torque", "force"):
+        return False
+    if probe.kind == "hinge":
+        joint = next((h for beam, end, h in scene.hinges if (beam, end) == (probe.beam, probe.end)), None)
+        return joint is not None and joint.angle is None and joint.friction is None
+    if probe.kind == "guide":
+        joint = scene.bodies[probe.body].guide
+        return joint is not None and joint.position is None and joint.friction is None
+    return False
 
 
 def _closed_loop(scene) -> bool:
@@ -190,10 +314,15 @@ def model_refusal(scene, name: str, used: str):
 
 
 def _slope(scene, key: str, name: str) -> float:
-    """∂(the number at ``key``)/∂``name`` at the parameters' values."""
-    import sympy as sp
+    """∂(the number at ``key``)/∂``name`` at the parameters' values (a number as text read as it is: SymPy's parse,
+    ≈ 0.3 ms, only for what is not one)."""
+    text = scene.parameters.derivative(key, name)
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        import sympy as sp
 
-    return float(sp.sympify(scene.parameters.derivative(key, name)))
+        return float(sp.sympify(text))
 
 
 def _holds_reference_derivatives(info: dict) -> bool:
@@ -251,6 +380,13 @@ class ReferenceGeometry:
                     uses.setdefault(column, {})[key] = float(law.value(0.0, 0.0, 0.0))
         self._refuse_without_kernels()
         n_nodes, n_elements = len(model.nodes), len(model.element_nodes)
+        #: the nodes no coordinate carries: fixed and prescribed ones (x = at + translation(t)) and the dependent
+        #: nodes of rigid links and guides whose root is one (they move with it: :func:`_linked_refusal`)
+        links = model.links
+        roots = links.root if links is not None else {}
+        self.held = np.array([node.kind in (FIXED, PRESCRIBED) or (
+            node.kind == DEPENDENT and model.nodes[roots[i]].kind in (FIXED, PRESCRIBED))
+            for i, node in enumerate(model.nodes)], bool)
         #: δX of every node (n_nodes, 3, k), the elements' reference variations (n_elements, WIDTH, k) less the
         #: parts that depend on the state (ψ, δo and δh are in node axes here: φ, δr_g and δa), δr_g of the
         #: beams' ends
@@ -307,6 +443,11 @@ class ReferenceGeometry:
         touched = {name for name, _ in end_point} | {name for name, _ in end_offset} | set(y_given) | {
             beam.name for beam in scene.beams.values() if beam.start.body in body_at or beam.end.body in body_at}
         for beam in scene.beams.values():
+            if beam.rigid:   # its link node: free at a free start point, else it follows its parent (below)
+                if beam.start.body is None:
+                    self.node_moves[model.beam_nodes[beam.name][0], :, column] = end_point.get(
+                        (beam.name, "from"), np.zeros(3))
+                continue
             if beam.name not in touched:
                 continue
             grid = []
@@ -342,8 +483,12 @@ class ReferenceGeometry:
             v[0, 6:9] = end_offset.get((beam.name, "from"), np.zeros(3))
             v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
             self.variations[elements, :, column] = v
-        # the fixed and prescribed ends' reference points (x = at + translation(t)); a free node's is the state's
-        fixed = np.array([node.kind in (FIXED, PRESCRIBED) for node in model.nodes], bool)
+        if model.links is not None:   # a dependent node moves with its parent (_linked_refusal: edges unmoved)
+            for edge in model.links.edges:
+                self.node_moves[edge.child, :, column] = self.node_moves[edge.parent, :, column]
+        # the held ends' reference points (x = at + translation(t), and the links that follow them); a free
+        # node's, and a dependent node's on a free root, is the state's
+        fixed = self.held
         for end in (0, 1):
             ends = model.element_nodes[:, end]
             self.variations[:, 3 * end:3 * end + 3, column] = np.where(
@@ -401,8 +546,9 @@ class ReferenceGeometry:
 
     def held_moves(self, node: int) -> np.ndarray:
         """(3, k): δX of ``node`` where no coordinate carries it — a fixed or prescribed node (x = at +
-        translation(t)) moves with its ``at`` at a fixed state —, zero for a node whose position is the state's."""
-        if self.model.nodes[node].kind in (FIXED, PRESCRIBED):
+        translation(t)) moves with its ``at`` at a fixed state, and a dependent node of rigid links or guides with
+        its fixed or prescribed root (:attr:`held`) —, zero for a node whose position is the state's."""
+        if self.held[node]:
             return self.node_moves[node]
         return np.zeros((3, self.k))
 

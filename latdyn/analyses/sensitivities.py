@@ -1000,10 +1000,11 @@ class ParameterDerivatives:
         if explicit and self.geometry is not None:   # a geometry parameter moves the point's offset and its reference
             offset_moved, reference_moved = self.geometry.point_moves(probe, state)
             moved = moved + offset_moved - (reference_moved if probe.quantity == "displacement" else 0.0)
-        if probe.quantity == "velocity":   # δ(v + ω × T r)
+        if probe.quantity == "velocity":   # δ(v + ω × T r): the arm's move, not the node's (nor a held root's δX)
             dvel, domega, _ = rates
+            held = self.geometry.held_moves(node) if self.geometry is not None else 0.0
             moved = dvel[node] + np.cross(domega[node], arm, axisa=0, axisc=0) \
-                + np.cross(state.w[node], moved - dx[node], axisb=0, axisc=0)
+                + np.cross(state.w[node], moved - dx[node] - held, axisb=0, axisc=0)
         if probe.component in (None, "norm"):
             value = state.x[node] + arm
             if probe.quantity == "displacement":
@@ -1322,9 +1323,17 @@ def moved_forces(scene) -> dict:
     read = {r for c in scene.controllers.values() if not c.sampled for r in c.reads}
     placed = any(GEOMETRY_KEY.match(used) for used in uses)   # a section force moves with its element's reference
     return {p.name: p for p in scene.output.probes if p.name in read
-            and ((p.kind == "cable" and p.quantity == "tension") or p.kind == "element" or is_joint_force(p))
-            and (any(used.startswith(_sensed_force_laws(scene, p)[0]) for used in uses)
-                 or (placed and p.kind == "element"))}
+            and ((((p.kind == "cable" and p.quantity == "tension") or p.kind == "element" or is_joint_force(p))
+                  and (any(used.startswith(_sensed_force_laws(scene, p)[0]) for used in uses)
+                       or (placed and p.kind == "element")))
+                 or (placed and is_placed_point(p)))}
+
+
+def is_placed_point(probe) -> bool:
+    """Whether ``probe`` is a point's position or displacement: a value a geometry parameter moves at a fixed state
+    (its offset, a held node, a displacement's reference: ReferenceGeometry.point_moves), which a controller reading it
+    takes as :func:`moved_forces`' forces (``ControllerTerms.sensed_force_slopes``)."""
+    return probe.kind == "point" and probe.quantity in ("position", "displacement")
 
 
 def _sensed_force_laws(scene, probe) -> tuple:
@@ -1513,10 +1522,10 @@ class ControllerTerms:
             elif probe.kind == "element" and owner.geometry is None and \
                     owner.kernels.address("beam_section_forces_D_section") is not None:
                 out[name] = self._section_force_slope(state, probe)
-            else:
+            else:   # (a point's position or displacement by a geometry parameter: its probe's explicit part)
                 moved = owner._by_parameter(zero, state)
-                out[name] = np.asarray(probe_derivatives(owner, probe, state, *moved,
-                                                         owner._rates_by_parameter(zero)), float)
+                out[name] = np.asarray(owner._probe_derivatives(probe, state, *moved,
+                                                                owner._rates_by_parameter(zero)), float)
         return out
 
     def _section_force_slope(self, state, probe) -> np.ndarray:

@@ -451,6 +451,10 @@ def _controller_refusal(owner) -> str | None:
                        or owner.kernels.address("beam_section_forces_D_section") is None))
     if moved:   # a section force's ∂S/∂p beside geometry parameters, or without the kernel's C
         return f"a controller reads the force {moved[0]!r}, whose own laws a parameter moves"
+    points = sorted(read for reads in getattr(terms, "forces_read", {}).values() for read in reads
+                    if terms.moved_forces[read].kind == "point")
+    if points:   # a point's ∂s/∂X of a geometry parameter (ControllerTerms.sensed_force_slopes): the per-step path's
+        return f"a controller reads the point {points[0]!r}, which a geometry parameter moves"
     tensions = [read for reads in getattr(terms, "forces_read", {}).values() for read in reads
                 if terms.moved_forces[read].kind == "cable"]
     if tensions and getattr(owner, "cables", None) is None:   # (its ∂N/∂p from the cables' uses, cable_forces.c)
