@@ -85,6 +85,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses import adjoint_time
 from latdyn.analyses.adjoint_in_loop import accepted
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
@@ -147,8 +148,13 @@ class AdjointSensitivities(TransientSensitivities):
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
             cable = self._cable_event(old, new, event)
-            entry.update({"numbering": self._numbering(), "event": event, "cable": cable,
-                          "rule": self._size_rule(carried, h, lands, event, cable)})
+            # a compliant stop's onset: no jump, its time through the landing step's size (the forward method's
+            # ``event or self._contact_onset(old, new)``)
+            onset = self._contact_onset(old, new) if event is None and cable is None and self.model.n_dofs else None
+            timed = carried["timed"]   # δt_n may be non-zero: the step's ∂r/∂t δt_n (laws in t, adjoint_time.py)
+            entry.update({"numbering": self._numbering(), "event": event, "cable": cable, "onset": onset,
+                          "rule": self._size_rule(carried, h, lands, event or onset, cable), "timed": timed})
+            entry["timed_end"] = carried["timed"]   # δt_{n+1} may be non-zero: a row here moves in time
         if carried["trajectory"] and carried["trajectory"][-1].get("pending"):   # not accepted: a run resumed
             carried["trajectory"].pop()                                             # from before it
         carried["trajectory"].append(entry)
@@ -204,7 +210,7 @@ class AdjointSensitivities(TransientSensitivities):
         timed, dh_moves = carried["timed"], carried["dh_moves"]
         carried["trial_sized"] = not lands and event is None and cable is None
         if event is not None or cable is not None:
-            rule = ("event",) if cable is None else ("cable",)
+            rule = ("cable",) if cable is not None else ("onset",) if event[1] == "contact" else ("event",)
             carried["timed"], carried["dh_moves"] = True, True
             return rule
         if lands:
@@ -383,6 +389,12 @@ class AdjointSensitivities(TransientSensitivities):
         try:
             for probe, _, row in outputs:
                 index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
+                if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self):
+                    raise SolverError(f"the adjoint sensitivities meet a row at t = {states[index].t:.6g} whose time "
+                                      "moves with the parameters beside laws in t (after an event, before a step "
+                                      "lands on the grid), whose probes' explicit time dependence the reverse pass "
+                                      "does not seed; expected output rows on the time grid (output.every a "
+                                      "multiple of solve.dt), or sensitivity_method: forward")
                 if final is not None:   # the row's forms on the numbering it was recorded on
                     self._numbered(numberings[index])
                 forms = [self.output_forms(probe, states[index])]
@@ -462,13 +474,14 @@ class AdjointSensitivities(TransientSensitivities):
                 t_bar[column] += 1.0
             entry = trajectory[i]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
-                q_bar, v_bar, vdot_by_restart, by_restart = self._restart_transposed(entry, q_bar, v_bar,
-                                                                                      vdot_bar + a_bar)
+                q_bar, v_bar, vdot_by_restart, by_restart, t_by_restart = self._restart_transposed(
+                    entry, q_bar, v_bar, vdot_bar + a_bar)
                 gradient += by_restart
                 q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
-                v_bar, q_by_jump, vdot_by_jump, by_jump = self._impulse_transposed(entry, v_bar)
+                v_bar, q_by_jump, vdot_by_jump, by_jump, t_by_jump = self._impulse_transposed(entry, v_bar)
                 q_bar = q_bar + q_by_jump
                 gradient += by_jump
+                t_bar = t_bar + t_by_restart + t_by_jump   # the restart and the jump at t_e + δt_e
                 # the restart set δv̇, δa afresh: the step's own δv̇ reaches past it only through the weights' rates
                 # (guides, rigid links: :meth:`_weight_derivative_transposed`), δa not at all
                 vdot_bar = vdot_by_jump if vdot_by_restart is None else vdot_by_jump + vdot_by_restart
@@ -489,6 +502,8 @@ class AdjointSensitivities(TransientSensitivities):
                 if w is not None:
                     g_bar = np.zeros(m)
                     gradient -= self.residual_transposed_product(new, w)
+                    if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
+                        t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
                     q_bar, v_bar, vdot_bar, a_bar = bars
                     continue
             C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
@@ -505,6 +520,8 @@ class AdjointSensitivities(TransientSensitivities):
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
             w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, m)
             gradient -= self.residual_transposed_product(new, w)
+            if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
+                t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
             dq0_bar = q_bar - K_t @ w
             dv0_bar = v_bar - C_t @ w
             du0_bar = tangent_t(dq0_bar)
@@ -530,12 +547,16 @@ class AdjointSensitivities(TransientSensitivities):
         (:meth:`TransientSensitivities.step_columns`, its column k), computed as it computes it: the native
         predict and update (:class:`_StepColumns` with no parameter column: ∂(hΔq)/∂h, ∂v_{n+1}/∂h) around the
         solve with the step's exact matrix (``solve``; ``C``, ``K`` its damping and stiffness; ``rotations``: the
-        step's (R, J)); no explicit time dependence: laws in t beside events are refused."""
+        step's (R, J)); beside laws in t its explicit part ∂r/∂t at the step's end, as the forward method's
+        ``_add_time_columns`` puts it in the column of h (latdyn/analyses/adjoint_time.py)."""
         p, model, n = self.params, self.model, self.model.n_dofs
         step = _StepColumns(self, n, 0, (entry["h"], p.alpha_m, p.alpha_f, p.gamma, p.beta), *rotations)
         none = np.zeros((n, 0))
         _, dq0, dv0 = step.predict(free_velocity(model, old), entry["a_old"], entry["a_new"], none, none, none, none)
-        z = np.asarray(solve(-(K @ dq0 + C @ dv0))).reshape(n, 1)
+        rhs = K @ dq0 + C @ dv0
+        if adjoint_time.moves_in_time(self):
+            rhs = rhs + adjoint_time.rate_at(self, entry["state"])[:, None]
+        z = np.asarray(solve(-rhs)).reshape(n, 1)
         return {key: column[:, 0] for key, column in step.update(z, beta_p, gamma_p).items()}
 
     def _step_size_transposed(self, entry: dict, rule: tuple, column: dict, h_bar: np.ndarray,
@@ -550,8 +571,8 @@ class AdjointSensitivities(TransientSensitivities):
         k = len(self.names)
         by_size = np.zeros((k, len(h_bar)))
         g_bar = np.zeros_like(h_bar)
-        if rule[0] == "event":
-            dof = self.model.hinge_dofs[entry["event"][0]]
+        if rule[0] in ("event", "onset"):   # a latch's or stop's angle, or a compliant stop's onset's, held
+            dof = self.model.hinge_dofs[(entry["event"] if rule[0] == "event" else entry["onset"])[0]]
             q_bar = q_bar.copy()
             q_bar[dof] -= h_bar / column["dq"][dof]
         elif rule[0] == "cable":
@@ -577,7 +598,7 @@ class AdjointSensitivities(TransientSensitivities):
 
         (:meth:`_weight_derivative_transposed`; with guides or rigid links D moves with δv⁻ and δv̇⁻ too, the forward
         method's ``rates``: v̄⁻ −= D_vᵀū, v̇̄⁻ −= D_v̇ᵀū). Returns (v̄⁻, the part of q̄, the part of v̇̄⁻, (k, m) into the
-        gradient)."""
+        gradient, (m,) into t̄: the weight's part moving with the event's time, latdyn/analyses/adjoint_time.py)."""
         model, dt = self.model, self.scene.solve.dt
         new, (hinge, _, restitution) = entry["state"], entry["event"]
         scale = dt * dt
@@ -591,7 +612,9 @@ class AdjointSensitivities(TransientSensitivities):
         v_bar_minus = w_bar - restitution * (N @ pushed)
         u_bar = np.asarray(solve_linear(_transposed(W), w_bar)).reshape(w_bar.shape)
         q_part, v_part, vdot_part, p_part = self._weight_derivative_transposed(new, change, u_bar, scale)
-        return v_bar_minus - v_part, -q_part, -vdot_part, -p_part
+        t_part = (adjoint_time.weight_transposed(self, new, change, u_bar, scale, mass=True)
+                  if adjoint_time.moves_in_time(self) else np.zeros(u_bar.shape[1]))
+        return v_bar_minus - v_part, -q_part, -vdot_part, -p_part, -t_part
 
     def _restart_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray) -> tuple:
         """The transpose of the forward method's :meth:`_restart` at the stored state after the event (on its
@@ -600,7 +623,8 @@ class AdjointSensitivities(TransientSensitivities):
         ``mass=False``); for the adjoint s̄ = v̇̄ + ā: ū = −B⁻ᵀs̄, q̄ += Kᵀū [+ D₂ᵀū], v̄ += Cᵀū, dy/dp += Eᵀū
         [+ P₂ᵀū]; with guides or rigid links δ(K)v̇ moves with the step's δv̇ before the event too (the forward
         method's ``rates``): v̇̄ += D₂,v̇ᵀū. Returns (q̄, v̄, v̇̄ of the step before the event (None after a latch: its
-        restart weighs with M alone), (k, m) into the gradient)."""
+        restart weighs with M alone), (k, m) into the gradient, (m,) into t̄: beside laws in t the restart at
+        t_e + δt_e, latdyn/analyses/adjoint_time.py)."""
         model = self.model
         self._numbered(entry["numbering_end"])
         after, kind = entry["after"], entry["event"][1]
@@ -619,11 +643,16 @@ class AdjointSensitivities(TransientSensitivities):
         v_bar = v_bar + np.asarray(C.T @ u_bar)
         vdot_bar = None   # a latch restarts with M alone
         by_restart = self.residual_transposed_product(after, u_bar)
+        timed = adjoint_time.moves_in_time(self)
+        by_time = adjoint_time.restart_transposed(self, after, u_bar) if timed else np.zeros(u_bar.shape[1])
         if kind != "latch":
             q_part, v_part, vdot_bar, p_part = self._weight_derivative_transposed(
                 before, free_acceleration(model, after), u_bar, scale, mass=False)
             q_bar, v_bar, by_restart = q_bar + q_part, v_bar + v_part, by_restart + p_part
-        return q_bar, v_bar, vdot_bar, by_restart
+            if timed:
+                by_time = by_time + adjoint_time.weight_transposed(self, before, free_acceleration(model, after),
+                                                                   u_bar, scale, mass=False)
+        return q_bar, v_bar, vdot_bar, by_restart, by_time
 
     def _stiffness_by_rates_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float) -> np.ndarray:
         """The transpose of the forward method's rates' term of the weight derivative, scale ∂(K w)/∂v δv

@@ -316,20 +316,6 @@ def _adjoint_event_refusal(scene) -> str | None:
     onset, nor events beside laws in t (friction: its own refusal)."""
     if not has_events(scene):
         return None
-    compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
-                      if hinge.limits is not None and hinge.contact is not None), None)
-    if compliant is not None:
-        return f"the adjoint does not differentiate a compliant stop's onset yet ({compliant})"
-    reel = next((f"cables.{name}.rest_length" for name, cable in scene.cables.items()
-                 if not getattr(cable.rest_length, "is_constant", True)), None) if scene.cables else None
-    if depends_on_time(scene) or reel is not None:
-        timed = reel or _timed_key(scene)
-        event = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                      if hinge.lock_at is not None or hinge.limits is not None), None) or next(
-            (f"bodies.{name}.guide" for name, body in scene.bodies.items()
-             if body.guide is not None and (body.guide.lock_at is not None or body.guide.limits is not None)), "cables")
-        return (f"the adjoint does not differentiate events ({event}: lock_at, limits, a cable's slack and taut "
-                f"changes) beside laws in t yet ({timed} depends on t, so it moves with the event's time)")
     return None
 
 
