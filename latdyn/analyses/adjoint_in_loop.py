@@ -13,9 +13,10 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 (:meth:`AdjointLoop.record_rows`). Every event, landing, Newton cut and the step after them takes the Python path as
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
-(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, explicit time dependence beside events,
-geometry parameters, external work or dissipated energy probes, NumPy kernels; the energies of the state and the
-momenta are taken) and those with rigid links, guides or cables, which :func:`refusal` refuses itself: decided once,
+(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, geometry parameters, external work or
+dissipated energy probes, NumPy kernels; the energies of the state and the momenta are taken, and explicit time
+dependence beside events: the loop starts from a grid point, where δt is 0, and the steps whose end moves in time
+come from Python) and those with rigid links, guides or cables, which :func:`refusal` refuses itself: decided once,
 at the start.
 
 The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smooth step — no event at its end, a size
@@ -53,7 +54,9 @@ def refusal(owner) -> str | None:
         return "rigid links or guides"
     if owner.model.cables is not None:   # likewise (csrc/cable_forces.c); this pass's reverse steps not yet
         return "cables"
-    return model_refusal(owner)
+    # laws in t beside events: the loop takes its steps from a grid point (δt = 0 there, each step's ∂r/∂t δt_n
+    # nothing), the steps whose end moves in time come from Python (latdyn/analyses/adjoint_time.py)
+    return model_refusal(owner, timed=True)
 
 
 def accepted(trajectory: list) -> list:

@@ -52,13 +52,16 @@ pass and keep 3 × nnz numbers a step (76 kB for the 30-element cantilever, 539 
 lattice, against 8.8 kB and 120 kB of stored state).
 
 Events (docs/parameters.md, "The discrete adjoint", "Events"): at a step that ends on a hinge's latch or rigid
-stop or on a cable element's change, the forward method composes the step with linear maps — its size's
+stop, a compliant stop's onset (no jump: the landing step's size alone, rule ``onset``) or a cable element's change,
+the forward method composes the step with linear maps — its size's
 derivative δh, a linear functional of the step's parameter columns added through the step size's column; the
 jump of δv through the impulse; the renumbering after a latch; the restarted accelerations — and the reverse pass
 applies their transposes in reverse order, each named after its forward piece (:meth:`_restart_transposed`,
 :meth:`_renumbering_transposed`, :meth:`_impulse_transposed` with :meth:`_weight_derivative_transposed`,
 :meth:`_step_size_transposed` with :meth:`_step_size_column`); t̄ and ḡ, the adjoints of δt and of the carried δh,
-run back beside the bars, and each event time is an output seeded on t̄ (``event_sensitivities``).
+run back beside the bars, and each event time is an output seeded on t̄ (``event_sensitivities``). Beside laws in
+t the forward method's ∂r/∂t δt terms (a step's, the step size column's, the restart's and the impulse weight's)
+are transposed onto t̄ by latdyn/analyses/adjoint_time.py.
 
 What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run; the smooth steps
 stored by the loop of steps in C where the run allows it, latdyn/analyses/adjoint_in_loop.py): each
@@ -66,8 +69,8 @@ accepted step's end state (a copy: 24 numbers a node and 3 a hinge) and size and
 accelerations before and after it (2n numbers); where the scene has events, the numbering and cables' sides each
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
-everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
-stop's onset, events beside laws in t, friction, controllers with states and sampled ones
+everything the forward method refuses, and what leaves the recurrence above and its events' pieces: friction,
+controllers with states and sampled ones
 (continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
@@ -175,7 +178,8 @@ class AdjointSensitivities(TransientSensitivities):
 
     # ------------------------------------------------------------------ events: what the forward pass keeps
     def _with_events(self) -> bool:
-        """Whether the model has latches, rigid stops or cables (the adjoint's refusal leaves no other events)."""
+        """Whether the model has latches, stops (rigid or compliant) or cables (the adjoint's refusal leaves no
+        other events)."""
         if "_events_here" not in self.__dict__:
             self._events_here = self.model.cables is not None or any(
                 h.lock_at is not None or h.limits is not None for h in self.model.hinges)

@@ -218,16 +218,15 @@ def refusal(scene) -> SceneError | None:
 
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides,
-    without controllers with states; the forward method's refusals come first, :func:`refusal`)."""
+    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops, compliant stops' onsets and cables, beside
+    laws in t too, with rigid links and guides, without friction or controllers with states; the forward method's
+    refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
     if scene.solve.analysis != "transient":
         why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
     elif scene.solve.adaptive:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
-    elif _adjoint_event_refusal(scene) is not None:
-        why = _adjoint_event_refusal(scene)
     elif any(hinge.friction is not None for _, _, hinge in scene.hinges):
         beam, which = next((beam, which) for beam, which, hinge in scene.hinges if hinge.friction is not None)
         why = (f"the adjoint does not differentiate friction yet (beams.{beam}.{which}.hinge.friction: a joint that "
@@ -307,16 +306,6 @@ def _transient_refusal(scene) -> str | None:
                 "applies the jump (a kink's impulse on the free rates) and restarts; the sensitivities do not "
                 "differentiate that restart (a law whose rate and acceleration are continuous is taken)")
     return None   # friction: sticking refused, when it comes, where not followed
-
-
-def _adjoint_event_refusal(scene) -> str | None:
-    """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's or a guide's latch (``lock_at``)
-    and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links, guides
-    and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a compliant stop's
-    onset, nor events beside laws in t (friction: its own refusal)."""
-    if not has_events(scene):
-        return None
-    return None
 
 
 def _timed_key(scene) -> str | None:
