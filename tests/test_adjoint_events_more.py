@@ -29,6 +29,8 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run
+from tests.resumed_runs import interrupted_and_whole
+from tests.test_adjoint_events import _disagreement as disagreement
 from tests.test_sensitivities_cables import CABLE_3D, DROP
 from tests.test_sensitivities_events import LATCH_3D, STOP_3D
 from tests.test_sensitivities_guide_energies import ARM_STOP
@@ -97,22 +99,9 @@ def _run(data: dict, **parameters):
 
 
 def _disagreement(forward: dict, adjoint: dict) -> float:
-    """The largest difference of two summaries' ``probe_sensitivities`` (every probe's end, max and min) and
-    ``event_sensitivities``, relative to each output's largest derivative by the parameters."""
-    worst = 0.0
-    outputs = [(by_name, adjoint["probe_sensitivities"][probe][which])
-               for probe, by in forward["probe_sensitivities"].items() for which, by_name in by.items()]
-    assert len(forward.get("event_sensitivities", [])) == len(adjoint.get("event_sensitivities", []))
-    for f, a in zip(forward.get("event_sensitivities", []), adjoint.get("event_sensitivities", [])):
-        assert (f["joint"], f["kind"], f["t"]) == (a["joint"], a["kind"], a["t"])
-        outputs.append((f["dt"], a["dt"]))
-    for f, a in outputs:
-        assert f.keys() == a.keys()
-        f_values, a_values = np.array(list(f.values())), np.array([a[name] for name in f])
-        scale = np.abs(f_values).max()
-        if scale:
-            worst = max(worst, float(np.abs(a_values - f_values).max() / scale))
-    return worst
+    """tests/test_adjoint_events.py's (every probe's end, max and min and every event time's derivative, relative to
+    each output's largest), a compliant stop's onset being no recorded event."""
+    return disagreement(forward, adjoint, events=False)
 
 
 @functools.lru_cache(maxsize=None)
@@ -294,3 +283,16 @@ def test_the_cli_writes_the_apis_adjoint_beside_a_law_in_t(tmp_path):
     api = _forward_and_adjoint(LATCH_TIP_LOAD)[1].summary
     assert summary["probe_sensitivities"] == api["probe_sensitivities"]
     assert summary["event_sensitivities"] == api["event_sensitivities"] and len(api["event_sensitivities"]) == 1
+
+
+@pytest.mark.parametrize("name, t_stop", [("BOOM_STOP", 0.6), ("LATCH_TIP_LOAD", 1.07)])
+def test_a_run_interrupted_after_the_event_resumes_to_the_same_adjoint(name, t_stop, tmp_path, monkeypatch):
+    """The stored onset, and the steps' flags of whether their ends move in time, ride in the checkpoint: interrupted
+    after the boom's onset (0.53 s) or the latch beside the load (1.058 s) and resumed, the same summary.json
+    sensitivities and sensitivities.csv byte for byte."""
+    scene = _adjoint(globals()[name])
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, t_stop)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
+    resumed, uninterrupted = (json.loads((path / "summary.json").read_text()) for path in (out, whole))
+    assert resumed["probe_sensitivities"] == uninterrupted["probe_sensitivities"]
+    assert resumed["event_sensitivities"] == uninterrupted["event_sensitivities"]
