@@ -34,6 +34,7 @@ from tests.test_adjoint_events import _disagreement as disagreement
 from tests.test_sensitivities_cables import CABLE_3D, DROP
 from tests.test_sensitivities_events import LATCH_3D, STOP_3D
 from tests.test_sensitivities_guide_energies import ARM_STOP
+from tests.test_sensitivities_guides import BEAD_LATCH
 from tests.test_sensitivities_in_loop_linked2 import GIMBAL_SLEW
 from tests.test_sensitivities_rigid_links import GIMBAL
 
@@ -230,7 +231,7 @@ CABLE_REEL = CABLE_3D.replace('rest_length: "L"', 'rest_length: "L + 0.1*t"')
 DROP_REEL = DROP.replace('rest_length: "L"', 'rest_length: "L + 0.2*t"')
 
 TIMED = [(LATCH_TIP_LOAD, ["latch"]), (SLEWING_STOP, ["stop"]), (GIMBAL_SLEW, ["latch"]),
-         (CABLE_REEL, ["taut", "slack"]), (DROP_REEL, ["taut", "slack"])]
+         (CABLE_REEL, ["taut", "slack"]), (DROP_REEL, ["taut", "slack"]), (BEAD_LATCH, ["latch"])]
 
 
 assert LATCH_TIP_LOAD.count("P*") == 2 and "sin(2*t)" in SLEWING_STOP and "0.1*t" in CABLE_REEL
@@ -238,11 +239,14 @@ assert "0.2*t" in DROP_REEL and "0.8*t**2" in GIMBAL_SLEW
 
 
 @pytest.mark.parametrize("text, kinds", TIMED, ids=["latch-tip-load", "slewing-stop", "gimbal-slewing-base",
-                                                    "reel-3d", "reel-drop"])
+                                                    "reel-3d", "reel-drop", "bead-latch-on-a-moving-rod"])
 def test_events_beside_laws_in_t_adjoint_equals_the_forward_method(text, kinds):
     """Every probe's end, max and min and every event time's derivative: measured 2.4e-13 (the latch beside the load),
-    1.3e-11 (the slewing stop), 2.0e-12 (the gimbal on its slewing base), 6.2e-14 and 7.9e-16 (the reels) of each
-    output's largest; on 86d57d9 each refused ("beside laws in t")."""
+    1.3e-11 (the slewing stop), 2.0e-12 (the gimbal on its slewing base), 6.2e-14 and 7.9e-16 (the reels), 2.6e-16 (the
+    bead of tests/test_sensitivities_guides.py latching on a guide along a rod turned by a prescribed angle: nothing free after
+    it, the steps' δh −δt_n onto the grid, else 0, as the forward method's; a traceback in the reverse pass until the
+    steps without free coordinates were passed over) of each output's largest; on 86d57d9 each refused ("beside laws
+    in t")."""
     forward, adjoint = _forward_and_adjoint(text)
     assert [e["kind"] for e in adjoint.summary["event_sensitivities"]] == kinds
     assert _disagreement(forward.summary, adjoint.summary) <= 1e-10

@@ -157,6 +157,9 @@ class AdjointSensitivities(TransientSensitivities):
             timed = carried["timed"]   # δt_n may be non-zero: the step's ∂r/∂t δt_n (laws in t, adjoint_time.py)
             entry.update({"numbering": self._numbering(), "event": event, "cable": cable, "onset": onset,
                           "rule": self._size_rule(carried, h, lands, event or onset, cable), "timed": timed})
+            if not self.model.n_dofs:   # nothing free (all latched): the forward method's δh, −δt_n onto the grid,
+                entry["rule"] = ("lands",) if lands and timed else None   # else 0 (TransientSensitivities.step)
+                carried["timed"], carried["dh_moves"] = timed and not lands, False
             entry["timed_end"] = carried["timed"]   # δt_{n+1} may be non-zero: a row here moves in time
         if carried["trajectory"] and carried["trajectory"][-1].get("pending"):   # not accepted: a run resumed
             carried["trajectory"].pop()                                             # from before it
@@ -494,6 +497,11 @@ class AdjointSensitivities(TransientSensitivities):
                 self._numbered(entry["numbering"])
             h, new = entry["h"], entry["state"]
             old = states[i]
+            if not model.n_dofs:   # nothing free: δh = −δt_n onto the grid (rule "lands"), else 0; no step system
+                if entry.get("rule") is not None:
+                    t_bar = t_bar - (t_bar + g_bar)
+                g_bar = np.zeros(m)
+                continue
             beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
             increment = h * (free_velocity(model, old) + h * (0.5 - beta) * entry["a_old"]
                              + h * beta * entry["a_new"])
@@ -633,6 +641,8 @@ class AdjointSensitivities(TransientSensitivities):
         self._numbered(entry["numbering_end"])
         after, kind = entry["after"], entry["event"][1]
         n = model.n_dofs
+        if n == 0:   # nothing free after the latch: the forward method restarts nothing (TransientSensitivities._restart)
+            return q_bar, v_bar, None, np.zeros((len(self.names), s_bar.shape[1])), np.zeros(s_bar.shape[1])
         M, C, K = self._matrices(after)
         if kind == "latch":
             matrix = M
