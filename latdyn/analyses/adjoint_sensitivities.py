@@ -391,17 +391,13 @@ class AdjointSensitivities(TransientSensitivities):
         numberings = [carried.get("numbering_start")] + [entry.get("numbering_end") for entry in trajectory]
         final = self._numbering() if self._with_events() else None   # the model's, put back at the end
         seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
+        timings: dict[int, list] = {}   # stored state index -> [(column, its seed on δt there)]
         taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
         columns = 0
         try:
+            moving = {}   # stored state index -> each probe's coefficient of δt at a row whose time moves
             for probe, _, row in outputs:
                 index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
-                if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self):
-                    raise SolverError(f"the adjoint sensitivities meet a row at t = {states[index].t:.6g} whose time "
-                                      "moves with the parameters beside laws in t (after an event, before a step "
-                                      "lands on the grid), whose probes' explicit time dependence the reverse pass "
-                                      "does not seed; expected output rows on the time grid (output.every a "
-                                      "multiple of solve.dt), or sensitivity_method: forward")
                 if final is not None:   # the row's forms on the numbering it was recorded on
                     self._numbered(numberings[index])
                 forms = [self.output_forms(probe, states[index])]
@@ -411,9 +407,20 @@ class AdjointSensitivities(TransientSensitivities):
                 columns += len(forms)
                 for column, form in zip(taken[-1], forms):
                     seeds.setdefault(index, []).append((column, form))
-            timings = {}   # stored state index -> [column]: an event time's, seeded on δt there
-            for index, _ in events:
-                timings.setdefault(index, []).append(columns)
+                if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self):
+                    # the row's time moves with p (an output row at an event): taken where the probe has no explicit
+                    # time dependence there (the forward method's row adds nothing more), else refused
+                    if index not in moving:
+                        moving[index] = adjoint_time.row_coefficients(self, states[index])
+                    if moving[index][self.probes.index(probe)] != 0.0:   # not seeded yet: no check has reached one
+                        raise SolverError(f"the adjoint sensitivities meet probe {probe.name!r} at t = "
+                                          f"{states[index].t:.6g}, a row whose time moves with the parameters (an "
+                                          "output row at an event beside laws in t) where the probe depends on t "
+                                          "explicitly (a prescribed motion, a joint force's law or reaction in t); "
+                                          "expected sensitivity_method: forward there, or output.every a multiple of "
+                                          "solve.dt")
+            for index, _ in events:   # an event time's column, seeded on δt there with 1
+                timings.setdefault(index, []).append((columns, 1.0))
                 columns += 1
             if final is not None:   # the reverse pass starts on the numbering the last accepted step ended on
                 self._numbered(numberings[-1] if numberings[-1] is not None else final)
@@ -455,8 +462,8 @@ class AdjointSensitivities(TransientSensitivities):
 
     def _reverse_columns(self, carried: dict, states: list, seeds: dict, m: int, timings: dict) -> np.ndarray:
         """(k, m): the transposed recurrence (module docstring) with the m columns that ``seeds`` seeds
-        ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states and ``timings``
-        ({index: [column]}) on δt there. At a step that ends on a latch or a stop the forward method's pieces
+        ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states and ``timings`` ({index: [(column,
+        seed)]}: an event time's 1) on δt there. At a step that ends on a latch or a stop the forward method's pieces
         come transposed in reverse order: the restart (:meth:`_restart_transposed`), the renumbering
         (:meth:`_renumbering_transposed`), the jump (:meth:`_impulse_transposed`), then the step with its size's
         derivative (:meth:`_step_size_transposed`); t̄ and ḡ carry the adjoints of δt_n and of the last δh."""
@@ -477,8 +484,8 @@ class AdjointSensitivities(TransientSensitivities):
                 v_bar[:, column] += c_v
                 vdot_bar[:, column] += c_vdot
                 gradient[:, column] += explicit
-            for column in timings.get(i + 1, []):
-                t_bar[column] += 1.0
+            for column, seed in timings.get(i + 1, []):
+                t_bar[column] += seed
             entry = trajectory[i]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
                 q_bar, v_bar, vdot_by_restart, by_restart, t_by_restart = self._restart_transposed(

@@ -15,6 +15,10 @@ in the restart's ∂r/∂p, and in the weight's (∂K/∂p) w and ∂M/∂p w th
   ``_step_size_column`` as the forward method adds it);
 - the restart (:func:`restart_transposed`): δv̇ = −B⁻¹(E + ∂r/∂t δt_e + …) with the inertia forces, so t̄ += (∂r/∂t)ᵀ ū
   (ū = −B⁻ᵀs̄, the restart's own);
+- a row whose time moves (an output row at an event, before a step lands on the grid): the forward method's row adds
+  each probe's explicit time dependence times δt (a prescribed point's or angle's motion, a joint force's law in t or
+  its reaction's ∂r_d/∂t: ``TransientSensitivities.record``); :func:`row_coefficients` reads that coefficient, and
+  the adjoint takes such a row where it is 0 and refuses it otherwise (no check has reached a non-zero one yet);
 - the weight's derivative (:func:`weight_transposed`): the forward's δ(W w) holds scale·(∂K/∂t w) δt_e and, with the
   mass, (∂r/∂t at the accelerations w less at rest) δt_e; the first is the forward method's own
   ``_stiffness_derivative`` (with rigid links or guides ``_geometric_derivative`` too) evaluated at two time shifts
@@ -28,7 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["moves_in_time", "rate_at", "restart_transposed", "step_transposed", "weight_transposed"]
+__all__ = ["moves_in_time", "rate_at", "restart_transposed", "row_coefficients", "step_transposed",
+           "weight_transposed"]
 
 
 def moves_in_time(owner) -> bool:
@@ -80,3 +85,17 @@ def weight_transposed(owner, state, w: np.ndarray, u_bar: np.ndarray, scale: flo
                  - np.asarray(owner.explicit_time(at_rest, inertia=True), float))
         out = out + moved @ u_bar
     return out
+
+
+def row_coefficients(owner, state) -> np.ndarray:
+    """(probes,): each probe's coefficient of δt in the forward method's row at ``state`` (its explicit time
+    dependence: ``TransientSensitivities.record`` with δq = δv = δv̇ = 0, at δt = 1 less at δt = 0, the first
+    parameter's column; every column takes the same coefficient times its δt)."""
+    from latdyn.analyses.transient_sensitivities import TransientSensitivities
+
+    n, k = owner.model.n_dofs, len(owner.names)
+    rows = []
+    for moved in (np.ones(k), np.zeros(k)):
+        still = {"dq": np.zeros((n, k)), "dv": np.zeros((n, k)), "dvdot": np.zeros((n, k)), "dt": moved, "rows": []}
+        rows.append(np.asarray(TransientSensitivities.record(owner, still, state)["rows"][0][1:], float))
+    return (rows[0] - rows[1]).reshape(len(owner.probes), k)[:, 0]
