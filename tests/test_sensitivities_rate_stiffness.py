@@ -8,8 +8,8 @@ included), and the adjoint took the term only beside a damped cable and hinge la
 the scene's keys): beside a latch, a continuous controller whose coupling in K holds a rate — an output nonlinear in
 an angle and a rate, or a follower load in a body's axes driven by a rate — left its end rows 3.2e-4 and 2.3e-4 off
 the Richardson differences of whole runs (the same at h = 1e-2, 1e-3, 1e-4 |p|), reported as solved. A damped
-compliant stop in contact at a latch (its Hunt–Crossley ∂F/∂δ = n δⁿ⁻¹ (k + c δ̇)) the adjoint refuses (its onset),
-and the forward method takes: without the term its rows 3.2e-6 off (benchmarks/fuzz_sensitivity_scenes/
+compliant stop in contact at a latch (its Hunt–Crossley ∂F/∂δ = n δⁿ⁻¹ (k + c δ̇)) both methods take (the adjoint its
+onset too since tests/test_adjoint_events_more.py): without the term its rows 3.2e-6 off (benchmarks/fuzz_sensitivity_scenes/
 q_latch_beside_a_damped_compliant_stop.yaml, r_adjoint_latch_beside_a_controller_of_angle_and_rate.yaml,
 s_adjoint_latch_beside_a_follower_load_of_a_rate.yaml).
 """
@@ -119,15 +119,24 @@ def test_the_adjoint_takes_a_latch_beside_controllers_whose_couplings_move_with_
     _assert_adjoint_agrees(FOLLOWER_LOAD_OF_A_RATE, ("k", "c"))
 
 
-def test_the_adjoint_refuses_a_damped_compliant_stop_at_a_latch(tmp_path):
-    """The adjoint does not differentiate a compliant stop's onset: refused before the run (exit 2) naming the key,
-    through the command line; the forward method takes the scene (above)."""
+def test_the_adjoint_takes_a_damped_compliant_stop_at_a_latch(tmp_path):
+    """The adjoint differentiates a compliant stop's onset (tests/test_adjoint_events_more.py; refused, exit 2, on
+    86d57d9): through the command line it exits 0, and its summary is the forward method's within 1e-10 (measured
+    2.7e-13)."""
     text = DAMPED_STOP_IN_CONTACT_AT_A_LATCH.replace("tol: 1.0e-12,", "tol: 1.0e-12, sensitivity_method: adjoint,")
     done, out = latdyn_run(tmp_path, text)
-    assert done.returncode == 2, done.stderr
-    assert "solve.sensitivity_method" in done.stderr and "beams.fore.start.hinge.contact" in done.stderr
-    assert "Traceback" not in done.stderr and summary_of(out) is None
+    assert done.returncode == 0, done.stderr
     assert latdyn.load_scene(tmp_path / "scene.yaml").solve.sensitivity_method == "adjoint"
+    forward = _run(DAMPED_STOP_IN_CONTACT_AT_A_LATCH).summary
+    adjoint = summary_of(out)
+    assert [e["kind"] for e in adjoint["events"]] == ["latch"]
+    for probe, by in forward["probe_sensitivities"].items():
+        for which, values in by.items():
+            scale = max(abs(v) for v in values.values())
+            worst = max(abs(adjoint["probe_sensitivities"][probe][which][name] - v) for name, v in values.items())
+            assert worst <= 1e-10 * scale, (probe, which, worst / scale)
+    for mine, theirs in zip(adjoint["event_sensitivities"], forward["event_sensitivities"], strict=True):
+        assert max(abs(mine["dt"][n] - v) for n, v in theirs["dt"].items()) <= 1e-10 * max(map(abs, theirs["dt"].values()))
 
 
 #: the two arms without the controller: the second hinge's law written in place of ``LAW``

@@ -13,11 +13,12 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 (:meth:`AdjointLoop.record_rows`). Every event, landing, Newton cut and the step after them takes the Python path as
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
-(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, explicit time dependence beside events,
-external work or dissipated energy probes, NumPy kernels; the energies of the state, the momenta and geometry
-parameters are taken) and those with cables, which :func:`refusal` refuses itself: decided once, at the start. On a
-model with rigid links or guides the loop's step is the compiled step's reduction, as the forward method's loop takes
-it (its stored state has the dependent nodes completed).
+(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, external work or dissipated energy probes,
+NumPy kernels; the energies of the state, the momenta and geometry parameters are taken, and explicit time dependence
+beside events: the loop starts from a grid point, where δt is 0, and the steps whose end moves in time come from
+Python) and those with cables, which :func:`refusal` refuses itself: decided once, at the start. On a model with
+rigid links or guides the loop's step is the compiled step's reduction, as the forward method's loop takes it (its
+stored state has the dependent nodes completed).
 
 The reverse pass (:meth:`AdjointSensitivities._reverse_columns`) takes each smooth step — no event at its end, a size
 that does not move with the parameters — in one call of csrc/adjoint_reverse.c (:class:`ReverseSteps`): M, C and the
@@ -57,7 +58,9 @@ def refusal(owner) -> str | None:
 
     if owner.model.cables is not None:   # the forward step's loop takes them (csrc/cable_forces.c); this pass not yet
         return "cables"
-    return model_refusal(owner)
+    # laws in t beside events: the loop takes its steps from a grid point (δt = 0 there, each step's ∂r/∂t δt_n
+    # nothing), the steps whose end moves in time come from Python (latdyn/analyses/adjoint_time.py)
+    return model_refusal(owner, timed=True)
 
 
 def accepted(trajectory: list) -> list:

@@ -59,13 +59,16 @@ pass and keep 3 × nnz numbers a step (76 kB for the 30-element cantilever, 539 
 lattice, against 8.8 kB and 120 kB of stored state).
 
 Events (docs/parameters.md, "The discrete adjoint", "Events"): at a step that ends on a hinge's latch or rigid
-stop or on a cable element's change, the forward method composes the step with linear maps — its size's
+stop, a compliant stop's onset (no jump: the landing step's size alone, rule ``onset``) or a cable element's change,
+the forward method composes the step with linear maps — its size's
 derivative δh, a linear functional of the step's parameter columns added through the step size's column; the
 jump of δv through the impulse; the renumbering after a latch; the restarted accelerations — and the reverse pass
 applies their transposes in reverse order, each named after its forward piece (:meth:`_restart_transposed`,
 :meth:`_renumbering_transposed`, :meth:`_impulse_transposed` with :meth:`_weight_derivative_transposed`,
 :meth:`_step_size_transposed` with :meth:`_step_size_column`); t̄ and ḡ, the adjoints of δt and of the carried δh,
-run back beside the bars, and each event time is an output seeded on t̄ (``event_sensitivities``).
+run back beside the bars, and each event time is an output seeded on t̄ (``event_sensitivities``). Beside laws in
+t the forward method's ∂r/∂t δt terms (a step's, the step size column's, the restart's and the impulse weight's)
+are transposed onto t̄ by latdyn/analyses/adjoint_time.py.
 
 What the forward pass stores, in memory (``carried["trajectory"]``, checkpointed with the run; the smooth steps
 stored by the loop of steps in C where the run allows it, latdyn/analyses/adjoint_in_loop.py): each
@@ -73,9 +76,9 @@ accepted step's end state (a copy: 24 numbers a node and 3 a hinge) and size and
 accelerations before and after it (2n numbers); where the scene has events, the numbering and cables' sides each
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
-everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
-stop's onset (a hinge's or a guide's), events beside laws in t, a joint that friction sticks (a stick and a release are
-events not transposed yet: refused when it sticks, :meth:`_refuse_a_stick`; friction while the joints slip is taken),
+everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
+friction sticks (a stick and a release are events not transposed yet: refused when it sticks,
+:meth:`_refuse_a_stick`; friction while the joints slip is taken),
 controllers with states and sampled ones
 (continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
@@ -94,6 +97,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses import adjoint_time
 from latdyn.analyses.adjoint_in_loop import accepted
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
@@ -180,8 +184,16 @@ class AdjointSensitivities(TransientSensitivities):
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
             cable = self._cable_event(old, new, event)
-            entry.update({"numbering": self._numbering(), "event": event, "cable": cable,
-                          "rule": self._size_rule(carried, h, lands, event, cable)})
+            # a compliant stop's onset: no jump, its time through the landing step's size (the forward method's
+            # ``event or self._contact_onset(old, new)``)
+            onset = self._contact_onset(old, new) if event is None and cable is None and self.model.n_dofs else None
+            timed = carried["timed"]   # δt_n may be non-zero: the step's ∂r/∂t δt_n (laws in t, adjoint_time.py)
+            entry.update({"numbering": self._numbering(), "event": event, "cable": cable, "onset": onset,
+                          "rule": self._size_rule(carried, h, lands, event or onset, cable), "timed": timed})
+            if not self.model.n_dofs:   # nothing free (all latched): the forward method's δh, −δt_n onto the grid,
+                entry["rule"] = ("lands",) if lands and timed else None   # else 0 (TransientSensitivities.step)
+                carried["timed"], carried["dh_moves"] = timed and not lands, False
+            entry["timed_end"] = carried["timed"]   # δt_{n+1} may be non-zero: a row here moves in time
         if carried["trajectory"] and carried["trajectory"][-1].get("pending"):   # not accepted: a run resumed
             carried["trajectory"].pop()                                             # from before it
         carried["trajectory"].append(entry)
@@ -203,7 +215,8 @@ class AdjointSensitivities(TransientSensitivities):
 
     # ------------------------------------------------------------------ events: what the forward pass keeps
     def _with_events(self) -> bool:
-        """Whether the model has latches, rigid stops or cables (the adjoint's refusal leaves no other events)."""
+        """Whether the model has latches, stops (rigid or compliant) or cables (the adjoint's refusal leaves no
+        other events)."""
         if "_events_here" not in self.__dict__:
             self._events_here = self.model.cables is not None or any(
                 h.lock_at is not None or h.limits is not None for h in self.model.hinges)
@@ -238,7 +251,7 @@ class AdjointSensitivities(TransientSensitivities):
         timed, dh_moves = carried["timed"], carried["dh_moves"]
         carried["trial_sized"] = not lands and event is None and cable is None
         if event is not None or cable is not None:
-            rule = ("event",) if cable is None else ("cable",)
+            rule = ("cable",) if cable is not None else ("onset",) if event[1] == "contact" else ("event",)
             carried["timed"], carried["dh_moves"] = True, True
             return rule
         if lands:
@@ -436,6 +449,7 @@ class AdjointSensitivities(TransientSensitivities):
         numberings = [carried.get("numbering_start")] + [entry.get("numbering_end") for entry in trajectory]
         final = self._numbering() if self._with_events() else None   # the model's, put back at the end
         seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
+        timings: dict[int, list] = {}   # stored state index -> [(column, its seed on δt there)]
         taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
         columns = 0
         try:
@@ -443,6 +457,7 @@ class AdjointSensitivities(TransientSensitivities):
             # or guides the reduction's parts held per state: link_sensitivities.held_linked_parts), each output's
             # columns in the outputs' order
             forms_of, held = {}, {}   # held: a probe's forms at a state, once (its end and its max or min at one row)
+            moving = {}   # stored state index -> each probe's coefficient of δt at a row whose time moves
             self._linked_parts_held = {}
             for at in sorted(range(len(outputs)), key=lambda at: rows[outputs[at][2]]):
                 probe, index = outputs[at][0], rows[outputs[at][2]]
@@ -456,6 +471,18 @@ class AdjointSensitivities(TransientSensitivities):
                 if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                     forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
                 forms_of[at] = held[id(probe), index] = forms
+                if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self):
+                    # the row's time moves with p (an output row at an event): taken where the probe has no explicit
+                    # time dependence there (the forward method's row adds nothing more), else refused
+                    if index not in moving:
+                        moving[index] = adjoint_time.row_coefficients(self, states[index])
+                    if moving[index][self.probes.index(probe)] != 0.0:   # not seeded yet: no check has reached one
+                        raise SolverError(f"the adjoint sensitivities meet probe {probe.name!r} at t = "
+                                          f"{states[index].t:.6g}, a row whose time moves with the parameters (an "
+                                          "output row at an event beside laws in t) where the probe depends on t "
+                                          "explicitly (a prescribed motion, a joint force's law or reaction in t); "
+                                          "expected sensitivity_method: forward there, or output.every a multiple of "
+                                          "solve.dt")
             self._linked_parts_held = None
             for at, (_, _, row) in enumerate(outputs):
                 forms = forms_of[at]
@@ -463,9 +490,8 @@ class AdjointSensitivities(TransientSensitivities):
                 columns += len(forms)
                 for column, form in zip(taken[-1], forms):
                     seeds.setdefault(rows[row], []).append((column, form))
-            timings = {}   # stored state index -> [column]: an event time's, seeded on δt there
-            for index, _ in events:
-                timings.setdefault(index, []).append(columns)
+            for index, _ in events:   # an event time's column, seeded on δt there with 1
+                timings.setdefault(index, []).append((columns, 1.0))
                 columns += 1
             if final is not None:   # the reverse pass starts on the numbering the last accepted step ended on
                 self._numbered(numberings[-1] if numberings[-1] is not None else final)
@@ -508,8 +534,8 @@ class AdjointSensitivities(TransientSensitivities):
 
     def _reverse_columns(self, carried: dict, states: list, seeds: dict, m: int, timings: dict) -> np.ndarray:
         """(k, m): the transposed recurrence (module docstring) with the m columns that ``seeds`` seeds
-        ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states and ``timings``
-        ({index: [column]}) on δt there. At a step that ends on a latch or a stop the forward method's pieces
+        ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states and ``timings`` ({index: [(column,
+        seed)]}: an event time's 1) on δt there. At a step that ends on a latch or a stop the forward method's pieces
         come transposed in reverse order: the restart (:meth:`_restart_transposed`), the renumbering
         (:meth:`_renumbering_transposed`), the jump (:meth:`_impulse_transposed`), then the step with its size's
         derivative (:meth:`_step_size_transposed`); t̄ and ḡ carry the adjoints of δt_n and of the last δh."""
@@ -530,17 +556,18 @@ class AdjointSensitivities(TransientSensitivities):
                 v_bar[:, column] += c_v
                 vdot_bar[:, column] += c_vdot
                 gradient[:, column] += explicit
-            for column in timings.get(i + 1, []):
-                t_bar[column] += 1.0
+            for column, seed in timings.get(i + 1, []):
+                t_bar[column] += seed
             entry = trajectory[i]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
-                q_bar, v_bar, vdot_by_restart, by_restart = self._restart_transposed(entry, q_bar, v_bar,
-                                                                                      vdot_bar + a_bar)
+                q_bar, v_bar, vdot_by_restart, by_restart, t_by_restart = self._restart_transposed(
+                    entry, q_bar, v_bar, vdot_bar + a_bar)
                 gradient += by_restart
                 q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
-                v_bar, q_by_jump, vdot_by_jump, by_jump = self._impulse_transposed(entry, v_bar)
+                v_bar, q_by_jump, vdot_by_jump, by_jump, t_by_jump = self._impulse_transposed(entry, v_bar)
                 q_bar = q_bar + q_by_jump
                 gradient += by_jump
+                t_bar = t_bar + t_by_restart + t_by_jump   # the restart and the jump at t_e + δt_e
                 # the restart set δv̇, δa afresh: the step's own δv̇ reaches past it only through the weights' rates
                 # (guides, rigid links: :meth:`_weight_derivative_transposed`), δa not at all
                 vdot_bar = vdot_by_jump if vdot_by_restart is None else vdot_by_jump + vdot_by_restart
@@ -549,6 +576,11 @@ class AdjointSensitivities(TransientSensitivities):
                 self._numbered(entry["numbering"])
             h, new = entry["h"], entry["state"]
             old = states[i]
+            if not model.n_dofs:   # nothing free: δh = −δt_n onto the grid (rule "lands"), else 0; no step system
+                if entry.get("rule") is not None:
+                    t_bar = t_bar - (t_bar + g_bar)
+                g_bar = np.zeros(m)
+                continue
             beta_p, gamma_p = (1 - am) / (h * h * beta * (1 - af)), gamma / (h * beta)
             increment = h * (free_velocity(model, old) + h * (0.5 - beta) * entry["a_old"]
                              + h * beta * entry["a_new"])
@@ -561,6 +593,8 @@ class AdjointSensitivities(TransientSensitivities):
                 if w is not None:
                     g_bar = np.zeros(m)
                     gradient -= self.residual_transposed_product(new, w)
+                    if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
+                        t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
                     q_bar, v_bar, vdot_bar, a_bar = bars
                     continue
             C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
@@ -577,6 +611,8 @@ class AdjointSensitivities(TransientSensitivities):
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
             w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, m)
             gradient -= self.residual_transposed_product(new, w)
+            if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
+                t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
             dq0_bar = q_bar - K_t @ w
             dv0_bar = v_bar - C_t @ w
             du0_bar = tangent_t(dq0_bar)
@@ -603,12 +639,16 @@ class AdjointSensitivities(TransientSensitivities):
         (:meth:`TransientSensitivities.step_columns`, its column k), computed as it computes it: the native
         predict and update (:class:`_StepColumns` with no parameter column: ∂(hΔq)/∂h, ∂v_{n+1}/∂h) around the
         solve with the step's exact matrix (``solve``; ``C``, ``K`` its damping and stiffness; ``rotations``: the
-        step's (R, J)); no explicit time dependence: laws in t beside events are refused."""
+        step's (R, J)); beside laws in t its explicit part ∂r/∂t at the step's end, as the forward method's
+        ``_add_time_columns`` puts it in the column of h (latdyn/analyses/adjoint_time.py)."""
         p, model, n = self.params, self.model, self.model.n_dofs
         step = _StepColumns(self, n, 0, (entry["h"], p.alpha_m, p.alpha_f, p.gamma, p.beta), *rotations)
         none = np.zeros((n, 0))
         _, dq0, dv0 = step.predict(free_velocity(model, old), entry["a_old"], entry["a_new"], none, none, none, none)
-        z = np.asarray(solve(-(K @ dq0 + C @ dv0))).reshape(n, 1)
+        rhs = K @ dq0 + C @ dv0
+        if adjoint_time.moves_in_time(self):
+            rhs = rhs + adjoint_time.rate_at(self, entry["state"])[:, None]
+        z = np.asarray(solve(-rhs)).reshape(n, 1)
         return {key: column[:, 0] for key, column in step.update(z, beta_p, gamma_p).items()}
 
     def _step_size_transposed(self, entry: dict, rule: tuple, column: dict, h_bar: np.ndarray,
@@ -623,8 +663,8 @@ class AdjointSensitivities(TransientSensitivities):
         k = len(self.names)
         by_size = np.zeros((k, len(h_bar)))
         g_bar = np.zeros_like(h_bar)
-        if rule[0] == "event":
-            dof = self.model.hinge_dofs[entry["event"][0]]
+        if rule[0] in ("event", "onset"):   # a latch's or stop's angle, or a compliant stop's onset's, held
+            dof = self.model.hinge_dofs[(entry["event"] if rule[0] == "event" else entry["onset"])[0]]
             q_bar = q_bar.copy()
             q_bar[dof] -= h_bar / column["dq"][dof]
         elif rule[0] == "cable":
@@ -650,7 +690,7 @@ class AdjointSensitivities(TransientSensitivities):
 
         (:meth:`_weight_derivative_transposed`; with guides or rigid links D moves with δv⁻ and δv̇⁻ too, the forward
         method's ``rates``: v̄⁻ −= D_vᵀū, v̇̄⁻ −= D_v̇ᵀū). Returns (v̄⁻, the part of q̄, the part of v̇̄⁻, (k, m) into the
-        gradient)."""
+        gradient, (m,) into t̄: the weight's part moving with the event's time, latdyn/analyses/adjoint_time.py)."""
         model, dt = self.model, self.scene.solve.dt
         new, (hinge, _, restitution) = entry["state"], entry["event"]
         scale = dt * dt
@@ -664,7 +704,9 @@ class AdjointSensitivities(TransientSensitivities):
         v_bar_minus = w_bar - restitution * (N @ pushed)
         u_bar = np.asarray(solve_linear(_transposed(W), w_bar)).reshape(w_bar.shape)
         q_part, v_part, vdot_part, p_part = self._weight_derivative_transposed(new, change, u_bar, scale)
-        return v_bar_minus - v_part, -q_part, -vdot_part, -p_part
+        t_part = (adjoint_time.weight_transposed(self, new, change, u_bar, scale, mass=True)
+                  if adjoint_time.moves_in_time(self) else np.zeros(u_bar.shape[1]))
+        return v_bar_minus - v_part, -q_part, -vdot_part, -p_part, -t_part
 
     def _restart_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray) -> tuple:
         """The transpose of the forward method's :meth:`_restart` at the stored state after the event (on its
@@ -673,11 +715,14 @@ class AdjointSensitivities(TransientSensitivities):
         ``mass=False``); for the adjoint s̄ = v̇̄ + ā: ū = −B⁻ᵀs̄, q̄ += Kᵀū [+ D₂ᵀū], v̄ += Cᵀū, dy/dp += Eᵀū
         [+ P₂ᵀū]; with guides or rigid links δ(K)v̇ moves with the step's δv̇ before the event too (the forward
         method's ``rates``): v̇̄ += D₂,v̇ᵀū. Returns (q̄, v̄, v̇̄ of the step before the event (None after a latch: its
-        restart weighs with M alone), (k, m) into the gradient)."""
+        restart weighs with M alone), (k, m) into the gradient, (m,) into t̄: beside laws in t the restart at
+        t_e + δt_e, latdyn/analyses/adjoint_time.py)."""
         model = self.model
         self._numbered(entry["numbering_end"])
         after, kind = entry["after"], entry["event"][1]
         n = model.n_dofs
+        if n == 0:   # nothing free after the latch: the forward method restarts nothing (TransientSensitivities._restart)
+            return q_bar, v_bar, None, np.zeros((len(self.names), s_bar.shape[1])), np.zeros(s_bar.shape[1])
         M, C, K = self._matrices(after)
         if kind == "latch":
             matrix = M
@@ -692,11 +737,16 @@ class AdjointSensitivities(TransientSensitivities):
         v_bar = v_bar + np.asarray(C.T @ u_bar)
         vdot_bar = None   # a latch restarts with M alone
         by_restart = self.residual_transposed_product(after, u_bar)
+        timed = adjoint_time.moves_in_time(self)
+        by_time = adjoint_time.restart_transposed(self, after, u_bar) if timed else np.zeros(u_bar.shape[1])
         if kind != "latch":
             q_part, v_part, vdot_bar, p_part = self._weight_derivative_transposed(
                 before, free_acceleration(model, after), u_bar, scale, mass=False)
             q_bar, v_bar, by_restart = q_bar + q_part, v_bar + v_part, by_restart + p_part
-        return q_bar, v_bar, vdot_bar, by_restart
+            if timed:
+                by_time = by_time + adjoint_time.weight_transposed(self, before, free_acceleration(model, after),
+                                                                   u_bar, scale, mass=False)
+        return q_bar, v_bar, vdot_bar, by_restart, by_time
 
     def _stiffness_by_rates_transposed(self, state, w: np.ndarray, u_bar: np.ndarray, scale: float) -> np.ndarray:
         """The transpose of the forward method's rates' term of the weight derivative, scale ∂(K w)/∂v δv

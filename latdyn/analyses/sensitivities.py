@@ -218,18 +218,16 @@ def refusal(scene) -> SceneError | None:
 
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
-    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides and
-    geometry parameters, friction while it slips (a joint that sticks is refused when it sticks:
-    ``AdjointSensitivities._refuse_a_stick``), without controllers with states; the forward method's refusals come
-    first, :func:`refusal`)."""
+    (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops, compliant stops' onsets (a hinge's or a
+    guide's) and cables, beside laws in t too, with rigid links and guides and geometry parameters, friction while it
+    slips (a joint that sticks is refused when it sticks: ``AdjointSensitivities._refuse_a_stick``), without
+    controllers with states; the forward method's refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
     if scene.solve.analysis != "transient":
         why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
     elif scene.solve.adaptive:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
-    elif _adjoint_event_refusal(scene) is not None:
-        why = _adjoint_event_refusal(scene)
     elif _adjoint_geometry_refusal(scene) is not None:
         why = _adjoint_geometry_refusal(scene)
     elif controller_probes.adjoint_refusal(scene) is not None:
@@ -334,33 +332,6 @@ def _transient_refusal(scene) -> str | None:
                 "applies the jump (a kink's impulse on the free rates) and restarts; the sensitivities do not "
                 "differentiate that restart (a law whose rate and acceleration are continuous is taken)")
     return None   # friction: sticking refused, when it comes, where not followed
-
-
-def _adjoint_event_refusal(scene) -> str | None:
-    """Why the adjoint does not take ``scene``'s events, or None: it takes a hinge's or a guide's latch (``lock_at``)
-    and rigid stops (``limits`` with ``restitution``) and cables' slack and taut changes, beside rigid links, guides
-    and energy and momentum probes too (latdyn/analyses/adjoint_sensitivities.py, "Events"), not a hinge's or a
-    guide's compliant stop's onset, nor events beside laws in t (a stick by friction: refused when it sticks,
-    ``AdjointSensitivities._refuse_a_stick``)."""
-    if not has_events(scene):
-        return None
-    compliant = next((f"beams.{beam}.{which}.hinge.contact" for beam, which, hinge in scene.hinges
-                      if hinge.limits is not None and hinge.contact is not None), None) or next(
-        (f"bodies.{name}.guide.contact" for name, body in scene.bodies.items()   # a guide's: its onset likewise
-         if body.guide is not None and body.guide.limits is not None and body.guide.contact is not None), None)
-    if compliant is not None:
-        return f"the adjoint does not differentiate a compliant stop's onset yet ({compliant})"
-    reel = next((f"cables.{name}.rest_length" for name, cable in scene.cables.items()
-                 if not getattr(cable.rest_length, "is_constant", True)), None) if scene.cables else None
-    if depends_on_time(scene) or reel is not None:
-        timed = reel or _timed_key(scene)
-        event = next((f"beams.{beam}.{which}.hinge" for beam, which, hinge in scene.hinges
-                      if hinge.lock_at is not None or hinge.limits is not None), None) or next(
-            (f"bodies.{name}.guide" for name, body in scene.bodies.items()
-             if body.guide is not None and (body.guide.lock_at is not None or body.guide.limits is not None)), "cables")
-        return (f"the adjoint does not differentiate events ({event}: lock_at, limits, a cable's slack and taut "
-                f"changes) beside laws in t yet ({timed} depends on t, so it moves with the event's time)")
-    return None
 
 
 def _timed_key(scene) -> str | None:

@@ -318,7 +318,7 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
     return None
 
 
-def model_refusal(owner, differentiated: bool = False) -> str | None:
+def model_refusal(owner, differentiated: bool = False, timed: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, cables without their C kernels,
     controllers, explicit time dependence beside events, the work accounts' probes that :func:`_account_refusal`
@@ -328,8 +328,10 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
     which refuses cables itself; rigid links and guides it takes). ``differentiated`` (:func:`refusal`: the loop
     differentiates the steps): controllers and explicit time dependence beside events only where
     :func:`_controller_refusal` and :func:`_time_refusal` say (the adjoint's forward pass keeps refusing them all), on
-    a model with rigid links or guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the laws' rates, as the Python
-    path's ``_on_free_coordinates``)."""
+    a model with rigid links or guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the
+    laws' rates, as the Python path's ``_on_free_coordinates``). ``timed``: explicit time dependence beside events
+    taken whatever it is (the adjoint's forward pass, which stores the steps the loop takes from a grid point, where
+    δt is 0)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
@@ -344,7 +346,7 @@ def model_refusal(owner, differentiated: bool = False) -> str | None:
         why = _controller_refusal(owner) if differentiated else "controllers"
         if why is not None:
             return why
-    if owner.explicit_time is not None:
+    if owner.explicit_time is not None and not timed:
         why = _time_refusal(owner) if differentiated else "explicit time dependence beside events"
         if why is not None:
             return why

@@ -1,0 +1,101 @@
+"""The discrete adjoint's pieces of an event's time beside laws in t (issue 34; docs/parameters.md, "The discrete
+adjoint", "Events"): the transposes of the forward method's terms that carry δt where a load, a hinge's or guide's
+law, a prescribed motion, a reel or a controller's output depends on t
+(latdyn/analyses/transient_sensitivities.py, "Laws in time", :class:`ExplicitTime`).
+
+The forward method moves a step's end t_{n+1} = t_n + h with δt_{n+1} = δt_n + δh and adds ∂r/∂t δt_{n+1} to the
+step's right-hand side: ∂r/∂t δt_n in the parameters' columns and ∂r/∂t in the step size's column
+(``_add_time_columns``); at an event it takes the impulse and the restart at t_e + δt_e (``time_shift``): ∂r/∂t δt_e
+in the restart's ∂r/∂p, and in the weight's (∂K/∂p) w and ∂M/∂p w their parts moving with δt_e. Each is linear in
+δt, so its transpose adds to t̄, the adjoint of δt that the reverse pass carries beside the bars
+(latdyn/analyses/adjoint_sensitivities.py ``_reverse_columns``):
+
+- a step (:func:`step_transposed`): z = S⁻¹(−(E + ∂r/∂t δt_n + …)), so t̄_n −= (∂r/∂t)ᵀ w with w = S⁻ᵀz̄ — the
+  forward's ``_add_time_columns`` transposed; the step size's column carries ∂r/∂t (:func:`rate_at`, added by
+  ``_step_size_column`` as the forward method adds it);
+- the restart (:func:`restart_transposed`): δv̇ = −B⁻¹(E + ∂r/∂t δt_e + …) with the inertia forces, so t̄ += (∂r/∂t)ᵀ ū
+  (ū = −B⁻ᵀs̄, the restart's own);
+- a row whose time moves (an output row at an event, before a step lands on the grid): the forward method's row adds
+  each probe's explicit time dependence times δt (a prescribed point's or angle's motion, a joint force's law in t or
+  its reaction's ∂r_d/∂t: ``TransientSensitivities.record``); :func:`row_coefficients` reads that coefficient, and
+  the adjoint takes such a row where it is 0 and refuses it otherwise (no check has reached a non-zero one yet);
+- the weight's derivative (:func:`weight_transposed`): the forward's δ(W w) holds scale·(∂K/∂t w) δt_e and, with the
+  mass, (∂r/∂t at the accelerations w less at rest) δt_e; the first is the forward method's own
+  ``_stiffness_derivative`` (with rigid links or guides ``_geometric_derivative`` too) evaluated at two time shifts
+  δt_e = 1 and 2 (it is affine in the shift, every parameter's column the same path as the forward method's at
+  its event), their difference the column that multiplies δt_e; the second ExplicitTime's ∂r/∂t itself.
+
+None of these differentiates anything new: each is the forward method's map at the event or step, read as the
+coefficient of δt, transposed onto the adjoint's columns.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["moves_in_time", "rate_at", "restart_transposed", "row_coefficients", "step_transposed",
+           "weight_transposed"]
+
+
+def moves_in_time(owner) -> bool:
+    """Whether ``owner`` (an AdjointSensitivities) has explicit time dependence that an event's time moves
+    (the forward method's :class:`ExplicitTime`; None where nothing depends on t or no event can move a step)."""
+    return owner.explicit_time is not None
+
+
+def rate_at(owner, state) -> np.ndarray:
+    """∂r/∂t (n,) of the equations of motion at ``state`` on the free coordinates, as the forward method's step adds
+    it (``ExplicitTime.__call__``, with the prescribed motions' part)."""
+    return np.asarray(owner.explicit_time(state), float)
+
+
+def step_transposed(owner, state, w: np.ndarray) -> np.ndarray:
+    """(m,): the step's part of t̄_n, −(∂r/∂t)ᵀ w at the step's end ``state`` (``w`` (n, m) the step's S⁻ᵀz̄)."""
+    return -(rate_at(owner, state) @ w)
+
+
+def restart_transposed(owner, after, u_bar: np.ndarray) -> np.ndarray:
+    """(m,): the restart's part of t̄ at the event, (∂r/∂t)ᵀ ū with the inertia forces at the state after it
+    (``u_bar`` (n, m) the restart's −B⁻ᵀs̄)."""
+    return np.asarray(owner.explicit_time(after, inertia=True), float) @ u_bar
+
+
+def weight_transposed(owner, state, w: np.ndarray, u_bar: np.ndarray, scale: float, mass: bool) -> np.ndarray:
+    """(m,): (the coefficient of δt_e in the forward method's δ(W w) at ``state``)ᵀ ū, W = M + scale·K (``mass``) or
+    scale·K (module docstring). Zeros where w is 0 (the forward method adds no parameter part then)."""
+    if not np.any(w):
+        return np.zeros(u_bar.shape[1])
+    k = len(owner.names)
+    linked = owner.model.links is not None
+
+    def stiffness(shift: float) -> np.ndarray:
+        owner.time_shift = np.full(k, shift)
+        try:
+            out = owner._stiffness_derivative(state, w)   # noqa: SLF001 - the forward method's own map
+            if linked:
+                out = out + owner._geometric_derivative(state, w)   # noqa: SLF001
+            return out
+        finally:
+            owner.time_shift = None
+
+    column = (stiffness(2.0) - stiffness(1.0))[:, 0]
+    out = scale * (column @ u_bar)
+    if mass:
+        at_rest, accelerated = owner._at_rest_and_accelerated(state, w)   # noqa: SLF001
+        moved = (np.asarray(owner.explicit_time(accelerated, inertia=True), float)
+                 - np.asarray(owner.explicit_time(at_rest, inertia=True), float))
+        out = out + moved @ u_bar
+    return out
+
+
+def row_coefficients(owner, state) -> np.ndarray:
+    """(probes,): each probe's coefficient of δt in the forward method's row at ``state`` (its explicit time
+    dependence: ``TransientSensitivities.record`` with δq = δv = δv̇ = 0, at δt = 1 less at δt = 0, the first
+    parameter's column; every column takes the same coefficient times its δt)."""
+    from latdyn.analyses.transient_sensitivities import TransientSensitivities
+
+    n, k = owner.model.n_dofs, len(owner.names)
+    rows = []
+    for moved in (np.ones(k), np.zeros(k)):
+        still = {"dq": np.zeros((n, k)), "dv": np.zeros((n, k)), "dvdot": np.zeros((n, k)), "dt": moved, "rows": []}
+        rows.append(np.asarray(TransientSensitivities.record(owner, still, state)["rows"][0][1:], float))
+    return (rows[0] - rows[1]).reshape(len(owner.probes), k)[:, 0]
