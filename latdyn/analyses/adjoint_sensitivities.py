@@ -85,7 +85,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from latdyn.analyses.adjoint_controller_states import probe_forms as controller_probe_forms
 from latdyn.analyses.adjoint_in_loop import accepted
+from latdyn.analyses.controller_probe_sensitivities import is_controller_probe
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
@@ -128,6 +130,8 @@ class AdjointSensitivities(TransientSensitivities):
         model = self.model
         carried = {"trajectory": [], "rows": [], "start": state.copy(), "events": [],
                    "numbering_start": self._numbering(), "timed": False, "dh_moves": False}
+        if self._states_transposed() is not None:   # the accepted (S, f) at t = 0
+            carried["controller_start"] = self._states_transposed().stored()
         if model.n_dofs and self.names:
             ev = self.assembler.evaluate(state, matrices=True)
             _, split = self._start_mass(ev)
@@ -144,6 +148,8 @@ class AdjointSensitivities(TransientSensitivities):
         appended in place: the trajectory grows with the run and a copy per step would cost its length."""
         entry = {"state": new.copy(), "h": float(h), "a_old": np.array(a_old, float),
                  "a_new": np.array(a_new, float), "pending": True}   # accepted once its events are (after_events)
+        if self._states_transposed() is not None:   # the controllers' accepted (S, f) at the step's end
+            entry["controller"] = self._states_transposed().stored()
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
             cable = self._cable_event(old, new, event)
@@ -174,6 +180,16 @@ class AdjointSensitivities(TransientSensitivities):
             self._events_here = self.model.cables is not None or any(
                 h.lock_at is not None or h.limits is not None for h in self.model.hinges)
         return self._events_here
+
+    def _states_transposed(self):
+        """The transposes of the continuous controllers' states' pieces
+        (:class:`latdyn.analyses.adjoint_controller_states.StatesTransposed`), or None without states."""
+        if "_states_t" not in self.__dict__:
+            from latdyn.analyses.adjoint_controller_states import StatesTransposed
+
+            self._states_t = (None if self.controllers is None or self.controllers.states is None
+                              else StatesTransposed(self))
+        return self._states_t
 
     def _numbering(self) -> tuple:
         """(the locked joints, the cables' sides or None): what the coordinates' numbering and the evaluation's
@@ -333,6 +349,8 @@ class AdjointSensitivities(TransientSensitivities):
         if is_joint_force(probe):
             j = joint_of(self.model, probe)
             return joint_force_forms(self, state, [j])[j]
+        if is_controller_probe(probe):   # latdyn/analyses/adjoint_controller_states.py: (…, c_S) on the states too
+            return controller_probe_forms(self, probe, state)
         if is_probe_here(probe):   # section forces, points in a body frame: latdyn/analyses/probe_derivatives.py
             return probe_forms(self, probe, state)
         if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
@@ -385,7 +403,8 @@ class AdjointSensitivities(TransientSensitivities):
                 index = rows[row]   # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
                 if final is not None:   # the row's forms on the numbering it was recorded on
                     self._numbered(numberings[index])
-                forms = [self.output_forms(probe, states[index])]
+                with self._controllers_at(carried, index):
+                    forms = [self.output_forms(probe, states[index])]
                 if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                     forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
                 taken.append(list(range(columns, columns + len(forms))))
@@ -449,15 +468,19 @@ class AdjointSensitivities(TransientSensitivities):
         n = model.n_dofs
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
         t_bar, g_bar = np.zeros(m), np.zeros(m)   # the adjoints of δt_{n+1} and of the carried δh
+        states_t = self._states_transposed()   # the controllers' states: S̄, f̄ beside the bars
+        S_bar, f_bar = (None, None) if states_t is None else (np.zeros((states_t.P, m)), np.zeros((states_t.P, m)))
         from latdyn.analyses.adjoint_in_loop import reverse_steps
 
         native = reverse_steps(self) if n else None   # the smooth steps in one native call each
         for i in range(len(trajectory) - 1, -1, -1):
-            for column, (c_q, c_v, c_vdot, explicit) in seeds.get(i + 1, []):
+            for column, (c_q, c_v, c_vdot, explicit, *c_S) in seeds.get(i + 1, []):
                 q_bar[:, column] += c_q
                 v_bar[:, column] += c_v
                 vdot_bar[:, column] += c_vdot
                 gradient[:, column] += explicit
+                if c_S and S_bar is not None:   # a controller probe: its states' part (latdyn/analyses/adjoint_controller_states.py)
+                    S_bar[:, column] += c_S[0]
             for column in timings.get(i + 1, []):
                 t_bar[column] += 1.0
             entry = trajectory[i]
@@ -483,6 +506,12 @@ class AdjointSensitivities(TransientSensitivities):
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
             rule = entry.get("rule")
+            if states_t is not None:   # the states' recurrence transposed around the step (no events: refused)
+                bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar]
+                self._states_step_transposed(carried, i, (new, h, turn_t, tangent, tangent_t, beta_p, gamma_p), bars,
+                                             gradient)
+                q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar = bars
+                continue
             if rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below in one call, w
                 bars = [q_bar, v_bar, vdot_bar, a_bar]  # returned for ∂r/∂p's contraction
                 w = native.step(new, h, (tangent, tangent_t, turn_t), bars)
@@ -515,13 +544,58 @@ class AdjointSensitivities(TransientSensitivities):
             vdot_bar = af / (1 - am) * da0_bar
         if carried.get("numbering_start") is not None and self._with_events():
             self._numbered(carried["numbering_start"])
-        for column, (_, c_v, c_vdot, explicit) in seeds.get(0, []):
+        for column, (_, c_v, c_vdot, explicit, *_) in seeds.get(0, []):   # δS_0 = 0: a state's seed adds nothing
             v_bar[:, column] += c_v
             vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
             gradient[:, column] += explicit
         if model.n_dofs == 0:
             return gradient
-        return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+        with self._controllers_at(carried, 0):
+            if states_t is not None:   # δf_0 = ∂f/∂p
+                states_t.start_transposed(carried["start"], f_bar, gradient)
+            return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+
+    def _controllers_at(self, carried: dict, index: int):
+        """A context in which the scene's arrays hold the controllers' accepted (S, f) of the stored state
+        ``index`` (0: the start), or a null context without controller states."""
+        from contextlib import nullcontext
+
+        states_t = self._states_transposed()
+        if states_t is None:
+            return nullcontext()
+        return states_t.at(carried["controller_start"] if index == 0 else
+                           carried["trajectory"][index - 1]["controller"])
+
+    def _states_step_transposed(self, carried: dict, i: int, step: tuple, bars: list, gradient: np.ndarray) -> None:
+        """Step ``i`` of the reverse pass with the continuous controllers' states (``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄] at its
+        end replaced by those at its start, ``gradient`` (k, m) updated in place): the forward method's
+        ``ControllerStates.after_step`` transposed, the structure's step as :meth:`_reverse_columns` takes it with
+        its matrix condensed from (S_n, f_n) and the held part's ∂r/∂p transposed, then ``begin_step`` transposed
+        (latdyn/analyses/adjoint_controller_states.py)."""
+        p, model = self.params, self.model
+        am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
+        new, h, turn_t, tangent, tangent_t, beta_p, gamma_p = step
+        states_t = self._states_transposed()
+        q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar = bars
+        with self._controllers_at(carried, i + 1):
+            terms = states_t.step_terms(new, h)
+            q_bar = q_bar.copy()
+            held_bar = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, gradient)
+            before = (carried["controller_start"] if i == 0 else carried["trajectory"][i - 1]["controller"])
+            with states_t.condensed(before, h):
+                C_t, K_t, solve_transposed, _ = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+            z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
+            w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, q_bar.shape[1])
+            gradient -= self.residual_transposed_product(new, w)
+            held_bar = states_t.held_transposed(new, w, held_bar)
+            S_bar, f_bar = states_t.begin_step_transposed(h, terms, held_bar, gradient)
+        dq0_bar = q_bar - K_t @ w
+        dv0_bar = v_bar - C_t @ w
+        du0_bar = tangent_t(dq0_bar)
+        da0_bar = a_bar + h * gamma * dv0_bar + h * h * beta * du0_bar
+        bars[:] = [turn_t(dq0_bar), dv0_bar + h * du0_bar,
+                   af / (1 - am) * da0_bar,
+                   h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar, S_bar, f_bar]
 
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,

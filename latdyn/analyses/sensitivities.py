@@ -239,10 +239,15 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
-    elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
-        name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
-        why = (f"the adjoint does not differentiate controllers with states or sampled ones yet (controllers.{name}); "
-               "continuous controllers without states it does")
+    elif any(c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
+        name = next(c.name for c in scene.controllers.values() if c.sampled)
+        why = (f"the adjoint does not differentiate sampled controllers yet (controllers.{name}); continuous "
+               "controllers, with states or without, it does")
+    elif has_events(scene) and any(c.states for c in scene.controllers.values()):
+        name = next(c.name for c in scene.controllers.values() if c.states)
+        why = (f"the adjoint does not differentiate controllers with states beside events yet (controllers.{name} "
+               "beside a latch, a stop or a cable: the event's jump and its step size's column through the states "
+               "are not transposed); without events it does")
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "

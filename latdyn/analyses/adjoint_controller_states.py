@@ -1,0 +1,203 @@
+"""The discrete adjoint through the states of continuous controllers and seeded by controller probes (issue 34;
+docs/parameters.md, "The discrete adjoint", "Controllers").
+
+The forward method carries each continuous controller's states beside the step's columns
+(:class:`latdyn.analyses.sensitivities.ControllerStates`, csrc/controller_states.c): per step, with
+A = I − h/2 ∂f/∂S, ∂f/∂s, ∂f/∂S, ∂f/∂p at the step's end (its accepted S_{n+1}),
+
+    held     = A⁻¹ (δS_n + h/2 (δf_n + ∂f/∂p))                         (``begin_step``),
+    E        = ∂r/∂p + B held,   B the actuators' rows of ∂y/∂S          (``ControllerTerms.add`` with ``held``),
+    z = S⁻¹(−(E + K δq⁰ + C δv⁰)) with S's K and C condensed from (S_n, f_n)   (``condensed``),
+    δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs_{n+1},   δs_{n+1} = D_s δq_{n+1}        (``after_step``, ``_sensed``),
+    δf_{n+1} = ∂f/∂s δs_{n+1} + ∂f/∂S δS_{n+1} + ∂f/∂p,
+
+and δS_0 = 0, δf_0 = ∂f/∂p at the start (``start``). The reverse pass carries S̄ and f̄ beside the structure's bars
+and applies the transposes in reverse order, each named after its forward piece:
+
+- :meth:`StatesTransposed.after_step_transposed`: S̄ += ∂f/∂Sᵀ f̄, s̄ = ∂f/∂sᵀ f̄ + h/2 ∂f/∂sᵀ A⁻ᵀ S̄,
+  q̄ += D_sᵀ s̄, dy/dp += ∂f/∂pᵀ f̄, and held̄ = S̄;
+- the structure's step as without states (its matrix taken in :meth:`StatesTransposed.condensed`, the forward
+  method's own context), then :meth:`StatesTransposed.held_transposed`: held̄ −= Bᵀ w;
+- :meth:`StatesTransposed.begin_step_transposed`: ĥ = A⁻ᵀ held̄, S̄_n = ĥ, f̄_n = h/2 ĥ, dy/dp += h/2 ∂f/∂pᵀ ĥ;
+- at t = 0 :meth:`StatesTransposed.start_transposed`: dy/dp += ∂f/∂pᵀ f̄_0.
+
+D_s and B are the forward method's maps (``ControllerStates._sensed``, ``ControllerTerms.add``) applied to unit
+columns — n columns of δq, P of held (P the states) — and transposed; ∂f/∂s, ∂f/∂S, ∂f/∂p are the step's compiled
+laws' (``ControllerStates._at``). Everything is evaluated again at the stored state with the stored (S, f) put in the
+scene's arrays (:meth:`StatesTransposed.at`): the forward pass stores the accepted (S, f) of every step
+(:meth:`StatesTransposed.stored`).
+
+Controller probes (:func:`probe_forms`): a state S at a row seeds S̄ there; an output y = clip(f(t, s, y_j, S; p))
+inside its limits seeds Σ ∂f/∂s (the sensor's forms, :meth:`AdjointSensitivities.output_forms`) + Σ ∂f/∂y_j (the
+earlier controller's forms) + ∂f/∂S on S̄ + ∂f/∂p explicit — the forward method's
+``controller_probe_sensitivities._continuous_output`` as forms; clipped, 0. What the forward method adds where the
+row's time moves (∂f/∂t δt after an event) and sampled controllers stay refused
+(:func:`latdyn.analyses.sensitivities.adjoint_refusal`).
+"""
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+import numpy as np
+
+from latdyn.analyses.controller_probe_sensitivities import controller_arguments, output_and_gradient
+
+__all__ = ["StatesTransposed", "probe_forms"]
+
+
+class StatesTransposed:
+    """The transposes of :class:`latdyn.analyses.sensitivities.ControllerStates`' pieces for ``owner`` (an
+    AdjointSensitivities whose controllers have states): module docstring."""
+
+    def __init__(self, owner):
+        self.owner = owner
+        self.states = owner.controllers.states
+        self.terms = owner.controllers
+        self.P = len(self.states.slots)
+
+    # ------------------------------------------------------------------ the forward pass: storing
+    def stored(self) -> tuple:
+        """(S, f) (P,) each: the accepted states and their rates as the scene holds them now."""
+        states = self.states
+        return states.values[states.slots].copy(), states.rates[states.rate_index].copy()
+
+    @contextmanager
+    def at(self, stored: tuple):
+        """A context in which the scene's arrays hold ``stored`` (S, f), put back after."""
+        states = self.states
+        kept = self.stored()
+        states.values[states.slots], states.rates[states.rate_index] = stored
+        try:
+            yield
+        finally:
+            states.values[states.slots], states.rates[states.rate_index] = kept
+
+    def condensed(self, before: tuple, h: float):
+        """The forward method's :meth:`ControllerStates.condensed` from the step's start ``before`` (S_n, f_n)."""
+        return self.states.condensed({"controller_S": before[0], "controller_f": before[1]}, h)
+
+    # ------------------------------------------------------------------ the pieces at one step's end
+    def step_terms(self, state, h: float) -> dict:
+        """{controller name: (rows, A (p, p), ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k))} at the step's end
+        ``state`` (the scene's arrays holding its accepted S, f: :meth:`at`), as ``ControllerStates.begin_step``
+        takes them (``_at``), A = I − h/2 ∂f/∂S."""
+        out, states = {}, self.states
+        for c in states.controllers:
+            rows = slice(states.first[c.name], states.first[c.name] + len(c.states))
+            _, f_s, f_S, f_p = states._at(c, state)
+            out[c.name] = (rows, np.eye(len(c.states)) - 0.5 * h * f_S, f_s, f_S, f_p)
+        return out
+
+    def after_step_transposed(self, state, h: float, terms: dict, S_bar: np.ndarray, f_bar: np.ndarray,
+                              q_bar: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+        """The transpose of ``ControllerStates.after_step`` (module docstring) for the bars at the step's end:
+        q̄ and the gradient updated in place; returns held̄ (P, m)."""
+        hh = 0.5 * h
+        held_bar = np.zeros_like(S_bar)
+        sensed_bar = {}
+        for c in self.states.controllers:
+            rows, A, f_s, f_S, f_p = terms[c.name]
+            S_next_bar = S_bar[rows] + f_S.T @ f_bar[rows]            # δf_{n+1} = … + ∂f/∂S δS_{n+1} + ∂f/∂p
+            gradient += f_p.T @ f_bar[rows]
+            s_bar = f_s.T @ f_bar[rows] + hh * (f_s.T @ np.linalg.solve(A.T, S_next_bar))
+            held_bar[rows] = S_next_bar                               # δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs
+            sensed_bar[c.name] = s_bar
+        n = self.owner.model.n_dofs
+        units = np.eye(n)
+        for c in self.states.controllers:   # δs = D_s δq: the forward method's map on the unit columns, transposed
+            if len(self.states.sensors[c.name]):
+                D_s = np.asarray(self.states._sensed(c, state, units), float).reshape(-1, n)
+                q_bar += D_s.T @ sensed_bar[c.name]
+        return held_bar
+
+    def held_map(self, state) -> np.ndarray:
+        """B (n, P): the forward method's ∂r/∂p of a held δS (``ControllerTerms.add`` with ``held`` the unit
+        columns, no parameter's partials: as ``ControllerStates.by_step_size`` applies it) on the free coordinates."""
+        import copy
+
+        one = copy.copy(self.terms)
+        one.k, one.partials, one.sampled, one.forces_read = self.P, {}, None, {}
+        eye = np.eye(self.P)
+        one.held = {c.name: eye[self.states.first[c.name]:self.states.first[c.name] + len(c.states)]
+                    for c in self.states.controllers}
+        total = np.zeros((self.owner.model.n_total + 1, self.P))
+        one.add(state, total)
+        return self.owner._on_free_coordinates(state, total)
+
+    def held_transposed(self, state, w: np.ndarray, held_bar: np.ndarray) -> np.ndarray:
+        """held̄ − Bᵀ w: the held part's use in the step's ∂r/∂p (z = S⁻¹(−(… + B held …))), transposed."""
+        return held_bar - self.held_map(state).T @ w
+
+    def begin_step_transposed(self, h: float, terms: dict, held_bar: np.ndarray, gradient: np.ndarray) -> tuple:
+        """The transpose of ``ControllerStates.begin_step``'s held = A⁻¹(δS_n + h/2 (δf_n + ∂f/∂p)): (S̄_n, f̄_n),
+        the gradient updated in place."""
+        hh = 0.5 * h
+        S_bar, f_bar = np.zeros_like(held_bar), np.zeros_like(held_bar)
+        for c in self.states.controllers:
+            rows, A, _, _, f_p = terms[c.name]
+            spread = np.linalg.solve(A.T, held_bar[rows])
+            S_bar[rows] = spread
+            f_bar[rows] = hh * spread
+            gradient += hh * (f_p.T @ spread)
+        return S_bar, f_bar
+
+    def start_transposed(self, state, f_bar: np.ndarray, gradient: np.ndarray) -> None:
+        """The transpose of ``ControllerStates.start`` (δS_0 = 0, δf_0 = ∂f/∂p): dy/dp += ∂f/∂pᵀ f̄_0."""
+        for c in self.states.controllers:
+            rows = slice(self.states.first[c.name], self.states.first[c.name] + len(c.states))
+            _, _, _, f_p = self.states._at(c, state)
+            gradient += f_p.T @ f_bar[rows]
+
+
+def probe_forms(owner, probe, state) -> tuple:
+    """(c_q, c_v, c_v̇ (n,), explicit (k,), c_S (P,)) of the controller probe ``probe`` at ``state`` (the scene's
+    arrays holding that row's accepted states): its derivative is c_qᵀδq + c_vᵀδv + c_v̇ᵀδv̇ + explicit + c_SᵀδS
+    (module docstring), the forward method's ``controller_probe_sensitivities`` as forms."""
+    terms = owner.controllers
+    states = terms.states
+    n, k = owner.model.n_dofs, len(owner.names)
+    P = 0 if states is None else len(states.slots)
+    c = owner.scene.controllers[probe.controller]
+    if probe.state is not None:
+        c_S = np.zeros(P)
+        c_S[states.first[c.name] + c.states.index(probe.state)] = 1.0
+        return np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(k), c_S
+    return _output_forms(owner, c.name, state, {})[1]
+
+
+def _output_forms(owner, name: str, state, done: dict) -> tuple:
+    """(the output's value, its forms) of the continuous controller ``name`` at ``state``: the forward method's
+    ``_continuous_output`` with each sensor's δs as its probe's forms and each earlier controller's δy as its
+    forms; ``done`` the earlier controllers' by name."""
+    if name in done:
+        return done[name]
+    terms, scene = owner.controllers, owner.scene
+    states = terms.states
+    n, k = owner.model.n_dofs, len(owner.names)
+    P = 0 if states is None else len(states.slots)
+    c = scene.controllers[name]
+    arguments = controller_arguments(terms, c, state, lambda r: _output_forms(owner, r, state, done)[0])
+    compiled = terms.compiled
+    raw, gradient = output_and_gradient(terms, c, arguments)   # the forward method's
+    forms = [np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(k), np.zeros(P)]
+    if gradient is not None:
+        probes = {p.name: p for p in scene.output.probes}
+        for i, r in enumerate(c.reads):
+            if r in probes:
+                sensor = owner.output_forms(probes[r], state)
+            elif r in scene.controllers:
+                sensor = done[r][1]
+            else:   # an input: held, no parameter moves it
+                continue
+            for part, form in zip(forms, sensor):
+                part += gradient[i] * form
+        if c.states:
+            first = states.first[c.name]
+            by_states = states.output_by_states(c, arguments)
+            if by_states is None:
+                by_states = gradient[len(c.reads):]
+            forms[4][first:first + len(c.states)] += by_states
+        for column, partial in terms.partials.get(c.name, {}).items():
+            forms[3][column] += float(partial(*arguments)) if compiled is None else compiled.value(partial, arguments)
+    done[name] = (c.clip(raw), tuple(forms))
+    return done[name]
