@@ -150,14 +150,24 @@ class StatesTransposed:
 
 
 def probe_forms(owner, probe, state) -> tuple:
-    """(c_q, c_v, c_v̇ (n,), explicit (k,), c_S (P,)) of the controller probe ``probe`` at ``state`` (the scene's
-    arrays holding that row's accepted states): its derivative is c_qᵀδq + c_vᵀδv + c_v̇ᵀδv̇ + explicit + c_SᵀδS
-    (module docstring), the forward method's ``controller_probe_sensitivities`` as forms."""
+    """(c_q, c_v, c_v̇ (n,), explicit (k,), c_S (P,)) of the continuous controller probe ``probe`` at ``state`` (the
+    scene's arrays holding that row's accepted states): its derivative is c_qᵀδq + c_vᵀδv + c_v̇ᵀδv̇ + explicit + c_SᵀδS
+    (module docstring), the forward method's ``controller_probe_sensitivities`` as forms; a sampled controller's
+    (…, c_y (C,), c_S (P_s,)) with the others 0: its held δy_k or its state's δS_{k+1} (:class:`SamplesTransposed`)."""
     terms = owner.controllers
     states = terms.states
     n, k = owner.model.n_dofs, len(owner.names)
     P = 0 if states is None else len(states.slots)
     c = owner.scene.controllers[probe.controller]
+    if c.sampled:   # the held δy_k or δS_{k+1} of the last sample: seeded on ȳ or the sampled states' S̄
+        sampled = terms.sampled
+        c_y, c_sampled = np.zeros(len(sampled.controllers)), np.zeros(int(sum(len(d.states)
+                                                                               for d in sampled.controllers)))
+        if probe.state is None:
+            c_y[sampled.index[c.name]] = 1.0
+        else:
+            c_sampled[sampled.first[c.name] + c.states.index(probe.state)] = 1.0
+        return np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(k), np.zeros(P), c_y, c_sampled
     if probe.state is not None:
         c_S = np.zeros(P)
         c_S[states.first[c.name] + c.states.index(probe.state)] = 1.0
@@ -201,3 +211,100 @@ def _output_forms(owner, name: str, state, done: dict) -> tuple:
             forms[3][column] += float(partial(*arguments)) if compiled is None else compiled.value(partial, arguments)
     done[name] = (c.clip(raw), tuple(forms))
     return done[name]
+
+
+class SamplesTransposed:
+    """The transposes of :class:`latdyn.analyses.sensitivities.SampledTerms`' pieces and of the restart after a sample
+    (:meth:`TransientSensitivities.after_sample`) for ``owner`` (an AdjointSensitivities with sampled controllers):
+    the reverse pass carries ȳ (C, m), the adjoint of the held δy_k (C sampled controllers), and S̄ (P_s, m), of
+    their states' δS_{k+1}. Per step the held δy enters ∂r/∂p through the actuators, A_y δy (``SampledTerms.add``):
+    ȳ −= A_yᵀ w (:meth:`held_transposed`). At a sample (:meth:`sample_transposed`), forward
+    δy_k = ∂f/∂s δs + ∂f/∂S δS_k + ∂f/∂p (0 while clipped), δS_{k+1} = δS_k + (∂g/∂s δs + ∂g/∂S δS_k + ∂g/∂p)/rate,
+    δs = D_s δq, then the restart δv̇ = δa = −M⁻¹(∂r/∂p + A_y δy_k + K δq + C δv) (:meth:`restart_transposed`):
+    ū = −M⁻ᵀ(v̇̄ + ā), q̄ += Kᵀū, v̄ += Cᵀū, dy/dp += (∂r/∂p)ᵀū, ȳ += A_yᵀū, and v̇̄ = ā = 0 before it; then
+    s̄ = ∂f/∂sᵀ ȳ_c + ∂g/∂sᵀ S̄/rate, q̄ += D_sᵀ s̄, S̄_k = S̄ + ∂g/∂Sᵀ S̄/rate + ∂f/∂Sᵀ ȳ_c,
+    dy/dp += ∂f/∂pᵀ ȳ_c + ∂g/∂pᵀ S̄/rate, and ȳ_c = 0 (the sample replaced the held δy of the controllers due).
+    At t = 0 the sample has δq = 0, δS_0 = 0: δy_0 = ∂f/∂p, δS_1 = ∂g/∂p/rate (:meth:`start_transposed`)."""
+
+    def __init__(self, owner):
+        self.owner = owner
+        self.sampled = owner.controllers.sampled
+        self.C = len(self.sampled.controllers)
+        self.P = int(sum(len(c.states) for c in self.sampled.controllers))
+
+    def bars(self, m: int) -> tuple:
+        """(ȳ, S̄) zero."""
+        return np.zeros((self.C, m)), np.zeros((self.P, m))
+
+    def held_map(self, state) -> np.ndarray:
+        """A_y (n, C): the forward method's ∂r/∂p of a held δy (``SampledTerms.add`` on the unit columns) on the free
+        coordinates."""
+        import copy
+
+        one = copy.copy(self.sampled)
+        one.terms = copy.copy(self.sampled.terms)
+        one.terms.k = self.C
+        one.held = np.eye(self.C)
+        total = np.zeros((self.owner.model.n_total + 1, self.C))
+        one.add(state, total)
+        return self.owner._on_free_coordinates(state, total)
+
+    def held_transposed(self, state, w: np.ndarray, y_bar: np.ndarray) -> np.ndarray:
+        """ȳ − A_yᵀ w: the held δy's use in the step's ∂r/∂p, transposed."""
+        return y_bar - self.held_map(state).T @ w
+
+    def restart_transposed(self, state, bars: list, y_bar: np.ndarray, gradient: np.ndarray) -> tuple:
+        """The restart after the sample at ``state`` transposed (class docstring): ``bars`` [q̄, v̄, v̇̄, ā] replaced in
+        place, ``gradient`` updated; returns (ȳ, ū) (ū for the continuous states held through the restart: their
+        Bᵀū). M, C and the exact K are the forward method's (:meth:`_matrices`)."""
+        from latdyn.assembly.factorization import solve_linear
+
+        owner = self.owner
+        q_bar, v_bar, vdot_bar, a_bar = bars
+        M, C, K = owner._matrices(state)
+        s_bar = vdot_bar + a_bar
+        u_bar = -np.asarray(solve_linear(M.T.tocsr() if hasattr(M, "tocsr") else np.ascontiguousarray(M.T),
+                                         s_bar)).reshape(s_bar.shape)
+        gradient += owner.residual_transposed_product(state, u_bar)
+        y_bar = y_bar + self.held_map(state).T @ u_bar
+        bars[:] = [q_bar + np.asarray(K.T @ u_bar), v_bar + np.asarray(C.T @ u_bar), np.zeros_like(vdot_bar),
+                   np.zeros_like(a_bar)]
+        return y_bar, u_bar
+
+    def sample_transposed(self, state, due: list, S_before: np.ndarray, q_bar: np.ndarray, y_bar: np.ndarray,
+                          S_bar: np.ndarray, gradient: np.ndarray) -> tuple:
+        """The sample of the controllers ``due`` at ``state`` (their states ``S_before`` before it) transposed
+        (class docstring): q̄ and ``gradient`` updated in place; returns (ȳ, S̄) before the sample."""
+        from latdyn.analyses.sensitivities import _sensor_derivatives
+
+        sampled, owner = self.sampled, self.owner
+        n = owner.model.n_dofs
+        values = dict(zip(sampled.terms.sensors.names, sampled.terms.sensors.values(state)))
+        y_bar, S_bar = y_bar.copy(), S_bar.copy()
+        for c in sampled.controllers:
+            if c.name not in due:
+                continue
+            rows, i = sampled._rows(c), sampled.index[c.name]
+            inside, y_s, y_S, y_p, g_s, g_S, g_p = sampled.partials(c, state.t, values, S_before[rows])
+            by_rate = S_bar[rows] / c.rate
+            out_bar = y_bar[i] if inside else np.zeros_like(y_bar[i])
+            s_bar = np.outer(y_s, out_bar) + g_s.T @ by_rate
+            gradient += np.outer(y_p, out_bar) + g_p.T @ by_rate
+            S_bar[rows] = S_bar[rows] + g_S.T @ by_rate + np.outer(y_S, out_bar)
+            y_bar[i] = 0.0
+            if len(c.reads):
+                D_s = _sensor_derivatives(owner, sampled.sensors[c.name], state, np.eye(n)).reshape(len(c.reads), n)
+                q_bar += D_s.T @ s_bar
+        return y_bar, S_bar
+
+    def start_transposed(self, state, y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray) -> None:
+        """The sample at t = 0 transposed (δq = 0, δS_0 = 0): dy/dp += ∂f/∂pᵀ ȳ_c + ∂g/∂pᵀ S̄/rate."""
+        sampled = self.sampled
+        values = dict(zip(sampled.terms.sensors.names, sampled.terms.sensors.values(state)))
+        initial = np.array([c.initial[s] for c in sampled.controllers for s in c.states], float)
+        for c in sampled.controllers:
+            rows, i = sampled._rows(c), sampled.index[c.name]
+            inside, _, _, y_p, _, _, g_p = sampled.partials(c, state.t, values, initial[rows])
+            if inside:
+                gradient += np.outer(y_p, y_bar[i])
+            gradient += g_p.T @ (S_bar[rows] / c.rate)

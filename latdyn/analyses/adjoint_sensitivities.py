@@ -132,6 +132,9 @@ class AdjointSensitivities(TransientSensitivities):
                    "numbering_start": self._numbering(), "timed": False, "dh_moves": False}
         if self._states_transposed() is not None:   # the accepted (S, f) at t = 0
             carried["controller_start"] = self._states_transposed().stored()
+        if self._samples_transposed() is not None:   # the held outputs after the sample at t = 0, the states it left
+            carried["outputs_start"] = self.scene.controller_outputs.values.copy()
+            carried["sampled_S"] = self._sampled_states()
         if model.n_dofs and self.names:
             ev = self.assembler.evaluate(state, matrices=True)
             _, split = self._start_mass(ev)
@@ -150,6 +153,8 @@ class AdjointSensitivities(TransientSensitivities):
                  "a_new": np.array(a_new, float), "pending": True}   # accepted once its events are (after_events)
         if self._states_transposed() is not None:   # the controllers' accepted (S, f) at the step's end
             entry["controller"] = self._states_transposed().stored()
+        if self._samples_transposed() is not None:   # the held outputs the step was taken with
+            entry["outputs"] = self.scene.controller_outputs.values.copy()
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
             cable = self._cable_event(old, new, event)
@@ -190,6 +195,36 @@ class AdjointSensitivities(TransientSensitivities):
             self._states_t = (None if self.controllers is None or self.controllers.states is None
                               else StatesTransposed(self))
         return self._states_t
+
+    def _samples_transposed(self):
+        """The transposes of the sampled controllers' pieces
+        (:class:`latdyn.analyses.adjoint_controller_states.SamplesTransposed`), or None without sampled controllers."""
+        if "_samples_t" not in self.__dict__:
+            from latdyn.analyses.adjoint_controller_states import SamplesTransposed
+
+            self._samples_t = (None if self.controllers is None or self.controllers.sampled is None
+                               else SamplesTransposed(self))
+        return self._samples_t
+
+    def _sampled_states(self) -> np.ndarray:
+        """The sampled controllers' states as the scene holds them now (SampledTerms' order)."""
+        states = self.scene.controller_states
+        return np.array([states[f"{c.name}.{s}"] for c in self.controllers.sampled.controllers for s in c.states],
+                        float)
+
+    def after_sample(self, carried: dict, state, due: list) -> dict:
+        """The sample at ``state`` of the sampled controllers named in ``due`` (after the step just stored) and the
+        restart after it, stored on that step's entry: the controllers due, their states before the sample, the
+        state and the held outputs after it (what the reverse pass transposes,
+        :class:`latdyn.analyses.adjoint_controller_states.SamplesTransposed`). A restart that splits off directions
+        without inertia is refused as the forward method refuses it."""
+        if self.model.n_dofs == 0 or not self.names:
+            return carried
+        self.refuse_massless_restart(state, self._matrices(state)[0])
+        carried["trajectory"][-1]["sample"] = {"due": list(due), "S": carried["sampled_S"], "state": state.copy(),
+                                               "outputs": self.scene.controller_outputs.values.copy()}
+        carried["sampled_S"] = self._sampled_states()
+        return carried
 
     def _numbering(self) -> tuple:
         """(the locked joints, the cables' sides or None): what the coordinates' numbering and the evaluation's
@@ -470,6 +505,12 @@ class AdjointSensitivities(TransientSensitivities):
         t_bar, g_bar = np.zeros(m), np.zeros(m)   # the adjoints of δt_{n+1} and of the carried δh
         states_t = self._states_transposed()   # the controllers' states: S̄, f̄ beside the bars
         S_bar, f_bar = (None, None) if states_t is None else (np.zeros((states_t.P, m)), np.zeros((states_t.P, m)))
+        samples_t = self._samples_transposed()   # the sampled controllers: ȳ (the held δy's) and their states' S̄
+        y_bar, sampled_bar = (None, None) if samples_t is None else samples_t.bars(m)
+        outputs = self.scene.controller_outputs.values
+        final_outputs = outputs.copy()
+        if samples_t is not None:   # ∂r/∂p's held part is transposed apart (SamplesTransposed.held_transposed)
+            self.controllers.sampled.held = np.zeros_like(self.controllers.sampled.held)
         from latdyn.analyses.adjoint_in_loop import reverse_steps
 
         native = reverse_steps(self) if n else None   # the smooth steps in one native call each
@@ -479,11 +520,25 @@ class AdjointSensitivities(TransientSensitivities):
                 v_bar[:, column] += c_v
                 vdot_bar[:, column] += c_vdot
                 gradient[:, column] += explicit
-                if c_S and S_bar is not None:   # a controller probe: its states' part (latdyn/analyses/adjoint_controller_states.py)
-                    S_bar[:, column] += c_S[0]
+                if c_S:   # a controller probe (latdyn/analyses/adjoint_controller_states.py)
+                    self._seed_controllers(c_S, column, S_bar, y_bar, sampled_bar)
             for column in timings.get(i + 1, []):
                 t_bar[column] += 1.0
             entry = trajectory[i]
+            if entry.get("sample") is not None:   # the sample after the step and its restart, transposed
+                sample = entry["sample"]
+                outputs[:] = sample["outputs"]
+                bars = [q_bar, v_bar, vdot_bar, a_bar]
+                with self._controllers_at(carried, i + 1):
+                    y_bar, u_bar = samples_t.restart_transposed(sample["state"], bars, y_bar, gradient)
+                    if states_t is not None:   # the continuous states held through the restart (ControllerStates.hold)
+                        S_bar = S_bar + states_t.held_map(sample["state"]).T @ u_bar
+                q_bar, v_bar, vdot_bar, a_bar = bars
+                q_bar = q_bar.copy()
+                y_bar, sampled_bar = samples_t.sample_transposed(sample["state"], sample["due"], sample["S"], q_bar,
+                                                                 y_bar, sampled_bar, gradient)
+            if samples_t is not None:   # the held outputs the step was taken with
+                outputs[:] = entry["outputs"]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
                 q_bar, v_bar, vdot_by_restart, by_restart = self._restart_transposed(entry, q_bar, v_bar,
                                                                                       vdot_bar + a_bar)
@@ -508,9 +563,11 @@ class AdjointSensitivities(TransientSensitivities):
             rule = entry.get("rule")
             if states_t is not None:   # the states' recurrence transposed around the step (no events: refused)
                 bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar]
-                self._states_step_transposed(carried, i, (new, h, turn_t, tangent, tangent_t, beta_p, gamma_p), bars,
-                                             gradient)
+                w = self._states_step_transposed(carried, i, (new, h, turn_t, tangent, tangent_t, beta_p, gamma_p),
+                                                 bars, gradient)
                 q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar = bars
+                if samples_t is not None:
+                    y_bar = samples_t.held_transposed(new, w, y_bar)
                 continue
             if rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below in one call, w
                 bars = [q_bar, v_bar, vdot_bar, a_bar]  # returned for ∂r/∂p's contraction
@@ -534,6 +591,8 @@ class AdjointSensitivities(TransientSensitivities):
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
             w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, m)
             gradient -= self.residual_transposed_product(new, w)
+            if samples_t is not None:
+                y_bar = samples_t.held_transposed(new, w, y_bar)
             dq0_bar = q_bar - K_t @ w
             dv0_bar = v_bar - C_t @ w
             du0_bar = tangent_t(dq0_bar)
@@ -544,7 +603,9 @@ class AdjointSensitivities(TransientSensitivities):
             vdot_bar = af / (1 - am) * da0_bar
         if carried.get("numbering_start") is not None and self._with_events():
             self._numbered(carried["numbering_start"])
-        for column, (_, c_v, c_vdot, explicit, *_) in seeds.get(0, []):   # δS_0 = 0: a state's seed adds nothing
+        for column, (_, c_v, c_vdot, explicit, *c_S) in seeds.get(0, []):   # δS_0 = 0: a state's seed adds nothing
+            if len(c_S) > 1:   # a sampled controller's probe: δy_0, δS_1 of the sample at t = 0 (start_transposed)
+                self._seed_controllers([np.zeros(0)] + c_S[1:], column, None, y_bar, sampled_bar)
             v_bar[:, column] += c_v
             vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
             gradient[:, column] += explicit
@@ -553,7 +614,27 @@ class AdjointSensitivities(TransientSensitivities):
         with self._controllers_at(carried, 0):
             if states_t is not None:   # δf_0 = ∂f/∂p
                 states_t.start_transposed(carried["start"], f_bar, gradient)
-            return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+            if samples_t is None:
+                return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+            outputs[:] = carried["outputs_start"]
+            samples_t.start_transposed(carried["start"], y_bar, sampled_bar, gradient)
+            sampled = self.controllers.sampled
+            sampled.start(carried["start"], k)   # the held δy_0 = ∂f/∂p in the start's ∂r/∂p, as the forward method's
+            try:
+                return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar)
+            finally:
+                sampled.held = np.zeros_like(sampled.held)
+                outputs[:] = final_outputs
+
+    @staticmethod
+    def _seed_controllers(c_S: list, column: int, S_bar, y_bar, sampled_bar) -> None:
+        """A controller probe's seed (latdyn/analyses/adjoint_controller_states.py ``probe_forms``'s parts after the
+        first four) into the ``column`` of the continuous states' S̄, the held outputs' ȳ and the sampled states' S̄."""
+        if S_bar is not None and len(c_S[0]):
+            S_bar[:, column] += c_S[0]
+        if len(c_S) > 1:
+            y_bar[:, column] += c_S[1]
+            sampled_bar[:, column] += c_S[2]
 
     def _controllers_at(self, carried: dict, index: int):
         """A context in which the scene's arrays hold the controllers' accepted (S, f) of the stored state
@@ -566,12 +647,14 @@ class AdjointSensitivities(TransientSensitivities):
         return states_t.at(carried["controller_start"] if index == 0 else
                            carried["trajectory"][index - 1]["controller"])
 
-    def _states_step_transposed(self, carried: dict, i: int, step: tuple, bars: list, gradient: np.ndarray) -> None:
+    def _states_step_transposed(self, carried: dict, i: int, step: tuple, bars: list,
+                                gradient: np.ndarray) -> np.ndarray:
         """Step ``i`` of the reverse pass with the continuous controllers' states (``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄] at its
         end replaced by those at its start, ``gradient`` (k, m) updated in place): the forward method's
         ``ControllerStates.after_step`` transposed, the structure's step as :meth:`_reverse_columns` takes it with
         its matrix condensed from (S_n, f_n) and the held part's ∂r/∂p transposed, then ``begin_step`` transposed
-        (latdyn/analyses/adjoint_controller_states.py)."""
+        (latdyn/analyses/adjoint_controller_states.py). Returns the step's w (a sampled controller's held part,
+        :meth:`SamplesTransposed.held_transposed`)."""
         p, model = self.params, self.model
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         new, h, turn_t, tangent, tangent_t, beta_p, gamma_p = step
@@ -596,6 +679,7 @@ class AdjointSensitivities(TransientSensitivities):
         bars[:] = [turn_t(dq0_bar), dv0_bar + h * du0_bar,
                    af / (1 - am) * da0_bar,
                    h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar, S_bar, f_bar]
+        return w
 
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,

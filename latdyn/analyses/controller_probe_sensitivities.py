@@ -21,8 +21,8 @@ Transient runs, forward method, from what the step already carries for the resid
   (:class:`SampledTerms`, ``sampled_dy``, ``sampled_dS``), the values the probe records.
 
 Refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): controller probes of static paths.
-The discrete adjoint is seeded by a continuous controller's output and states
-(latdyn/analyses/adjoint_controller_states.py ``probe_forms``), not by a sampled one's (:func:`adjoint_refusal`,
+The discrete adjoint is seeded by a controller's output and states, continuous or sampled
+(latdyn/analyses/adjoint_controller_states.py ``probe_forms``; what it is not seeded by: :func:`adjoint_refusal`,
 naming ``solve.sensitivity_method``).
 """
 from __future__ import annotations
@@ -51,19 +51,15 @@ def refusal(scene, probe) -> str | None:
 
 
 def adjoint_refusal(scene) -> str | None:
-    """Why the discrete adjoint is not seeded by the scene's controller probes, or None: seeded by a continuous
-    controller's output and states (latdyn/analyses/adjoint_controller_states.py ``probe_forms``), not by a sampled
-    one's, nor by an output whose expression names t beside events (the row's time moves with p there: the forward
-    method's ∂f/∂t δt, not transposed)."""
+    """Why the discrete adjoint is not seeded by the scene's controller probes, or None: seeded by a controller's
+    output and states, continuous or sampled (latdyn/analyses/adjoint_controller_states.py ``probe_forms``), not by
+    an output whose expression names t beside events (the row's time moves with p there: the forward method's
+    ∂f/∂t δt, not transposed)."""
     from latdyn.analyses.parameter_keys import has_events
 
     for probe in scene.output.probes:
         if not is_controller_probe(probe):
             continue
-        c = scene.controllers[probe.controller]
-        if c.sampled:
-            return (f"the adjoint is not seeded by a sampled controller's probes yet (probe {probe.name!r}: "
-                    f"{describe(probe)}); the forward method differentiates them")
         if probe.state is None and has_events(scene) and any(d.output_names_t for d in scene.controllers.values()):
             return (f"the adjoint is not seeded by controller probes beside events where a controller's output names "
                     f"t yet (probe {probe.name!r}: {describe(probe)}); the forward method differentiates them")
