@@ -77,30 +77,44 @@ class StatesTransposed:
         return self.states.condensed({"controller_S": before[0], "controller_f": before[1]}, h)
 
     # ------------------------------------------------------------------ the pieces at one step's end
-    def step_terms(self, state, h: float) -> dict:
-        """{controller name: (rows, A (p, p), ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k))} at the step's end
+    def step_terms(self, state, h: float, before: tuple) -> dict:
+        """{controller name: (rows, A (p, p), ∂f/∂s (p, m), ∂f/∂S (p, p), ∂f/∂p (p, k), by_h (p,))} at the step's end
         ``state`` (the scene's arrays holding its accepted S, f: :meth:`at`), as ``ControllerStates.begin_step``
-        takes them (``_at``), A = I − h/2 ∂f/∂S."""
+        takes them (``_at``), A = I − h/2 ∂f/∂S, by_h = A⁻¹ ½ (f_n + f_{n+1}) the states' derivative by the step's
+        size (``before``: the step's start's (S_n, f_n))."""
         out, states = {}, self.states
+        f_next = self.stored()[1]
         for c in states.controllers:
             rows = slice(states.first[c.name], states.first[c.name] + len(c.states))
             _, f_s, f_S, f_p = states._at(c, state)
-            out[c.name] = (rows, np.eye(len(c.states)) - 0.5 * h * f_S, f_s, f_S, f_p)
+            A = np.eye(len(c.states)) - 0.5 * h * f_S
+            out[c.name] = (rows, A, f_s, f_S, f_p, np.linalg.solve(A, 0.5 * (before[1][rows] + f_next[rows])))
+        return out
+
+    def by_step_size(self, terms: dict) -> np.ndarray:
+        """(P,) the states' derivative by the step's size at a fixed configuration (``step_terms``' by_h, stacked)."""
+        out = np.zeros(self.P)
+        for c in self.states.controllers:
+            rows, *_, by_h = terms[c.name]
+            out[rows] = by_h
         return out
 
     def after_step_transposed(self, state, h: float, terms: dict, S_bar: np.ndarray, f_bar: np.ndarray,
                               q_bar: np.ndarray, gradient: np.ndarray) -> np.ndarray:
         """The transpose of ``ControllerStates.after_step`` (module docstring) for the bars at the step's end:
-        q̄ and the gradient updated in place; returns held̄ (P, m)."""
+        q̄ and the gradient updated in place; returns (held̄ (P, m), the adjoint of the step's δh through
+        δS_{n+1} += by_h δh (m,))."""
         hh = 0.5 * h
         held_bar = np.zeros_like(S_bar)
+        h_bar = np.zeros(S_bar.shape[1])
         sensed_bar = {}
         for c in self.states.controllers:
-            rows, A, f_s, f_S, f_p = terms[c.name]
+            rows, A, f_s, f_S, f_p, by_h = terms[c.name]
             S_next_bar = S_bar[rows] + f_S.T @ f_bar[rows]            # δf_{n+1} = … + ∂f/∂S δS_{n+1} + ∂f/∂p
             gradient += f_p.T @ f_bar[rows]
             s_bar = f_s.T @ f_bar[rows] + hh * (f_s.T @ np.linalg.solve(A.T, S_next_bar))
             held_bar[rows] = S_next_bar                               # δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs
+            h_bar += by_h @ S_next_bar                                #            + by_h δh
             sensed_bar[c.name] = s_bar
         n = self.owner.model.n_dofs
         units = np.eye(n)
@@ -108,7 +122,7 @@ class StatesTransposed:
             if len(self.states.sensors[c.name]):
                 D_s = np.asarray(self.states._sensed(c, state, units), float).reshape(-1, n)
                 q_bar += D_s.T @ sensed_bar[c.name]
-        return held_bar
+        return held_bar, h_bar
 
     def held_map(self, state) -> np.ndarray:
         """B (n, P): the forward method's ∂r/∂p of a held δS (``ControllerTerms.add`` with ``held`` the unit
@@ -124,6 +138,21 @@ class StatesTransposed:
         one.add(state, total)
         return self.owner._on_free_coordinates(state, total)
 
+    def held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(n, P): ∂(B δS)/∂q along ``w`` for the P unit columns of δS, the held part of the forward method's
+        ``_terms_beside_stiffness_along`` (an event's weight derivative with δS held, ``ControllerStates.hold``): the
+        same central difference (step WEIGHT_STEP ℓ/|w|_∞) of ``ControllerTerms.add`` with the unit columns held."""
+        from latdyn.analyses.transient_sensitivities import WEIGHT_STEP
+
+        owner = self.owner
+        size = float(np.max(np.abs(w), initial=0.0))
+        if size == 0.0:
+            return np.zeros((owner.model.n_dofs, self.P))
+        eta = WEIGHT_STEP * (owner.length or 1.0) / size
+        assembler = owner.assembler
+        return (self.held_map(assembler.advance(state, eta * w))
+                - self.held_map(assembler.advance(state, -eta * w))) / (2 * eta)
+
     def held_transposed(self, state, w: np.ndarray, held_bar: np.ndarray) -> np.ndarray:
         """held̄ − Bᵀ w: the held part's use in the step's ∂r/∂p (z = S⁻¹(−(… + B held …))), transposed."""
         return held_bar - self.held_map(state).T @ w
@@ -134,7 +163,7 @@ class StatesTransposed:
         hh = 0.5 * h
         S_bar, f_bar = np.zeros_like(held_bar), np.zeros_like(held_bar)
         for c in self.states.controllers:
-            rows, A, _, _, f_p = terms[c.name]
+            rows, A, _, _, f_p, _ = terms[c.name]
             spread = np.linalg.solve(A.T, held_bar[rows])
             S_bar[rows] = spread
             f_bar[rows] = hh * spread

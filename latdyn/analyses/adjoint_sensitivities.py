@@ -542,11 +542,19 @@ class AdjointSensitivities(TransientSensitivities):
             if samples_t is not None:   # the held outputs the step was taken with
                 outputs[:] = entry["outputs"]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
-                q_bar, v_bar, vdot_by_restart, by_restart = self._restart_transposed(entry, q_bar, v_bar,
-                                                                                      vdot_bar + a_bar)
-                gradient += by_restart
-                q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
-                v_bar, q_by_jump, vdot_by_jump, by_jump = self._impulse_transposed(entry, v_bar)
+                with self._controllers_at(carried, i + 1):   # the states as accepted at the event (they do not jump)
+                    self._weights_met = [] if states_t is not None else None
+                    q_bar, v_bar, vdot_by_restart, by_restart = self._restart_transposed(entry, q_bar, v_bar,
+                                                                                          vdot_bar + a_bar)
+                    gradient += by_restart
+                    if states_t is not None:   # δS held through the restart (ControllerStates.hold): B δS in its ∂r/∂p
+                        S_bar = self._held_weights_transposed(carried, i, S_bar, 1.0, restart=True)
+                    q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
+                    self._weights_met = [] if states_t is not None else None
+                    v_bar, q_by_jump, vdot_by_jump, by_jump = self._impulse_transposed(entry, v_bar)
+                    if states_t is not None:   # and through the jump: ∂(B δS)/∂q along the impulse's Δv in its weight
+                        S_bar = self._held_weights_transposed(carried, i, S_bar, -1.0)
+                    self._weights_met = None
                 q_bar = q_bar + q_by_jump
                 gradient += by_jump
                 # the restart set δv̇, δa afresh: the step's own δv̇ reaches past it only through the weights' rates
@@ -563,11 +571,11 @@ class AdjointSensitivities(TransientSensitivities):
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
             rule = entry.get("rule")
-            if states_t is not None:   # the states' recurrence transposed around the step (no events: refused)
-                bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar]
-                w = self._states_step_transposed(carried, i, (new, h, turn_t, tangent, tangent_t, beta_p, gamma_p),
-                                                 bars, gradient)
-                q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar = bars
+            if states_t is not None:   # the states' recurrence transposed around the step
+                bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar]
+                w = self._states_step_transposed(carried, i, (new, h, turn, turn_t, tangent, tangent_t, beta_p,
+                                                              gamma_p, old), bars, gradient)
+                q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
                 if samples_t is not None:
                     y_bar = samples_t.held_transposed(new, w, y_bar)
                 continue
@@ -659,16 +667,30 @@ class AdjointSensitivities(TransientSensitivities):
         :meth:`SamplesTransposed.held_transposed`)."""
         p, model = self.params, self.model
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
-        new, h, turn_t, tangent, tangent_t, beta_p, gamma_p = step
+        new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old = step
         states_t = self._states_transposed()
-        q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar = bars
+        q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
+        entry = carried["trajectory"][i]
+        before = (carried["controller_start"] if i == 0 else carried["trajectory"][i - 1]["controller"])
         with self._controllers_at(carried, i + 1):
-            terms = states_t.step_terms(new, h)
+            terms = states_t.step_terms(new, h, before)
             q_bar = q_bar.copy()
-            held_bar = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, gradient)
-            before = (carried["controller_start"] if i == 0 else carried["trajectory"][i - 1]["controller"])
+            held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, gradient)
             with states_t.condensed(before, h):
-                C_t, K_t, solve_transposed, _ = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+                C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+            rule = entry.get("rule")
+            if rule is not None:   # the step's size moves with p: its column (the states' ∂r/∂h in it), δh transposed
+                by_size = states_t.held_map(new) @ states_t.by_step_size(terms)
+                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p,
+                                                by_size)
+                h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
+                            (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
+                h_bar = h_bar + t_bar + g_bar + h_by_states
+                q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
+                                                                                 q_bar, v_bar, t_bar)
+                gradient += by_size
+            else:
+                g_bar = np.zeros_like(g_bar)
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
             w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, q_bar.shape[1])
             gradient -= self.residual_transposed_product(new, w)
@@ -680,12 +702,28 @@ class AdjointSensitivities(TransientSensitivities):
         da0_bar = a_bar + h * gamma * dv0_bar + h * h * beta * du0_bar
         bars[:] = [turn_t(dq0_bar), dv0_bar + h * du0_bar,
                    af / (1 - am) * da0_bar,
-                   h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar, S_bar, f_bar]
+                   h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar, S_bar, f_bar,
+                   t_bar, g_bar]
         return w
+
+    def _held_weights_transposed(self, carried: dict, i: int, S_bar: np.ndarray, sign: float,
+                                 restart: bool = False) -> np.ndarray:
+        """S̄ with the continuous states' held δS_{n+1} at step ``i``'s event transposed (ControllerStates.hold: B δS in
+        the restart's ∂r/∂p, and ∂(B δS)/∂q w in each impulse or restart weight's (∂K/∂p) w that
+        :meth:`_weight_derivative_transposed` met, ``self._weights_met``), ``sign`` +1 for the restart's (ū = −B⁻ᵀs̄),
+        −1 for the impulse's (w = δv⁻ − W⁻¹(…))."""
+        states_t = self._states_transposed()
+        with self._controllers_at(carried, i + 1):
+            if restart:
+                after, u_bar = self._restart_u
+                S_bar = S_bar + states_t.held_map(after).T @ u_bar
+            for state, w, u_bar, scale in self._weights_met:
+                S_bar = S_bar + sign * scale * (states_t.held_stiffness_along(state, w).T @ u_bar)
+        return S_bar
 
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
-                          gamma_p: float) -> dict:
+                          gamma_p: float, explicit: np.ndarray | None = None) -> dict:
         """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step size h
         (:meth:`TransientSensitivities.step_columns`, its column k), computed as it computes it: the native
         predict and update (:class:`_StepColumns` with no parameter column: ∂(hΔq)/∂h, ∂v_{n+1}/∂h) around the
@@ -695,7 +733,8 @@ class AdjointSensitivities(TransientSensitivities):
         step = _StepColumns(self, n, 0, (entry["h"], p.alpha_m, p.alpha_f, p.gamma, p.beta), *rotations)
         none = np.zeros((n, 0))
         _, dq0, dv0 = step.predict(free_velocity(model, old), entry["a_old"], entry["a_new"], none, none, none, none)
-        z = np.asarray(solve(-(K @ dq0 + C @ dv0))).reshape(n, 1)
+        rhs = K @ dq0 + C @ dv0 if explicit is None else explicit.reshape(n, 1) + K @ dq0 + C @ dv0
+        z = np.asarray(solve(-rhs)).reshape(n, 1)
         return {key: column[:, 0] for key, column in step.update(z, beta_p, gamma_p).items()}
 
     def _step_size_transposed(self, entry: dict, rule: tuple, column: dict, h_bar: np.ndarray,
@@ -775,6 +814,7 @@ class AdjointSensitivities(TransientSensitivities):
             self.assembler.complete_links(before)
             matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
         u_bar = -np.asarray(solve_linear(_transposed(matrix), s_bar)).reshape(n, s_bar.shape[1])
+        self._restart_u = (after, u_bar)   # the held states' part of its ∂r/∂p (_held_weights_transposed)
         q_bar = q_bar + np.asarray(K.T @ u_bar)
         v_bar = v_bar + np.asarray(C.T @ u_bar)
         vdot_bar = None   # a latch restarts with M alone
@@ -852,6 +892,8 @@ class AdjointSensitivities(TransientSensitivities):
         if linked:
             stiffness = stiffness + self._geometric_derivative(state, w)
         p_part += scale * (stiffness.T @ u_bar)
+        if self.__dict__.get("_weights_met") is not None:   # the controllers' held states' part (_held_weights_transposed)
+            self._weights_met.append((state, w, u_bar, scale))
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             p_part += (self.residual_transposed_product(accelerated, u_bar)

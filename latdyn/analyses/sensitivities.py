@@ -240,11 +240,11 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
-    elif has_events(scene) and any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
-        name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
-        why = (f"the adjoint does not differentiate controllers with states or sampled ones beside events yet "
-               f"(controllers.{name} beside a latch, a stop or a cable: the event's jump and its step size's column "
-               "through the states and held outputs are not transposed); without events it does")
+    elif has_events(scene) and any(c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
+        name = next(c.name for c in scene.controllers.values() if c.sampled)
+        why = (f"the adjoint does not differentiate sampled controllers beside events yet (controllers.{name} beside a "
+               "latch, a stop or a cable: the event's jump and restart through the held outputs are not transposed); "
+               "without events it does")
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
