@@ -7,16 +7,14 @@ sensitivities and the forward method, in process (docs/performance.md, "The adjo
 Scenes (tests/test_adjoint_controllers_states.py, more parameters): the slewing boom under a PI of its hub's angle with
 the boom cut into five beams of their own sections, whose four values each (EA, EIy = EIz, GJ, rhoA) are parameters
 beside the gains (22 parameters); the same with the gains alone (2); the gimbal's two filtered PIDs (5); the sampled PD
-on the flexible arm (3). Each scene warm once per variant, then ``--repeats`` rounds alternating the run without
+on the flexible arm (3); the two-link boom whose elbow's PI latches (5). Each scene warm once per variant, then ``--repeats`` rounds alternating the run without
 sensitivities, the forward method and the adjoint; medians of ``time.process_time`` and wall. Run under ``chrt -f 10``
 on a loaded machine.
 """
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -67,39 +65,19 @@ output:
 
 def scenes() -> dict:
     """{name: YAML text}."""
-    from tests.test_adjoint_controllers_states import GIMBAL_PID, SAMPLED_PD
+    from tests.test_adjoint_controllers_states import BOOM_LATCH, GIMBAL_PID, SAMPLED_PD
 
     return {"slewing boom, PI (22 p)": five_beam_boom(True), "slewing boom, PI (2 p)": five_beam_boom(False),
-            "gimbal, two filtered PIDs (5 p)": GIMBAL_PID, "sampled PD on a flexible arm (3 p)": SAMPLED_PD}
+            "gimbal, two filtered PIDs (5 p)": GIMBAL_PID, "sampled PD on a flexible arm (3 p)": SAMPLED_PD,
+            "two-link boom, PI beside a latch (5 p)": BOOM_LATCH}
 
 
 def main() -> None:
-    import yaml
-
-    import latdyn
+    from benchmarks.adjoint_linked_cost import compare
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    args = parser.parse_args()
-    for name, text in scenes().items():
-        plain, forward, adjoint = (yaml.safe_load(text) for _ in range(3))
-        plain["solve"].pop("sensitivities")
-        adjoint["solve"]["sensitivity_method"] = "adjoint"
-        variants = {"without": plain, "forward": forward, "adjoint": adjoint}
-        for data in variants.values():   # warm: laws compiled, kernels opened
-            latdyn.run(latdyn.load_scene(data))
-        times = {key: [] for key in variants}
-        for _ in range(args.repeats):
-            for key, data in variants.items():
-                cpu, wall = time.process_time(), time.perf_counter()
-                result = latdyn.run(latdyn.load_scene(data))
-                times[key].append((time.process_time() - cpu, time.perf_counter() - wall))
-        cpu = {key: statistics.median(t for t, _ in values) for key, values in times.items()}
-        wall = {key: statistics.median(w for _, w in values) for key, values in times.items()}
-        print(f"{name}: {result.summary.get('steps')} steps; "
-              + "; ".join(f"{key} {cpu[key] * 1e3:.0f} ms CPU ({wall[key] * 1e3:.0f} wall)" for key in variants)
-              + f"; adjoint {cpu['adjoint'] / cpu['without']:.2f} x without, {cpu['adjoint'] / cpu['forward']:.2f} x "
-              "the forward method", flush=True)
+    compare(scenes(), parser.parse_args().repeats)
 
 
 if __name__ == "__main__":

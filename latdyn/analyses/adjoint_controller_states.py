@@ -11,7 +11,9 @@ A = I − h/2 ∂f/∂S, ∂f/∂s, ∂f/∂S, ∂f/∂p at the step's end (its 
     δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs_{n+1},   δs_{n+1} = D_s δq_{n+1}        (``after_step``, ``_sensed``),
     δf_{n+1} = ∂f/∂s δs_{n+1} + ∂f/∂S δS_{n+1} + ∂f/∂p,
 
-and δS_0 = 0, δf_0 = ∂f/∂p at the start (``start``). The reverse pass carries S̄ and f̄ beside the structure's bars
+and δS_0 = 0, δf_0 = ∂f/∂p at the start (``start``); beside events a step whose size moves adds B by_h to its step
+size's column and by_h δh to δS_{n+1} (by_h = A⁻¹ ½ (f_n + f_{n+1})), and δS_{n+1} is held through the event's jump
+and restart (``hold``: B δS in the restart's ∂r/∂p, ∂(B δS)/∂q w in the weights'). The reverse pass carries S̄ and f̄ beside the structure's bars
 and applies the transposes in reverse order, each named after its forward piece:
 
 - :meth:`StatesTransposed.after_step_transposed`: S̄ += ∂f/∂Sᵀ f̄, s̄ = ∂f/∂sᵀ f̄ + h/2 ∂f/∂sᵀ A⁻ᵀ S̄,
@@ -19,7 +21,11 @@ and applies the transposes in reverse order, each named after its forward piece:
 - the structure's step as without states (its matrix taken in :meth:`StatesTransposed.condensed`, the forward
   method's own context), then :meth:`StatesTransposed.held_transposed`: held̄ −= Bᵀ w;
 - :meth:`StatesTransposed.begin_step_transposed`: ĥ = A⁻ᵀ held̄, S̄_n = ĥ, f̄_n = h/2 ĥ, dy/dp += h/2 ∂f/∂pᵀ ĥ;
-- at t = 0 :meth:`StatesTransposed.start_transposed`: dy/dp += ∂f/∂pᵀ f̄_0.
+- at t = 0 :meth:`StatesTransposed.start_transposed`: dy/dp += ∂f/∂pᵀ f̄_0;
+- beside events: h̄ += by_hᵀ S̄_{n+1} (:meth:`StatesTransposed.after_step_transposed`), B by_h in the step size's
+  column (:meth:`StatesTransposed.by_step_size`), and at the event S̄ += Bᵀū of the restart and ± the weights'
+  ∂(B δS)/∂q w transposed (:meth:`StatesTransposed.held_stiffness_along`;
+  :meth:`AdjointSensitivities._held_weights_transposed`).
 
 D_s and B are the forward method's maps (``ControllerStates._sensed``, ``ControllerTerms.add``) applied to unit
 columns — n columns of δq, P of held (P the states) — and transposed; ∂f/∂s, ∂f/∂S, ∂f/∂p are the step's compiled
@@ -31,7 +37,7 @@ Controller probes (:func:`probe_forms`): a state S at a row seeds S̄ there; an 
 inside its limits seeds Σ ∂f/∂s (the sensor's forms, :meth:`AdjointSensitivities.output_forms`) + Σ ∂f/∂y_j (the
 earlier controller's forms) + ∂f/∂S on S̄ + ∂f/∂p explicit — the forward method's
 ``controller_probe_sensitivities._continuous_output`` as forms; clipped, 0. What the forward method adds where the
-row's time moves (∂f/∂t δt after an event) and sampled controllers stay refused
+row's time moves (∂f/∂t δt after an event, an output naming t) and sampled controllers beside events stay refused
 (:func:`latdyn.analyses.sensitivities.adjoint_refusal`).
 """
 from __future__ import annotations

@@ -67,10 +67,10 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
-stop's onset, events beside laws in t, friction, controllers with states or sampled ones beside events
-(continuous controllers without states enter E and the matrices as in the forward method; with states, sampled ones
-and controller probes: the states' and held outputs' bars beside these, latdyn/analyses/adjoint_controller_states.py,
-:meth:`_states_step_transposed`, :meth:`after_sample`). Rigid links and guides
+stop's onset, events beside laws in t, friction, sampled controllers beside events
+(continuous controllers without states enter E and the matrices as in the forward method; with states (beside events
+too: :meth:`_held_weights_transposed`), sampled ones and controller probes: the states' and held outputs' bars beside
+these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`, :meth:`after_sample`). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
 a body frame's seeds likewise, latdyn/analyses/probe_derivatives.py ``probe_forms``, and the energies' and momenta's

@@ -219,7 +219,7 @@ def refusal(scene) -> SceneError | None:
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides,
-    through controllers with states and sampled ones without events, latdyn/analyses/adjoint_controller_states.py;
+    through controllers with states, and sampled ones without events, latdyn/analyses/adjoint_controller_states.py;
     the forward method's refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
