@@ -37,8 +37,9 @@ Controller probes (:func:`probe_forms`): a state S at a row seeds S̄ there; an 
 inside its limits seeds Σ ∂f/∂s (the sensor's forms, :meth:`AdjointSensitivities.output_forms`) + Σ ∂f/∂y_j (the
 earlier controller's forms) + ∂f/∂S on S̄ + ∂f/∂p explicit — the forward method's
 ``controller_probe_sensitivities._continuous_output`` as forms; clipped, 0. What the forward method adds where the
-row's time moves (∂f/∂t δt after an event, an output naming t) and sampled controllers beside events stay refused
-(:func:`latdyn.analyses.sensitivities.adjoint_refusal`).
+row's time moves (∂f/∂t δt after an event, an output naming t) stays refused
+(:func:`latdyn.analyses.controller_probe_sensitivities.adjoint_refusal`). Beside events a sampled controller's held
+δy is transposed through the event's pieces as the states' δS (:meth:`SamplesTransposed.held_stiffness_along`).
 """
 from __future__ import annotations
 
@@ -148,16 +149,7 @@ class StatesTransposed:
         """(n, P): ∂(B δS)/∂q along ``w`` for the P unit columns of δS, the held part of the forward method's
         ``_terms_beside_stiffness_along`` (an event's weight derivative with δS held, ``ControllerStates.hold``): the
         same central difference (step WEIGHT_STEP ℓ/|w|_∞) of ``ControllerTerms.add`` with the unit columns held."""
-        from latdyn.analyses.transient_sensitivities import WEIGHT_STEP
-
-        owner = self.owner
-        size = float(np.max(np.abs(w), initial=0.0))
-        if size == 0.0:
-            return np.zeros((owner.model.n_dofs, self.P))
-        eta = WEIGHT_STEP * (owner.length or 1.0) / size
-        assembler = owner.assembler
-        return (self.held_map(assembler.advance(state, eta * w))
-                - self.held_map(assembler.advance(state, -eta * w))) / (2 * eta)
+        return _held_map_along(self.owner, self.held_map, self.P, state, w)
 
     def held_transposed(self, state, w: np.ndarray, held_bar: np.ndarray) -> np.ndarray:
         """held̄ − Bᵀ w: the held part's use in the step's ∂r/∂p (z = S⁻¹(−(… + B held …))), transposed."""
@@ -248,6 +240,19 @@ def _output_forms(owner, name: str, state, done: dict) -> tuple:
     return done[name]
 
 
+def _held_map_along(owner, held_map, columns: int, state, w: np.ndarray) -> np.ndarray:
+    """(n, ``columns``): ∂(``held_map`` x)/∂q along ``w`` for the unit columns of x, the forward method's
+    ``_terms_beside_stiffness_along`` central difference (step WEIGHT_STEP ℓ/|w|_∞) of the held part alone."""
+    from latdyn.analyses.transient_sensitivities import WEIGHT_STEP
+
+    size = float(np.max(np.abs(w), initial=0.0))
+    if size == 0.0:
+        return np.zeros((owner.model.n_dofs, columns))
+    eta = WEIGHT_STEP * (owner.length or 1.0) / size
+    assembler = owner.assembler
+    return (held_map(assembler.advance(state, eta * w)) - held_map(assembler.advance(state, -eta * w))) / (2 * eta)
+
+
 class SamplesTransposed:
     """The transposes of :class:`latdyn.analyses.sensitivities.SampledTerms`' pieces and of the restart after a sample
     (:meth:`TransientSensitivities.after_sample`) for ``owner`` (an AdjointSensitivities with sampled controllers):
@@ -283,6 +288,11 @@ class SamplesTransposed:
         total = np.zeros((self.owner.model.n_total + 1, self.C))
         one.add(state, total)
         return self.owner._on_free_coordinates(state, total)
+
+    def held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(n, C): ∂(A_y δy)/∂q along ``w`` for the C unit columns of δy (an event's weights with the held δy in
+        ∂r/∂p: the forward method's ``_terms_beside_stiffness_along``, its held outputs' part)."""
+        return _held_map_along(self.owner, self.held_map, self.C, state, w)
 
     def held_transposed(self, state, w: np.ndarray, y_bar: np.ndarray) -> np.ndarray:
         """ȳ − A_yᵀ w: the held δy's use in the step's ∂r/∂p, transposed."""

@@ -67,9 +67,9 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
-stop's onset, events beside laws in t, friction, sampled controllers beside events
-(continuous controllers without states enter E and the matrices as in the forward method; with states (beside events
-too: :meth:`_held_weights_transposed`), sampled ones and controller probes: the states' and held outputs' bars beside
+stop's onset, events beside laws in t, friction, a controller's output probe beside events where it names t
+(continuous controllers without states enter E and the matrices as in the forward method; with states and sampled
+ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held outputs' bars beside
 these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`, :meth:`after_sample`). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
@@ -542,18 +542,23 @@ class AdjointSensitivities(TransientSensitivities):
             if samples_t is not None:   # the held outputs the step was taken with
                 outputs[:] = entry["outputs"]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
+                held = states_t is not None or samples_t is not None   # δS or δy held through the event's pieces
                 with self._controllers_at(carried, i + 1):   # the states as accepted at the event (they do not jump)
-                    self._weights_met = [] if states_t is not None else None
+                    self._weights_met = [] if held else None
                     q_bar, v_bar, vdot_by_restart, by_restart = self._restart_transposed(entry, q_bar, v_bar,
                                                                                           vdot_bar + a_bar)
                     gradient += by_restart
                     if states_t is not None:   # δS held through the restart (ControllerStates.hold): B δS in its ∂r/∂p
-                        S_bar = self._held_weights_transposed(carried, i, S_bar, 1.0, restart=True)
+                        S_bar = self._held_weights_transposed(carried, i, S_bar, 1.0, states_t, restart=True)
+                    if samples_t is not None:   # the held δy likewise (SampledTerms.add): A_y δy
+                        y_bar = self._held_weights_transposed(carried, i, y_bar, 1.0, samples_t, restart=True)
                     q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
-                    self._weights_met = [] if states_t is not None else None
+                    self._weights_met = [] if held else None
                     v_bar, q_by_jump, vdot_by_jump, by_jump = self._impulse_transposed(entry, v_bar)
                     if states_t is not None:   # and through the jump: ∂(B δS)/∂q along the impulse's Δv in its weight
-                        S_bar = self._held_weights_transposed(carried, i, S_bar, -1.0)
+                        S_bar = self._held_weights_transposed(carried, i, S_bar, -1.0, states_t)
+                    if samples_t is not None:
+                        y_bar = self._held_weights_transposed(carried, i, y_bar, -1.0, samples_t)
                     self._weights_met = None
                 q_bar = q_bar + q_by_jump
                 gradient += by_jump
@@ -706,19 +711,19 @@ class AdjointSensitivities(TransientSensitivities):
                    t_bar, g_bar]
         return w
 
-    def _held_weights_transposed(self, carried: dict, i: int, S_bar: np.ndarray, sign: float,
+    def _held_weights_transposed(self, carried: dict, i: int, S_bar: np.ndarray, sign: float, held,
                                  restart: bool = False) -> np.ndarray:
-        """S̄ with the continuous states' held δS_{n+1} at step ``i``'s event transposed (ControllerStates.hold: B δS in
-        the restart's ∂r/∂p, and ∂(B δS)/∂q w in each impulse or restart weight's (∂K/∂p) w that
-        :meth:`_weight_derivative_transposed` met, ``self._weights_met``), ``sign`` +1 for the restart's (ū = −B⁻ᵀs̄),
+        """``S_bar`` with what ``held`` holds through step ``i``'s event transposed: the continuous states' δS_{n+1}
+        (``held`` the StatesTransposed; ControllerStates.hold) or the sampled controllers' δy (the SamplesTransposed),
+        B δS in the restart's ∂r/∂p, and ∂(B δS)/∂q w in each impulse or restart weight's (∂K/∂p) w that
+        :meth:`_weight_derivative_transposed` met, ``self._weights_met``; ``sign`` +1 for the restart's (ū = −B⁻ᵀs̄),
         −1 for the impulse's (w = δv⁻ − W⁻¹(…))."""
-        states_t = self._states_transposed()
         with self._controllers_at(carried, i + 1):
             if restart:
                 after, u_bar = self._restart_u
-                S_bar = S_bar + states_t.held_map(after).T @ u_bar
+                S_bar = S_bar + held.held_map(after).T @ u_bar
             for state, w, u_bar, scale in self._weights_met:
-                S_bar = S_bar + sign * scale * (states_t.held_stiffness_along(state, w).T @ u_bar)
+                S_bar = S_bar + sign * scale * (held.held_stiffness_along(state, w).T @ u_bar)
         return S_bar
 
     # ------------------------------------------------------------------ events transposed

@@ -60,10 +60,19 @@ def adjoint_refusal(scene) -> str | None:
     for probe in scene.output.probes:
         if not is_controller_probe(probe):
             continue
-        if probe.state is None and has_events(scene) and any(d.output_names_t for d in scene.controllers.values()):
+        c = scene.controllers[probe.controller]
+        if probe.state is None and has_events(scene) and not c.sampled and _names_t(scene, c):
             return (f"the adjoint is not seeded by controller probes beside events where a controller's output names "
-                    f"t yet (probe {probe.name!r}: {describe(probe)}); the forward method differentiates them")
+                    f"t yet (probe {probe.name!r}: {describe(probe)}, its output or one it reads names t); the forward "
+                    "method differentiates them")
     return None
+
+
+def _names_t(scene, c) -> bool:
+    """Whether the continuous controller ``c``'s output names t, or that of a continuous controller it reads (the
+    chain :func:`_continuous_output` adds ∂f/∂t δt along)."""
+    return c.output_names_t or any(_names_t(scene, scene.controllers[r]) for r in c.reads
+                                   if r in scene.controllers and not scene.controllers[r].sampled)
 
 
 def _time_partial(owner, c):

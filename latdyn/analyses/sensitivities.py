@@ -219,7 +219,7 @@ def refusal(scene) -> SceneError | None:
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops and cables, with rigid links and guides,
-    through controllers with states, and sampled ones without events, latdyn/analyses/adjoint_controller_states.py;
+    through controllers with states and sampled ones, latdyn/analyses/adjoint_controller_states.py;
     the forward method's refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
@@ -240,11 +240,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = f"the adjoint does not take geometry parameters yet ({used}: the start moves with them)"
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
-    elif has_events(scene) and any(c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
-        name = next(c.name for c in scene.controllers.values() if c.sampled)
-        why = (f"the adjoint does not differentiate sampled controllers beside events yet (controllers.{name} beside a "
-               "latch, a stop or a cable: the event's jump and restart through the held outputs are not transposed); "
-               "without events it does")
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
