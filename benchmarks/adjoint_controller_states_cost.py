@@ -7,9 +7,9 @@ sensitivities and the forward method, in process (docs/performance.md, "The adjo
 Scenes (tests/test_adjoint_controllers_states.py, more parameters): the slewing boom under a PI of its hub's angle with
 the boom cut into five beams of their own sections, whose four values each (EA, EIy = EIz, GJ, rhoA) are parameters
 beside the gains (22 parameters); the same with the gains alone (2); the gimbal's two filtered PIDs (5); the sampled PD
-on the flexible arm (3); the two-link boom whose elbow's PI latches (5). Each scene warm once per variant, then ``--repeats`` rounds alternating the run without
-sensitivities, the forward method and the adjoint; medians of ``time.process_time`` and wall. Run under ``chrt -f 10``
-on a loaded machine.
+on the flexible arm (3); the two-link boom whose elbow's PI latches (5). Each scene warm once per variant, then
+``--repeats`` rounds alternating the run without sensitivities, the forward method and the adjoint; medians of
+``time.process_time`` and wall. Run under ``chrt -f 10`` on a loaded machine.
 """
 from __future__ import annotations
 

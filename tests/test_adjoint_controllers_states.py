@@ -26,9 +26,9 @@ from tests.test_sensitivities_in_loop_controller_integral import BOOM, WHEEL_STO
 from tests.test_sensitivities_refusals_lifted import _adjoint_error, _both, _richardson_end
 
 #: a slewing boom: a hub turning about a tilted axis (0.2, 0.1, 1) carries a flexible four-element boom out of the
-#: coordinate planes to a tip mass; a PI of the hub's angle toward 0.5 rad, Kp (0.5 − θ) + Ki E (the hub's damping 0.8) with
-#: dE/dt = 0.5 − θ (E from 0.05), drives the hub's torque; the gains and the boom's bending stiffness EI (a section
-#: value) are the parameters; the controller's output and its integral state are probed
+#: coordinate planes to a tip mass; a PI of the hub's angle toward 0.5 rad, Kp (0.5 − θ) + Ki E (the hub's damping
+#: 0.8) with dE/dt = 0.5 − θ (E from 0.05), drives the hub's torque; the gains and the boom's bending stiffness EI (a
+#: section value) are the parameters; the controller's output and its integral state are probed
 SLEW_BOOM = """
 title: a slewing boom on a tilted hub under a PI of the hub's angle
 parameters: {Kp: 4.0, Ki: 3.0, EI: 60.0}
@@ -88,10 +88,10 @@ output:
     filtered: {controller: yaw, state: D1}
 """
 
-#: a flexible three-element arm out of the coordinate planes on a skew hinge (1, −2, 0.5) under gravity (4 m/s²), turned by a
-#: PD sampled at 50 Hz (zero-order hold) whose derivative is the backward difference of the angle: its state P holds
-#: the last sample's angle, S_{k+1} = S_k + 50 (θ − S_k)/50; the gains and the arm's bending stiffness are the
-#: parameters, the held output and the state are probed
+#: a flexible three-element arm out of the coordinate planes on a skew hinge (1, −2, 0.5) under gravity (4 m/s²),
+#: turned by a PD sampled at 50 Hz (zero-order hold) whose derivative is the backward difference of the angle: its
+#: state P holds the last sample's angle, S_{k+1} = S_k + 50 (θ − S_k)/50; the gains and the arm's bending stiffness
+#: are the parameters, the held output and the state are probed
 SAMPLED_PD = """
 title: a flexible arm on a skew hinge under a sampled PD (zero-order hold)
 parameters: {Kp: 6.0, Kd: 0.2, EI: 40.0}
@@ -118,14 +118,16 @@ output:
 
 #: tests/test_sensitivities_in_loop_controller_integral.py's two-link 3D boom whose elbow, driven by a PI on its angle
 #: (integral state E), latches at 0.4 rad; the PI's output and state probed
-BOOM_LATCH = BOOM.replace("  probes:\n", "  probes:\n    torque: {controller: ctl}\n    integral: {controller: ctl, state: E}\n")
+BOOM_LATCH = BOOM.replace("  probes:\n",
+                          "  probes:\n    torque: {controller: ctl}\n    integral: {controller: ctl, state: E}\n")
 #: tests/test_sensitivities_cables.py's skew cable catching a flexible arm's tip mass (five slack/taut changes), the
 #: arm's root now a hinge of axis (1, −2, 0) under a PI of its angle; its state probed
 CABLE_PI = (CABLE_3D.replace("arm: {from: base, to: tip, section: s, elements: 3}",
                              'arm: {from: base, to: tip, section: s, elements: 3, '
                              'start: {hinge: {axis: [1, -2, 0], damping: 0.1, torque: "ctl"}}}')
             .replace("parameters: {EA: 5000.0,", "parameters: {Kp: 2.0, Ki: 3.0, EA: 5000.0,")
-            .replace("solve: {", 'controllers:\n  ctl: {output: "Kp*(0.1 - th) + Ki*E", states: {E: "0.1 - th"}}\nsolve: {')
+            .replace("solve: {", 'controllers:\n  ctl: {output: "Kp*(0.1 - th) + Ki*E", states: {E: "0.1 - th"}}\n'
+                     'solve: {')
             .replace("sensitivities: [EA, L, EI, c]", "sensitivities: [Kp, Ki, EA, L, EI, c]")
             .replace("  probes:\n", "  probes:\n    th: {hinge: arm.start, quantity: angle}\n"
                      "    integral: {controller: ctl, state: E}\n"))

@@ -186,8 +186,8 @@ def test_the_adjoint_equals_the_forward_method_through_a_controller_with_states(
 
 
 def test_the_adjoint_equals_the_forward_method_through_a_sampled_controller():
-    """The hub's PI sampled at 100 Hz, its gains lowered (at Kp 6 the held output makes the run unbounded), refused until
-    latdyn/analyses/adjoint_controller_states.py SamplesTransposed: the forward method's derivatives, measured
+    """The hub's PI sampled at 100 Hz, its gains lowered (at Kp 6 the held output makes the run unbounded), refused
+    until latdyn/analyses/adjoint_controller_states.py SamplesTransposed: the forward method's derivatives, measured
     2.0e-12."""
     from tests.test_sensitivities_controller_states import PI_HUB
 

@@ -12,9 +12,9 @@ A = I − h/2 ∂f/∂S, ∂f/∂s, ∂f/∂S, ∂f/∂p at the step's end (its 
     δf_{n+1} = ∂f/∂s δs_{n+1} + ∂f/∂S δS_{n+1} + ∂f/∂p,
 
 and δS_0 = 0, δf_0 = ∂f/∂p at the start (``start``); beside events a step whose size moves adds B by_h to its step
-size's column and by_h δh to δS_{n+1} (by_h = A⁻¹ ½ (f_n + f_{n+1})), and δS_{n+1} is held through the event's jump
-and restart (``hold``: B δS in the restart's ∂r/∂p, ∂(B δS)/∂q w in the weights'). The reverse pass carries S̄ and f̄ beside the structure's bars
-and applies the transposes in reverse order, each named after its forward piece:
+size's column and by_h δh to δS_{n+1} (by_h = A⁻¹ ½ (f_n + f_{n+1})), and δS_{n+1} is held through the event's
+jump and restart (``hold``: B δS in the restart's ∂r/∂p, ∂(B δS)/∂q w in the weights'). The reverse pass carries S̄
+and f̄ beside the structure's bars and applies the transposes in reverse order, each named after its forward piece:
 
 - :meth:`StatesTransposed.after_step_transposed`: S̄ += ∂f/∂Sᵀ f̄, s̄ = ∂f/∂sᵀ f̄ + h/2 ∂f/∂sᵀ A⁻ᵀ S̄,
   q̄ += D_sᵀ s̄, dy/dp += ∂f/∂pᵀ f̄, and held̄ = S̄;

@@ -69,8 +69,9 @@ the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a compliant
 stop's onset, events beside laws in t, friction, a controller's output probe beside events where it names t
 (continuous controllers without states enter E and the matrices as in the forward method; with states and sampled
-ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held outputs' bars beside
-these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`, :meth:`after_sample`). Rigid links and guides
+ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held outputs'
+bars beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`,
+:meth:`after_sample`). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
 a body frame's seeds likewise, latdyn/analyses/probe_derivatives.py ``probe_forms``, and the energies' and momenta's
@@ -664,8 +665,8 @@ class AdjointSensitivities(TransientSensitivities):
 
     def _states_step_transposed(self, carried: dict, i: int, step: tuple, bars: list,
                                 gradient: np.ndarray) -> np.ndarray:
-        """Step ``i`` of the reverse pass with the continuous controllers' states (``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄] at its
-        end replaced by those at its start, ``gradient`` (k, m) updated in place): the forward method's
+        """Step ``i`` of the reverse pass with the continuous controllers' states (``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄,
+        ḡ] at its end replaced by those at its start, ``gradient`` (k, m) updated in place): the forward method's
         ``ControllerStates.after_step`` transposed, the structure's step as :meth:`_reverse_columns` takes it with
         its matrix condensed from (S_n, f_n) and the held part's ∂r/∂p transposed, then ``begin_step`` transposed
         (latdyn/analyses/adjoint_controller_states.py). Returns the step's w (a sampled controller's held part,
@@ -897,7 +898,7 @@ class AdjointSensitivities(TransientSensitivities):
         if linked:
             stiffness = stiffness + self._geometric_derivative(state, w)
         p_part += scale * (stiffness.T @ u_bar)
-        if self.__dict__.get("_weights_met") is not None:   # the controllers' held states' part (_held_weights_transposed)
+        if self.__dict__.get("_weights_met") is not None:   # the held states' part (_held_weights_transposed)
             self._weights_met.append((state, w, u_bar, scale))
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)

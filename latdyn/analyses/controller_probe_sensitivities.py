@@ -29,7 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["is_controller_probe", "describe", "refusal", "adjoint_refusal", "controller_arguments", "output_and_gradient", "probe_derivatives"]
+__all__ = ["is_controller_probe", "describe", "refusal", "adjoint_refusal", "controller_arguments",
+           "output_and_gradient", "probe_derivatives"]
 
 
 def is_controller_probe(probe) -> bool:
