@@ -63,17 +63,21 @@ def loaded(text: str, count: int) -> str:
 
 
 def main() -> None:
-    import yaml
-
-    import latdyn
-
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--only", default="", help="the scenes whose name holds this text")
     args = parser.parse_args()
-    for name, text in scenes().items():
-        if args.only not in name:
-            continue
+    compare({name: text for name, text in scenes().items() if args.only in name}, args.repeats)
+
+
+def compare(scenes: dict, repeats: int) -> None:
+    """Each of ``scenes`` ({name: YAML text}) warm once per variant (without sensitivities, the forward method, the
+    adjoint), then ``repeats`` rounds alternating them; medians of CPU and wall time printed."""
+    import yaml
+
+    import latdyn
+
+    for name, text in scenes.items():
         plain, forward, adjoint = (yaml.safe_load(text) for _ in range(3))
         plain["solve"].pop("sensitivities")
         adjoint["solve"]["sensitivity_method"] = "adjoint"
@@ -81,7 +85,7 @@ def main() -> None:
         for data in variants.values():   # warm: laws compiled, kernels opened
             latdyn.run(latdyn.load_scene(data))
         times = {key: [] for key in variants}
-        for _ in range(args.repeats):
+        for _ in range(repeats):
             for key, data in variants.items():
                 cpu, wall = time.process_time(), time.perf_counter()
                 result = latdyn.run(latdyn.load_scene(data))
@@ -91,7 +95,7 @@ def main() -> None:
         print(f"{name}: {result.summary.get('steps')} steps; "
               + "; ".join(f"{key} {cpu[key] * 1e3:.0f} ms CPU ({wall[key] * 1e3:.0f} wall)" for key in variants)
               + f"; adjoint {cpu['adjoint'] / cpu['without']:.2f} x without, {cpu['adjoint'] / cpu['forward']:.2f} x "
-              "the forward method")
+              "the forward method", flush=True)
 
 
 if __name__ == "__main__":

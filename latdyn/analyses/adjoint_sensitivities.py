@@ -78,9 +78,11 @@ step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) an
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
 friction sticks (a stick and a release are events not transposed yet: refused when it sticks,
-:meth:`_refuse_a_stick`; friction while the joints slip is taken),
-controllers with states and sampled ones
-(continuous controllers without states enter E and the matrices as in the forward method). Rigid links and guides
+:meth:`_refuse_a_stick`; friction while the joints slip is taken), a controller's output probe beside events where it
+names t (continuous controllers without states enter E and the matrices as in the forward method; with states and
+sampled ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held
+outputs' bars beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`,
+:meth:`after_sample`). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
 a body frame's seeds likewise, latdyn/analyses/probe_derivatives.py ``probe_forms``, and the energies' and momenta's
@@ -98,7 +100,9 @@ from types import SimpleNamespace
 import numpy as np
 
 from latdyn.analyses import adjoint_time
+from latdyn.analyses.adjoint_controller_states import probe_forms as controller_probe_forms
 from latdyn.analyses.adjoint_in_loop import accepted
+from latdyn.analyses.controller_probe_sensitivities import is_controller_probe
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
@@ -142,6 +146,11 @@ class AdjointSensitivities(TransientSensitivities):
         model = self.model
         carried = {"trajectory": [], "rows": [], "start": state.copy(), "events": [],
                    "numbering_start": self._numbering(), "timed": False, "dh_moves": False}
+        if self._states_transposed() is not None:   # the accepted (S, f) at t = 0
+            carried["controller_start"] = self._states_transposed().stored()
+        if self._samples_transposed() is not None:   # the held outputs after the sample at t = 0, the states it left
+            carried["outputs_start"] = self.scene.controller_outputs.values.copy()
+            carried["sampled_S"] = self._sampled_states()
         if model.n_dofs and self.names:
             ev = self.assembler.evaluate(state, matrices=True)
             _, split = self._start_mass(ev)
@@ -181,6 +190,10 @@ class AdjointSensitivities(TransientSensitivities):
         appended in place: the trajectory grows with the run and a copy per step would cost its length."""
         entry = {"state": new.copy(), "h": float(h), "a_old": np.array(a_old, float),
                  "a_new": np.array(a_new, float), "pending": True}   # accepted once its events are (after_events)
+        if self._states_transposed() is not None:   # the controllers' accepted (S, f) at the step's end
+            entry["controller"] = self._states_transposed().stored()
+        if self._samples_transposed() is not None:   # the held outputs the step was taken with
+            entry["outputs"] = self.scene.controller_outputs.values.copy()
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
             cable = self._cable_event(old, new, event)
@@ -221,6 +234,46 @@ class AdjointSensitivities(TransientSensitivities):
             self._events_here = self.model.cables is not None or any(
                 h.lock_at is not None or h.limits is not None for h in self.model.hinges)
         return self._events_here
+
+    def _states_transposed(self):
+        """The transposes of the continuous controllers' states' pieces
+        (:class:`latdyn.analyses.adjoint_controller_states.StatesTransposed`), or None without states."""
+        if "_states_t" not in self.__dict__:
+            from latdyn.analyses.adjoint_controller_states import StatesTransposed
+
+            self._states_t = (None if self.controllers is None or self.controllers.states is None
+                              else StatesTransposed(self))
+        return self._states_t
+
+    def _samples_transposed(self):
+        """The transposes of the sampled controllers' pieces
+        (:class:`latdyn.analyses.adjoint_controller_states.SamplesTransposed`), or None without sampled controllers."""
+        if "_samples_t" not in self.__dict__:
+            from latdyn.analyses.adjoint_controller_states import SamplesTransposed
+
+            self._samples_t = (None if self.controllers is None or self.controllers.sampled is None
+                               else SamplesTransposed(self))
+        return self._samples_t
+
+    def _sampled_states(self) -> np.ndarray:
+        """The sampled controllers' states as the scene holds them now (SampledTerms' order)."""
+        states = self.scene.controller_states
+        return np.array([states[f"{c.name}.{s}"] for c in self.controllers.sampled.controllers for s in c.states],
+                        float)
+
+    def after_sample(self, carried: dict, state, due: list) -> dict:
+        """The sample at ``state`` of the sampled controllers named in ``due`` (after the step just stored) and the
+        restart after it, stored on that step's entry: the controllers due, their states before the sample, the
+        state and the held outputs after it (what the reverse pass transposes,
+        :class:`latdyn.analyses.adjoint_controller_states.SamplesTransposed`). A restart that splits off directions
+        without inertia is refused as the forward method refuses it."""
+        if self.model.n_dofs == 0 or not self.names:
+            return carried
+        self.refuse_massless_restart(state, self._matrices(state)[0])
+        carried["trajectory"][-1]["sample"] = {"due": list(due), "S": carried["sampled_S"], "state": state.copy(),
+                                               "outputs": self.scene.controller_outputs.values.copy()}
+        carried["sampled_S"] = self._sampled_states()
+        return carried
 
     def _numbering(self) -> tuple:
         """(the locked joints, the cables' sides or None): what the coordinates' numbering and the evaluation's
@@ -392,6 +445,8 @@ class AdjointSensitivities(TransientSensitivities):
         if is_joint_force(probe):
             j = joint_of(self.model, probe)
             return joint_force_forms(self, state, [j])[j]
+        if is_controller_probe(probe):   # latdyn/analyses/adjoint_controller_states.py: (…, c_S) on the states too
+            return controller_probe_forms(self, probe, state)
         if is_probe_here(probe):   # section forces, points in a body frame: latdyn/analyses/probe_derivatives.py
             return probe_forms(self, probe, state)
         if is_energy_or_momentum(probe):   # latdyn/analyses/energy_sensitivities.py
@@ -466,8 +521,9 @@ class AdjointSensitivities(TransientSensitivities):
                     continue
                 if final is not None:   # the row's forms on the numbering it was recorded on
                     self._numbered(numberings[index])
-                # at the start δq_0 = 0: a row there moves only through δv_0, δv̇_0 and explicitly
-                forms = [self.output_forms(probe, states[index])]
+                # at the start δq_0 = 0 but for geometry parameters: a row there moves through δv_0, δv̇_0 and explicitly
+                with self._controllers_at(carried, index):
+                    forms = [self.output_forms(probe, states[index])]
                 if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                     forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
                 forms_of[at] = held[id(probe), index] = forms
@@ -547,24 +603,61 @@ class AdjointSensitivities(TransientSensitivities):
         n = model.n_dofs
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
         t_bar, g_bar = np.zeros(m), np.zeros(m)   # the adjoints of δt_{n+1} and of the carried δh
+        states_t = self._states_transposed()   # the controllers' states: S̄, f̄ beside the bars
+        S_bar, f_bar = (None, None) if states_t is None else (np.zeros((states_t.P, m)), np.zeros((states_t.P, m)))
+        samples_t = self._samples_transposed()   # the sampled controllers: ȳ (the held δy's) and their states' S̄
+        y_bar, sampled_bar = (None, None) if samples_t is None else samples_t.bars(m)
+        outputs = self.scene.controller_outputs.values
+        final_outputs = outputs.copy()
+        if samples_t is not None:   # ∂r/∂p's held part is transposed apart (SamplesTransposed.held_transposed)
+            self.controllers.sampled.held = np.zeros_like(self.controllers.sampled.held)
         from latdyn.analyses.adjoint_in_loop import reverse_steps
 
         native = reverse_steps(self) if n else None   # the smooth steps in one native call each
         for i in range(len(trajectory) - 1, -1, -1):
-            for column, (c_q, c_v, c_vdot, explicit) in seeds.get(i + 1, []):
+            for column, (c_q, c_v, c_vdot, explicit, *c_S) in seeds.get(i + 1, []):
                 q_bar[:, column] += c_q
                 v_bar[:, column] += c_v
                 vdot_bar[:, column] += c_vdot
                 gradient[:, column] += explicit
+                if c_S:   # a controller probe (latdyn/analyses/adjoint_controller_states.py)
+                    self._seed_controllers(c_S, column, S_bar, y_bar, sampled_bar)
             for column, seed in timings.get(i + 1, []):
                 t_bar[column] += seed
             entry = trajectory[i]
+            if entry.get("sample") is not None:   # the sample after the step and its restart, transposed
+                sample = entry["sample"]
+                outputs[:] = sample["outputs"]
+                bars = [q_bar, v_bar, vdot_bar, a_bar]
+                with self._controllers_at(carried, i + 1):
+                    y_bar, u_bar = samples_t.restart_transposed(sample["state"], bars, y_bar, gradient)
+                    if states_t is not None:   # the continuous states held through the restart (ControllerStates.hold)
+                        S_bar = S_bar + states_t.held_map(sample["state"]).T @ u_bar
+                q_bar, v_bar, vdot_bar, a_bar = bars
+                q_bar = q_bar.copy()
+                y_bar, sampled_bar = samples_t.sample_transposed(sample["state"], sample["due"], sample["S"], q_bar,
+                                                                 y_bar, sampled_bar, gradient)
+            if samples_t is not None:   # the held outputs the step was taken with
+                outputs[:] = entry["outputs"]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
-                q_bar, v_bar, vdot_by_restart, by_restart, t_by_restart = self._restart_transposed(
-                    entry, q_bar, v_bar, vdot_bar + a_bar)
-                gradient += by_restart
-                q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
-                v_bar, q_by_jump, vdot_by_jump, by_jump, t_by_jump = self._impulse_transposed(entry, v_bar)
+                held = states_t is not None or samples_t is not None   # δS or δy held through the event's pieces
+                with self._controllers_at(carried, i + 1):   # the states as accepted at the event (they do not jump)
+                    self._weights_met = [] if held else None
+                    q_bar, v_bar, vdot_by_restart, by_restart, t_by_restart = self._restart_transposed(
+                        entry, q_bar, v_bar, vdot_bar + a_bar)
+                    gradient += by_restart
+                    if states_t is not None:   # δS held through the restart (ControllerStates.hold): B δS in its ∂r/∂p
+                        S_bar = self._held_weights_transposed(carried, i, S_bar, 1.0, states_t, restart=True)
+                    if samples_t is not None:   # the held δy likewise (SampledTerms.add): A_y δy
+                        y_bar = self._held_weights_transposed(carried, i, y_bar, 1.0, samples_t, restart=True)
+                    q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
+                    self._weights_met = [] if held else None
+                    v_bar, q_by_jump, vdot_by_jump, by_jump, t_by_jump = self._impulse_transposed(entry, v_bar)
+                    if states_t is not None:   # and through the jump: ∂(B δS)/∂q along the impulse's Δv in its weight
+                        S_bar = self._held_weights_transposed(carried, i, S_bar, -1.0, states_t)
+                    if samples_t is not None:
+                        y_bar = self._held_weights_transposed(carried, i, y_bar, -1.0, samples_t)
+                    self._weights_met = None
                 q_bar = q_bar + q_by_jump
                 gradient += by_jump
                 t_bar = t_bar + t_by_restart + t_by_jump   # the restart and the jump at t_e + δt_e
@@ -587,6 +680,14 @@ class AdjointSensitivities(TransientSensitivities):
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
             rule = entry.get("rule")
+            if states_t is not None:   # the states' recurrence transposed around the step
+                bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar]
+                w = self._states_step_transposed(carried, i, (new, h, turn, turn_t, tangent, tangent_t, beta_p,
+                                                              gamma_p, old), bars, gradient)
+                q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
+                if samples_t is not None:
+                    y_bar = samples_t.held_transposed(new, w, y_bar)
+                continue
             if rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below in one call, w
                 bars = [q_bar, v_bar, vdot_bar, a_bar]  # returned for ∂r/∂p's contraction
                 w = native.step(new, h, (tangent, tangent_t, turn_t), bars)
@@ -613,6 +714,8 @@ class AdjointSensitivities(TransientSensitivities):
             gradient -= self.residual_transposed_product(new, w)
             if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
                 t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
+            if samples_t is not None:
+                y_bar = samples_t.held_transposed(new, w, y_bar)
             dq0_bar = q_bar - K_t @ w
             dv0_bar = v_bar - C_t @ w
             du0_bar = tangent_t(dq0_bar)
@@ -623,18 +726,120 @@ class AdjointSensitivities(TransientSensitivities):
             vdot_bar = af / (1 - am) * da0_bar
         if carried.get("numbering_start") is not None and self._with_events():
             self._numbered(carried["numbering_start"])
-        for column, (c_q, c_v, c_vdot, explicit) in seeds.get(0, []):
+        for column, (c_q, c_v, c_vdot, explicit, *c_S) in seeds.get(0, []):   # δS_0 = 0: a state's seed adds nothing
             q_bar[:, column] += c_q   # δq_0 = δX of geometry parameters (0 without)
+            if len(c_S) > 1:   # a sampled controller's probe: δy_0, δS_1 of the sample at t = 0 (start_transposed)
+                self._seed_controllers([np.zeros(0)] + c_S[1:], column, None, y_bar, sampled_bar)
             v_bar[:, column] += c_v
             vdot_bar[:, column] += c_vdot   # δv̇_0 = δa_0: the start's consistent accelerations' derivative
             gradient[:, column] += explicit
         if model.n_dofs == 0:
             return gradient
-        return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar, q_bar)
+        with self._controllers_at(carried, 0):
+            if states_t is not None:   # δf_0 = ∂f/∂p
+                states_t.start_transposed(carried["start"], f_bar, gradient)
+            if samples_t is None:
+                return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar, q_bar)
+            outputs[:] = carried["outputs_start"]
+            samples_t.start_transposed(carried["start"], y_bar, sampled_bar, gradient)
+            sampled = self.controllers.sampled
+            sampled.start(carried["start"], k)   # the held δy_0 = ∂f/∂p in the start's ∂r/∂p, as the forward method's
+            try:
+                return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar, q_bar)
+            finally:
+                sampled.held = np.zeros_like(sampled.held)
+                outputs[:] = final_outputs
+
+    @staticmethod
+    def _seed_controllers(c_S: list, column: int, S_bar, y_bar, sampled_bar) -> None:
+        """A controller probe's seed (latdyn/analyses/adjoint_controller_states.py ``probe_forms``'s parts after the
+        first four) into the ``column`` of the continuous states' S̄, the held outputs' ȳ and the sampled states' S̄."""
+        if S_bar is not None and len(c_S[0]):
+            S_bar[:, column] += c_S[0]
+        if len(c_S) > 1:
+            y_bar[:, column] += c_S[1]
+            sampled_bar[:, column] += c_S[2]
+
+    def _controllers_at(self, carried: dict, index: int):
+        """A context in which the scene's arrays hold the controllers' accepted (S, f) of the stored state
+        ``index`` (0: the start), or a null context without controller states."""
+        from contextlib import nullcontext
+
+        states_t = self._states_transposed()
+        if states_t is None:
+            return nullcontext()
+        return states_t.at(carried["controller_start"] if index == 0 else
+                           carried["trajectory"][index - 1]["controller"])
+
+    def _states_step_transposed(self, carried: dict, i: int, step: tuple, bars: list,
+                                gradient: np.ndarray) -> np.ndarray:
+        """Step ``i`` of the reverse pass with the continuous controllers' states (``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄,
+        ḡ] at its end replaced by those at its start, ``gradient`` (k, m) updated in place): the forward method's
+        ``ControllerStates.after_step`` transposed, the structure's step as :meth:`_reverse_columns` takes it with
+        its matrix condensed from (S_n, f_n) and the held part's ∂r/∂p transposed, then ``begin_step`` transposed
+        (latdyn/analyses/adjoint_controller_states.py). Returns the step's w (a sampled controller's held part,
+        :meth:`SamplesTransposed.held_transposed`)."""
+        p, model = self.params, self.model
+        am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
+        new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old = step
+        states_t = self._states_transposed()
+        q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
+        entry = carried["trajectory"][i]
+        before = (carried["controller_start"] if i == 0 else carried["trajectory"][i - 1]["controller"])
+        with self._controllers_at(carried, i + 1):
+            terms = states_t.step_terms(new, h, before)
+            q_bar = q_bar.copy()
+            held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, gradient)
+            with states_t.condensed(before, h):
+                C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+            rule = entry.get("rule")
+            if rule is not None:   # the step's size moves with p: its column (the states' ∂r/∂h in it), δh transposed
+                by_size = states_t.held_map(new) @ states_t.by_step_size(terms)
+                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p,
+                                                by_size)
+                h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
+                            (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
+                h_bar = h_bar + t_bar + g_bar + h_by_states
+                q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
+                                                                                 q_bar, v_bar, t_bar)
+                gradient += by_size
+            else:
+                g_bar = np.zeros_like(g_bar)
+            z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
+            w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, q_bar.shape[1])
+            gradient -= self.residual_transposed_product(new, w)
+            if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
+                t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
+            held_bar = states_t.held_transposed(new, w, held_bar)
+            S_bar, f_bar = states_t.begin_step_transposed(h, terms, held_bar, gradient)
+        dq0_bar = q_bar - K_t @ w
+        dv0_bar = v_bar - C_t @ w
+        du0_bar = tangent_t(dq0_bar)
+        da0_bar = a_bar + h * gamma * dv0_bar + h * h * beta * du0_bar
+        bars[:] = [turn_t(dq0_bar), dv0_bar + h * du0_bar,
+                   af / (1 - am) * da0_bar,
+                   h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar, S_bar, f_bar,
+                   t_bar, g_bar]
+        return w
+
+    def _held_weights_transposed(self, carried: dict, i: int, S_bar: np.ndarray, sign: float, held,
+                                 restart: bool = False) -> np.ndarray:
+        """``S_bar`` with what ``held`` holds through step ``i``'s event transposed: the continuous states' δS_{n+1}
+        (``held`` the StatesTransposed; ControllerStates.hold) or the sampled controllers' δy (the SamplesTransposed),
+        B δS in the restart's ∂r/∂p, and ∂(B δS)/∂q w in each impulse or restart weight's (∂K/∂p) w that
+        :meth:`_weight_derivative_transposed` met, ``self._weights_met``; ``sign`` +1 for the restart's (ū = −B⁻ᵀs̄),
+        −1 for the impulse's (w = δv⁻ − W⁻¹(…))."""
+        with self._controllers_at(carried, i + 1):
+            if restart:
+                after, u_bar = self._restart_u
+                S_bar = S_bar + held.held_map(after).T @ u_bar
+            for state, w, u_bar, scale in self._weights_met:
+                S_bar = S_bar + sign * scale * (held.held_stiffness_along(state, w).T @ u_bar)
+        return S_bar
 
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
-                          gamma_p: float) -> dict:
+                          gamma_p: float, explicit: np.ndarray | None = None) -> dict:
         """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step size h
         (:meth:`TransientSensitivities.step_columns`, its column k), computed as it computes it: the native
         predict and update (:class:`_StepColumns` with no parameter column: ∂(hΔq)/∂h, ∂v_{n+1}/∂h) around the
@@ -645,7 +850,7 @@ class AdjointSensitivities(TransientSensitivities):
         step = _StepColumns(self, n, 0, (entry["h"], p.alpha_m, p.alpha_f, p.gamma, p.beta), *rotations)
         none = np.zeros((n, 0))
         _, dq0, dv0 = step.predict(free_velocity(model, old), entry["a_old"], entry["a_new"], none, none, none, none)
-        rhs = K @ dq0 + C @ dv0
+        rhs = K @ dq0 + C @ dv0 if explicit is None else explicit.reshape(n, 1) + K @ dq0 + C @ dv0
         if adjoint_time.moves_in_time(self):
             rhs = rhs + adjoint_time.rate_at(self, entry["state"])[:, None]
         z = np.asarray(solve(-rhs)).reshape(n, 1)
@@ -733,6 +938,7 @@ class AdjointSensitivities(TransientSensitivities):
             self.assembler.complete_links(before)
             matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
         u_bar = -np.asarray(solve_linear(_transposed(matrix), s_bar)).reshape(n, s_bar.shape[1])
+        self._restart_u = (after, u_bar)   # the held states' part of its ∂r/∂p (_held_weights_transposed)
         q_bar = q_bar + np.asarray(K.T @ u_bar)
         v_bar = v_bar + np.asarray(C.T @ u_bar)
         vdot_bar = None   # a latch restarts with M alone
@@ -815,6 +1021,8 @@ class AdjointSensitivities(TransientSensitivities):
         if linked:
             stiffness = stiffness + self._geometric_derivative(state, w)
         p_part += scale * (stiffness.T @ u_bar)
+        if self.__dict__.get("_weights_met") is not None:   # the held states' part (_held_weights_transposed)
+            self._weights_met.append((state, w, u_bar, scale))
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             p_part += (self.residual_transposed_product(accelerated, u_bar)

@@ -21,13 +21,16 @@ Transient runs, forward method, from what the step already carries for the resid
   (:class:`SampledTerms`, ``sampled_dy``, ``sampled_dS``), the values the probe records.
 
 Refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): controller probes of static paths.
-The discrete adjoint is not seeded by them (:func:`adjoint_refusal`, naming ``solve.sensitivity_method``).
+The discrete adjoint is seeded by a controller's output and states, continuous or sampled
+(latdyn/analyses/adjoint_controller_states.py ``probe_forms``; what it is not seeded by: :func:`adjoint_refusal`,
+naming ``solve.sensitivity_method``).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["is_controller_probe", "describe", "refusal", "adjoint_refusal", "probe_derivatives"]
+__all__ = ["is_controller_probe", "describe", "refusal", "adjoint_refusal", "controller_arguments",
+           "output_and_gradient", "probe_derivatives"]
 
 
 def is_controller_probe(probe) -> bool:
@@ -49,12 +52,28 @@ def refusal(scene, probe) -> str | None:
 
 
 def adjoint_refusal(scene) -> str | None:
-    """Why the discrete adjoint is not seeded by the scene's controller probes, or None without them."""
-    probe = next((p for p in scene.output.probes if is_controller_probe(p)), None)
-    if probe is None:
-        return None
-    return (f"the adjoint is not seeded by controller probes yet (probe {probe.name!r}: {describe(probe)}); the "
-            "forward method differentiates them")
+    """Why the discrete adjoint is not seeded by the scene's controller probes, or None: seeded by a controller's
+    output and states, continuous or sampled (latdyn/analyses/adjoint_controller_states.py ``probe_forms``), not by
+    an output whose expression names t beside events (the row's time moves with p there: the forward method's
+    ∂f/∂t δt, not transposed)."""
+    from latdyn.analyses.parameter_keys import has_events
+
+    for probe in scene.output.probes:
+        if not is_controller_probe(probe):
+            continue
+        c = scene.controllers[probe.controller]
+        if probe.state is None and has_events(scene) and not c.sampled and _names_t(scene, c):
+            return (f"the adjoint is not seeded by controller probes beside events where a controller's output names "
+                    f"t yet (probe {probe.name!r}: {describe(probe)}, its output or one it reads names t); the forward "
+                    "method differentiates them")
+    return None
+
+
+def _names_t(scene, c) -> bool:
+    """Whether the continuous controller ``c``'s output names t, or that of a continuous controller it reads (the
+    chain :func:`_continuous_output` adds ∂f/∂t δt along)."""
+    return c.output_names_t or any(_names_t(scene, scene.controllers[r]) for r in c.reads
+                                   if r in scene.controllers and not scene.controllers[r].sampled)
 
 
 def _time_partial(owner, c):
@@ -69,6 +88,29 @@ def _time_partial(owner, c):
     return cache[c.name]
 
 
+def controller_arguments(terms, c, state, earlier) -> list:
+    """(t, the reads, the states) of controller ``c`` at ``state``: the sensors' and inputs' values
+    (``ControllerTerms.signal_values``), an earlier controller's output ``earlier(name)``, the accepted states."""
+    values = terms.signal_values(state)
+    reads = [values[r] if r in values else earlier(r) for r in c.reads]
+    return [state.t, *reads, *terms.state_values(c)]
+
+
+def output_and_gradient(terms, c, arguments: list) -> tuple:
+    """(f, ∂f/∂(reads, S) or None while clipped) of the continuous controller ``c``'s output before its limits at
+    ``arguments`` (t, the reads, the states): the step's compiled laws where they compiled (ControllerTerms.add reads
+    the same), ∂f/∂(reads, S) the step's compiled controller law's (ControllerStates.output_gradient), else the
+    compiled output law's (SymPy's lambdified gradient where it did not compile)."""
+    compiled = terms.compiled
+    raw = float(c.functions()[0](*arguments)) if compiled is None else compiled.output(c, arguments)
+    if not (c.limits is None or c.limits[0] < raw < c.limits[1]):
+        return raw, None
+    gradient = terms.states.output_gradient(c, arguments) if c.states and terms.states is not None else None
+    if gradient is None:
+        gradient = c.output_gradient(*arguments) if compiled is None else compiled.gradient(c, arguments)
+    return raw, gradient
+
+
 def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dict) -> np.ndarray:
     """δy (k,) of the continuous controller ``name`` at ``state`` (module docstring), ``done`` the
     earlier controllers' (value, δy) by name."""
@@ -77,25 +119,15 @@ def _continuous_output(owner, name: str, state, carried: dict, sensed, done: dic
     terms = owner.controllers
     scene = owner.scene
     c = scene.controllers[name]
-    values = terms.signal_values(state)
-    reads = []
-    for r in c.reads:
-        if r in values:
-            reads.append(values[r])
-        else:   # an earlier controller
-            _continuous_output(owner, r, state, carried, sensed, done)
-            reads.append(done[r][0])
-    S = terms.state_values(c)
-    arguments = [state.t, *reads, *S]
-    compiled = terms.compiled   # the step's compiled laws where they compiled (ControllerTerms.add reads the same)
-    raw = float(c.functions()[0](*arguments)) if compiled is None else compiled.output(c, arguments)
+    def earlier(r):
+        _continuous_output(owner, r, state, carried, sensed, done)
+        return done[r][0]
+
+    arguments = controller_arguments(terms, c, state, earlier)
+    compiled = terms.compiled
+    raw, gradient = output_and_gradient(terms, c, arguments)
     slope = np.zeros(terms.k)
-    if c.limits is None or c.limits[0] < raw < c.limits[1]:
-        # ∂f/∂(reads, S): the step's compiled controller law's (ControllerStates.output_gradient), else the compiled
-        # output law's (SymPy's lambdified gradient where it did not compile)
-        gradient = terms.states.output_gradient(c, arguments) if c.states and terms.states is not None else None
-        if gradient is None:
-            gradient = c.output_gradient(*arguments) if compiled is None else compiled.gradient(c, arguments)
+    if gradient is not None:
         probes = {p.name: p for p in scene.output.probes}
         for i, r in enumerate(c.reads):
             if r in probes:

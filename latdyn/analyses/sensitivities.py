@@ -220,8 +220,9 @@ def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops, compliant stops' onsets (a hinge's or a
     guide's) and cables, beside laws in t too, with rigid links and guides and geometry parameters, friction while it
-    slips (a joint that sticks is refused when it sticks: ``AdjointSensitivities._refuse_a_stick``), without
-    controllers with states; the forward method's refusals come first, :func:`refusal`)."""
+    slips (a joint that sticks is refused when it sticks: ``AdjointSensitivities._refuse_a_stick``), through
+    controllers with states and sampled ones, latdyn/analyses/adjoint_controller_states.py; the forward method's
+    refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
     why = None
     if scene.solve.analysis != "transient":
@@ -232,10 +233,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = _adjoint_geometry_refusal(scene)
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
-    elif any(c.states or c.sampled for c in (getattr(scene, "controllers", None) or {}).values()):
-        name = next(c.name for c in scene.controllers.values() if c.states or c.sampled)
-        why = (f"the adjoint does not differentiate controllers with states or sampled ones yet (controllers.{name}); "
-               "continuous controllers without states it does")
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
@@ -2071,27 +2068,34 @@ class SampledTerms:
             if c.name not in due:
                 continue
             rows, i = self._rows(c), self.index[c.name]
-            arguments = [state.t, *[values[r] for r in c.reads], *S[rows]]
-            raw = float(c.functions()[0](*arguments))
-            g_s, g_S = self.gradients[c.name](*arguments)
-            p, m = len(c.states), len(c.reads)
-            gradient = c.output_gradient(*arguments)
-            y_s, y_S = gradient[:m], gradient[m:]
-            g_s, g_S = np.array(g_s, float).reshape(p, m), np.array(g_S, float).reshape(p, p)
-            y_p, g_p = np.zeros(self.terms.k), np.zeros((p, self.terms.k))
-            for column, law in self.terms.partials.get(c.name, {}).items():
-                y_p[column] = float(law(*arguments))
-            for column, laws in self.terms.rate_partials.get(c.name, {}).items():
-                for j, name in enumerate(c.states):
-                    if name in laws:
-                        g_p[j, column] = float(laws[name](*arguments))
+            inside, y_s, y_S, y_p, g_s, g_S, g_p = self.partials(c, state.t, values, S[rows])
             ds = _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq)
-            inside = c.limits is None or c.limits[0] < raw < c.limits[1]
             dy[i] = y_s @ ds + y_S @ dS[rows] + y_p if inside else 0.0
             dS[rows] = dS[rows] + (g_s @ ds + g_S @ dS[rows] + g_p) / c.rate
             S[rows] = [states[f"{c.name}.{name}"] for name in c.states]
         self.held = dy
         return {"sampled_dy": dy, "sampled_dS": dS, "sampled_S": S}
+
+    def partials(self, c, t: float, values: dict, S: np.ndarray) -> tuple:
+        """(inside its limits, ∂f/∂s (m,), ∂f/∂S (p,), ∂f/∂p (k,), ∂g/∂s (p, m), ∂g/∂S (p, p), ∂g/∂p (p, k)) of the
+        sampled controller ``c`` at the instant ``t``, its sensors' ``values`` (by name) and states ``S`` before the
+        sample (class docstring)."""
+        arguments = [t, *[values[r] for r in c.reads], *S]
+        raw = float(c.functions()[0](*arguments))
+        g_s, g_S = self.gradients[c.name](*arguments)
+        p, m = len(c.states), len(c.reads)
+        gradient = c.output_gradient(*arguments)
+        y_s, y_S = gradient[:m], gradient[m:]
+        g_s, g_S = np.array(g_s, float).reshape(p, m), np.array(g_S, float).reshape(p, p)
+        y_p, g_p = np.zeros(self.terms.k), np.zeros((p, self.terms.k))
+        for column, law in self.terms.partials.get(c.name, {}).items():
+            y_p[column] = float(law(*arguments))
+        for column, laws in self.terms.rate_partials.get(c.name, {}).items():
+            for j, name in enumerate(c.states):
+                if name in laws:
+                    g_p[j, column] = float(laws[name](*arguments))
+        inside = c.limits is None or c.limits[0] < raw < c.limits[1]
+        return inside, y_s, y_S, y_p, g_s, g_S, g_p
 
     def add(self, state, total: np.ndarray) -> None:
         """Add the held outputs' ∂r/∂p (class docstring) into ``total`` (all coordinates, k columns)."""

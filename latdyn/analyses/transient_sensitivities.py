@@ -697,13 +697,7 @@ class TransientSensitivities(ParameterDerivatives):
             return carried
         carried = {**carried, **self._sampled_controllers().sample(carried, state, carried["dq"], due)}
         M, C, K = self._matrices(state)
-        split = split_inertia(model, M)
-        if split.n_massless:
-            raise SceneError(self.scene.file, "solve.sensitivities",
-                             f"the restart after a sampled controller's sample at t = {state.t:.6g} splits off "
-                             f"{split.n_massless} direction(s) without inertia, which is not differentiated yet; "
-                             "expected beams with rotary inertia (rhoIy, rhoIz) and bodies with mass and inertia "
-                             "(docs/parameters.md, \"Controllers\")")
+        self.refuse_massless_restart(state, M)
         states = self._controller_states()
         if states is not None:   # the continuous controllers' states kept through the restart: δS held
             states.hold(carried)
@@ -712,6 +706,17 @@ class TransientSensitivities(ParameterDerivatives):
             self.controllers.held = {}
         dvdot = -np.asarray(solve_linear(M, rhs)).reshape(model.n_dofs, k)
         return {**carried, "dvdot": dvdot, "da": dvdot.copy()}
+
+    def refuse_massless_restart(self, state, M) -> None:
+        """Refuse (SceneError naming solve.sensitivities) the restart after a sample at ``state`` where M splits off
+        directions without inertia (not differentiated yet)."""
+        split = split_inertia(self.model, M)
+        if split.n_massless:
+            raise SceneError(self.scene.file, "solve.sensitivities",
+                             f"the restart after a sampled controller's sample at t = {state.t:.6g} splits off "
+                             f"{split.n_massless} direction(s) without inertia, which is not differentiated yet; "
+                             "expected beams with rotary inertia (rhoIy, rhoIz) and bodies with mass and inertia "
+                             "(docs/parameters.md, \"Controllers\")")
 
     def _event(self, old, new):
         """(hinge, kind, restitution) of the latch or stop impact the events will apply at the end of
