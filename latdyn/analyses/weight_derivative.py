@@ -50,7 +50,8 @@ and exact:
   element's K is the runtime's zero, its derivative too (:func:`_cable_part`);
 * the continuous controllers' couplings (:func:`exact_couplings`) from a controller that reads joints' angles and
   rates, points' positions and displacements (global at their node or at an offset, or in a body's axes), nodes'
-  velocities and points' velocities at an offset, cables' lengths and tensions, elements' section forces, free
+  velocities, points' velocities at an offset and relative to a body, cables' lengths and tensions, elements' section
+  forces, free
   joints' forces whose laws are generated, inputs, its own states and earlier such controllers (:func:`_exact_controllers`): K's entry −a ∂y/∂q_c (a joint's force) or F(e_p) ∂y/∂q_c (a load
   component) moves along q with y's second derivative through the chain rule (:func:`_controller_curvatures`):
   SymPy's first and second derivatives of each output's expression by its reads that move (lambdified once per
@@ -64,14 +65,15 @@ and exact:
   damper's c ℓ̇ at the state's rates held; 0 while slack) from ``cable_tension_D_q_D_q``, ∂N/∂q differentiated once
   more under the update of the ends, codegen/joints.py beside ``cable_stiffness_D_q``; an element's section force
   from ``beam_section_forces_D_q_D_q``, the forward-mode program of the lowered product (∂S/∂q) a seeded as
-  ``beam_stiffness_D_q``'s, codegen/derivation.py, at a = each of the element's fourteen coordinates; a variant
-  generated before these two kernels keeps the difference for those controllers); 0 while an output is saturated
-  (:func:`_coupling_part`, :func:`_driven_load_part`).
+  ``beam_stiffness_D_q``'s, codegen/derivation.py, at a = each of the element's fourteen coordinates; a point's
+  velocity relative to a body, in its axes, from ``point_velocity_in_body_D_q_D_q`` (codegen/joints.py: the
+  gradient of ``point_velocity_in_body``, the sensor csrc/evaluate.c takes its value and gradient from, differentiated
+  once more under the update of both nodes, the rates held); a variant generated before these kernels keeps the
+  difference for those controllers); 0 while an output is saturated (:func:`_coupling_part`,
+  :func:`_driven_load_part`).
 
-Not generated, H_rest: the couplings of a controller reading a point's velocity relative to a body (whose value
-moves with q; its gradient is hand-written in csrc/evaluate.c, so a second derivative would be hand-written physics
-again), a free joint's force whose law is not generated, or a controller of those, and the blocks of the loads such
-controllers drive. Their product (W
+Not generated, H_rest: the couplings of a controller reading a free joint's force whose law is not generated, or a
+controller of those, and the blocks of the loads such controllers drive. Their product (W
 without the generated blocks) w is differenced centrally along each coordinate those blocks are on
 (:func:`rest_support`: those couplings' rows and columns, the driven loads' nodes and frame bodies, a hinge not in
 :func:`exact_hinges`), two evaluations per coordinate, step
@@ -641,19 +643,25 @@ def _controller_reads(control, k: int) -> list:
 #: the sensor kinds whose values move along q with a second derivative :func:`_sensor_kinematics` gives
 #: (latdyn.assembly.control: a joint's angle, a point's global position component at its node or at an offset, a
 #: point's position component in a body's axes, a point's velocity at an offset (by its node's turn: v + ω × T r at
-#: the rates held), a cable's length, a cable's tension, an element's section force, a free joint's force), and those
-#: held along q (a joint's rate, a node's velocity)
-_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 6, 7, 8, 11, 12, 14), (1, 3)
+#: the rates held), a cable's length, a cable's tension, an element's section force, a point's velocity relative to a
+#: body in its axes (at the rates held), a free joint's force), and those held along q (a joint's rate, a node's
+#: velocity)
+_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 6, 7, 8, 11, 12, 13, 14), (1, 3)
 #: the generated second derivative a force sensor's move along q needs (codegen/joints.py, codegen/derivation.py): a
 #: cable's tension (kind 11) and an element's section force (12); a variant generated before it keeps the difference
 _FORCE_SECOND = {11: "cable_tension_D_q_D_q", 12: "beam_section_forces_D_q_D_q"}
+#: the generated second derivatives of the sensors that have their own kernel: the force sensors' and a point's
+#: velocity relative to a body (13, codegen/joints.py ``point_velocity_in_body_D_q_D_q``); a joints unit generated
+#: before it keeps the difference
+_SENSOR_SECOND = {**_FORCE_SECOND, 13: "point_velocity_in_body_D_q_D_q"}
 
 
 def _exact_controllers(assembler) -> list:
     """(controllers,) bool: whether a continuous controller's output has its second derivatives along q generated
     (:func:`_controller_curvatures`): it reads joints' angles and rates, points' positions and displacements
-    (global, at an offset, in a body's axes), nodes' velocities, points' velocities at an offset, cables' lengths
-    and tensions, elements' section forces (where the variant holds :data:`_FORCE_SECOND`'s kernels), free joints'
+    (global, at an offset, in a body's axes), nodes' velocities, points' velocities at an offset and relative to a
+    body, cables' lengths and tensions, elements' section forces (where the variant holds :data:`_SENSOR_SECOND`'s
+    kernels), free joints'
     forces whose laws are generated
     (:func:`exact_hinges`), inputs, its own states (held across the impulse) and earlier controllers of this kind
     alone, with an output whose second derivatives by the sensors that move
@@ -667,7 +675,7 @@ def _exact_controllers(assembler) -> list:
     model = assembler.model
     generated = dict(zip((int(j) for j in model.free_hinges), exact_hinges(assembler)))
     info = getattr(assembler.kernels, "info", None) or {}
-    held = {kind for kind, name in _FORCE_SECOND.items() if name not in info}
+    held = {kind for kind, name in _SENSOR_SECOND.items() if name not in info}
     out = []
     for k, controller in enumerate(control.controllers):
         reads = _controller_reads(control, k)
@@ -739,6 +747,8 @@ def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
         return _tension_kinematics(assembler, state, index)
     if kind == 12:
         return _section_force_kinematics(assembler, state, index, sensor)
+    if kind == 13:
+        return _body_velocity_kinematics(assembler, state, index, sensor)
     if kind == 14:   # s = −f of the joint's laws (csrc/evaluate.c): −∂f/∂θ = −K_jj, moving with −∂K_jj/∂θ
         states, laws, curvatures, contacts = _hinge_rows(assembler, state, [index])
         kernels = assembler.kernels
@@ -858,6 +868,23 @@ def _section_force_kinematics(assembler, state, index: int, sensor: int):
     gradient = weight[0] * along[:, k] + (weight[1] * along[:, k + 1] if k < 3 else 0.0)
     second = weight[0] * moved[:, k] + (weight[1] * moved[:, k + 1] if k < 3 else 0.0)
     return gradient, second
+
+
+def _body_velocity_kinematics(assembler, state, index: int, sensor: int):
+    """:func:`_sensor_kinematics` of a point's velocity relative to a body, in its axes (latdyn.assembly.control
+    BODY_VELOCITY; index 3 n + c, the point's offset in ``sensor_offset``, the body's node in ``sensor_frame_node``):
+    the generated ``point_velocity_in_body_D_q_D_q`` (codegen/joints.py) at the state, the rates held: the gradient's
+    derivative by the update of both nodes; the gradient by [d_n, π_n, d_b, π_b] is ``point_velocity_in_body``'s, as
+    csrc/evaluate.c's."""
+    control = assembler.control
+    node, c, body = index // 3, index % 3, int(control.sensor_frame_node[sensor])
+    geometry = np.concatenate([state.x[node], state.x[body], np.reshape(state.T[node], 9), control.sensor_offset[sensor],
+                               np.reshape(state.T[body], 9)])
+    velocity = np.concatenate([state.v[node], state.w[node], state.v[body], state.w[body]])
+    rows = (np.ascontiguousarray(geometry[None], dtype=float), np.ascontiguousarray(velocity[None], dtype=float))
+    gradient = assembler.kernels.point_velocity_in_body(*rows)[1]    # csrc/evaluate.c's, to the bit
+    second = assembler.kernels.point_velocity_in_body_D_q_D_q(*rows)[1]
+    return np.asarray(gradient, float).reshape(3, 12)[c], np.asarray(second, float).reshape(3, 12, 12)[c]
 
 
 def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = False):

@@ -1,0 +1,194 @@
+"""The rest of the continuous controllers' part of an event's impulse weight derivative generated
+(latdyn/analyses/weight_derivative.py, docs/parameters.md "The impulse weight's derivative"): a controller reading a
+point's velocity relative to a body, in its axes (sensor kind 13), whose value and gradient csrc/evaluate.c now takes
+from the generated ``point_velocity_in_body`` (codegen/joints.py) and whose move along δq the generated
+``point_velocity_in_body_D_q_D_q`` gives: the kernels against central differences under the configuration's update
+(turns on SO(3)); on the genuinely 3D latching boom of tests/test_weight_derivative_rest.py a PD reading the spar's
+tip's velocity relative to the wheel and to the root body takes no central difference any more, its block of H
+agrees with Richardson-extrapolated differences of its K w, and through the latch the sensitivities agree with
+Richardson differences of whole runs, through the API and ``latdyn run``, with the loop of steps on and off giving
+the same bits."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+import latdyn
+from latdyn.analyses.weight_derivative import (_coupling_part, _driven_load_part, _sensor_dofs, _sensor_kinematics,
+                                               _sparse, exact_couplings, rest_support, times)
+from latdyn.model.kernels import load_kernels
+from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
+from tests.test_sensitivities_events import _agree
+from tests.test_weight_derivative_rest import CONTROLLED_BOOM, _boom_state, _rotation, _row
+
+#: the controlled boom's PD of the arm's hinge reading, beside its angle and rate, the spar's tip's velocity relative
+#: to the wheel (y in the wheel's axes) and the arm's middle node's relative to the root body (z), nonlinear in them
+RELATIVE = (CONTROLLED_BOOM.replace('  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2)"}',
+                                    '  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2) '
+                                    '- 0.4*tip_v*(1 + angle**2) - 0.3*tip_v**2 + 0.2*mid_v*angle"}', 1)
+            .replace("    angle: {", "    tip_v: {point: spar.end, quantity: velocity, frame: wheel, component: y}\n"
+                     '    mid_v: {point: "arm.node[1]", quantity: velocity, frame: base, component: z}\n'
+                     "    angle: {", 1))
+#: the spar on a hinge of its own at the wheel, driven by ``sc``: the spar's tip's velocity relative to the wheel (x)
+#: and to the root body (y), with the spar's angle; that hinge stays free through the arm's latch, so its coupling's
+#: row reaches the sensitivities (the latching hinge's own row leaves the numbering at the latch)
+SPAR = (CONTROLLED_BOOM.replace("section: s, elements: 1}",
+                                'section: s, elements: 1,\n         start: {hinge: {axis: [0, 1, 1], stiffness: 3.0, '
+                                'torque: "sc"}}}', 1)
+        .replace("\nsolve:", '\n  sc: {output: "-Ks*sin(spar_angle - 0.1) - 0.8*tip_v*(1 + spar_angle**2) '
+                              '+ 0.5*tip_b*tip_v - 0.3*tip_b**2"}\nsolve:', 1)
+        .replace("Kp: 0.4, Kd: 0.05}", "Kp: 0.4, Kd: 0.05, Ks: 0.8}", 1)
+        .replace("    angle: {", "    spar_angle: {hinge: spar.start, quantity: angle}\n"
+                 "    tip_v: {point: spar.end, quantity: velocity, frame: wheel, component: x}\n"
+                 "    tip_b: {point: spar.end, quantity: velocity, frame: base, component: y}\n    angle: {", 1))
+
+
+def _velocity_in_body(geometry, velocity):
+    """s = T_bᵀ (v_n + ω_n × T_n r − v_b − ω_b × (x_n + T_n r − x_b)) (codegen/joints.py point_velocity_in_body)."""
+    x_n, x_b, T_n, r, T_b = geometry[:3], geometry[3:6], geometry[6:15].reshape(3, 3), geometry[15:18], \
+        geometry[18:].reshape(3, 3)
+    v_n, w_n, v_b, w_b = velocity.reshape(4, 3)
+    o = T_n @ r
+    return T_b.T @ (v_n + np.cross(w_n, o) - v_b - np.cross(w_b, x_n + o - x_b))
+
+
+def _moved(geometry, delta):
+    """The geometry updated by [d_n, π_n, d_b, π_b]: x += d, T ← exp(skew π) T (turns on SO(3))."""
+    out = geometry.copy()
+    out[:3] += delta[:3]
+    out[3:6] += delta[6:9]
+    out[6:15] = (_rotation(delta[3:6]) @ geometry[6:15].reshape(3, 3)).reshape(9)
+    out[18:] = (_rotation(delta[9:12]) @ geometry[18:].reshape(3, 3)).reshape(9)
+    return out
+
+
+def test_the_generated_relative_velocity_and_its_derivatives_are_central_differences():
+    """``point_velocity_in_body`` at random frames, points and rates: its value the formula's, its gradient by
+    [d_n, π_n, d_b, π_b] the central difference of the value under the update, by the rates the formula's (linear);
+    ``point_velocity_in_body_D_q_D_q``'s gradient the same to round-off and its second derivative the central difference of
+    that gradient (measured ≤ 1.2e-10 of the largest)."""
+    kernels = load_kernels("auto", "default")
+    rng = np.random.default_rng(13)
+    for _ in range(3):
+        geometry = np.concatenate([rng.normal(size=6), _rotation(rng.normal(size=3)).reshape(9), rng.normal(size=3),
+                                   _rotation(rng.normal(size=3)).reshape(9)])
+        velocity = rng.normal(size=12)
+        value, by_q, by_rate = (np.asarray(x)[0] for x in kernels.point_velocity_in_body(_row(geometry), _row(velocity)))
+        np.testing.assert_allclose(value, _velocity_in_body(geometry, velocity), rtol=1e-13, atol=1e-13)
+        by_q, by_rate = by_q.reshape(3, 12), by_rate.reshape(3, 12)
+        eye, h = np.eye(12), 1e-6
+        numeric = np.column_stack([(_velocity_in_body(_moved(geometry, h * eye[i]), velocity)
+                                    - _velocity_in_body(_moved(geometry, -h * eye[i]), velocity)) / (2 * h)
+                                   for i in range(12)])
+        assert np.abs(by_q - numeric).max() <= 1e-8 * np.abs(by_q).max()
+        rates = np.column_stack([_velocity_in_body(geometry, eye[i]) - _velocity_in_body(geometry, 0 * eye[i])
+                                 for i in range(12)])
+        np.testing.assert_allclose(by_rate, rates, rtol=1e-13, atol=1e-13)
+        gradient, second = (np.asarray(x)[0] for x in kernels.point_velocity_in_body_D_q_D_q(_row(geometry),
+                                                                                                _row(velocity)))
+        np.testing.assert_allclose(gradient.reshape(3, 12), by_q, rtol=1e-14, atol=1e-14)
+        second = second.reshape(3, 12, 12)
+
+        def gradient_at(g):
+            return np.asarray(kernels.point_velocity_in_body(_row(g), _row(velocity))[1]).reshape(3, 12)
+
+        for i in range(12):
+            moved = (gradient_at(_moved(geometry, h * eye[i])) - gradient_at(_moved(geometry, -h * eye[i]))) / (2 * h)
+            assert np.abs(second[:, :, i] - moved).max() <= 1e-8 * np.abs(second).max()
+
+
+def test_the_sensors_gradient_is_csrc_evaluates_and_its_second_derivative_the_difference_of_it():
+    """The boom's PD's relative velocities at a moving state: the gradient the weight derivative takes is the one
+    csrc/evaluate.c computes (``sensor_jacobian``'s columns of K, to the bit), and its derivative along each of their
+    coordinates the central difference of that gradient (measured 4.4e-11 of its largest; relative to the root body,
+    fixed, the arm's middle node's is 0 there)."""
+    prepared, state, _ = _boom_state(RELATIVE)
+    assembler = prepared.assembler
+    control, n = assembler.control, prepared.model.n_dofs
+    native = assembler.native()
+    held = prepared.model.scene.controller_outputs.values.copy()
+    native.controller_outputs_at(state)
+    prepared.model.scene.controller_outputs.values[:] = held
+    jacobian = np.array(native.buffers["sensor_jacobian"])
+    checked = 0
+    for sensor, (kind, index) in enumerate(zip(control.sensor_kind, control.sensor_index)):
+        if kind != 13:
+            continue
+        gradient, second = _sensor_kinematics(assembler, state, 13, int(index), sensor)
+        first = int(control.sensor_column_start[sensor])
+        np.testing.assert_array_equal(gradient, jacobian[first:first + 12])
+        dofs = _sensor_dofs(assembler, 13, int(index), sensor)
+        for d in np.unique(dofs[dofs < n]):
+            unit = np.zeros(n)
+            unit[d] = 1e-6
+            ahead = _sensor_kinematics(assembler, assembler.advance(state, unit), 13, int(index), sensor)[0]
+            behind = _sensor_kinematics(assembler, assembler.advance(state, -unit), 13, int(index), sensor)[0]
+            moved = second[:, dofs == d].sum(axis=1)
+            assert np.abs(moved - (ahead - behind) / 2e-6).max() <= 2e-9 * max(np.abs(second).max(), 1.0)
+        checked += 1
+    assert checked == 2
+
+
+def _couplings_product(assembler, state, w: np.ndarray) -> np.ndarray:
+    """The evaluation's controllers' couplings' block of K alone, times w."""
+    k = assembler.evaluate(state, matrices=True).flat_blocks("stiffness")
+    return np.asarray(assembler.assemble([0.0 * k[0], 0.0 * k[1], 0.0 * k[2], 0.0 * k[3], k[4]]) @ w)
+
+
+@pytest.mark.parametrize("text", [RELATIVE, SPAR], ids=["arm", "spar"])
+def test_a_controller_reading_a_points_velocity_relative_to_a_body_takes_no_difference(text):
+    """The PDs reading the relative velocities: no coordinate left to difference (86d57d9 differenced all 19), and
+    the couplings' part of H along random δq at random w agrees with Richardson-extrapolated differences of the
+    couplings' K w (measured ≤ 1.1e-11 on the couplings' rows; 86d57d9's difference 2.4e-10)."""
+    prepared, state, rng = _boom_state(text)
+    assembler, n = prepared.assembler, prepared.model.n_dofs
+    assert exact_couplings(assembler).all() and len(rest_support(assembler)) == 0
+    state.theta[0] = 0.35
+    for _ in range(2):
+        w, dq = rng.normal(size=n), rng.normal(size=n)
+        exact = (times(_sparse(*_coupling_part(assembler, state, w, 1.0), n), dq)
+                 + times(_sparse(*_driven_load_part(assembler, state, w, 1.0), n), dq))
+        central = [(_couplings_product(assembler, assembler.advance(state, h * dq), w)
+                    - _couplings_product(assembler, assembler.advance(state, -h * dq), w)) / (2 * h)
+                   for h in (1e-4, 5e-5)]
+        numeric = (4 * central[1] - central[0]) / 3
+        assert np.abs(numeric).max() > 0.0
+        assert np.abs(exact - numeric).max() <= 1e-10 * np.abs(numeric).max()
+
+
+def test_through_the_latch_the_sensitivities_agree_and_the_loop_keeps_the_bits():
+    """Through the arm's latch with the spar's hinge driven by the relative velocities: the sensitivities by Ks agree
+    with Richardson differences of whole runs (measured 5.9e-6, 86d57d9's difference 5.7e-6: the reference's own error,
+    the two trees' sensitivities 3.7e-10 apart), and the loop of steps on and off give the same bits."""
+    prepared, _, _ = _boom_state(SPAR)
+    assert len(rest_support(prepared.assembler)) == 0
+    data = yaml.safe_load(SPAR)
+    data["solve"]["sensitivities"] = ["Ks"]
+    text = yaml.safe_dump(data)
+    runs = runs_with_the_loop_on_and_off(text)
+    native, python = runs[True], runs[False]
+    assert [e["kind"] for e in native.summary["events"]] == ["latch"]
+    assert native.summary["sensitivity_steps_in_loop"] > 0
+    assert_same_sensitivities(native, python)
+    assert _agree(native, text, "Ks", 1e-5) < 1e-5
+
+
+def test_latdyn_run_of_the_relative_velocity_pd_agrees_and_the_loop_off_writes_the_same(tmp_path):
+    """``latdyn run`` of the boom whose arm's PD reads the relative velocities, through its latch: no difference
+    left in H, the event sensitivities by Kp in summary.json the API's, agreeing with Richardson differences of whole
+    runs (the event's dt to 1e-7; the probes measured ≤ 1.7e-7 but the tip's relative velocity, 1.1e-4, 86d57d9's
+    8.9e-5: there the reference's own two Richardson estimates, from h, h/2 and h/2, h/4, differ by 4.1e-4; the two
+    trees' sensitivities 3.4e-8 apart), and the loop of steps off writes the same files byte for byte."""
+    text = RELATIVE.replace("sensitivities: [Kp, k]", "sensitivities: [Kp]")
+    prepared, _, _ = _boom_state(text)
+    assert len(rest_support(prepared.assembler)) == 0
+    run, out = latdyn_run(tmp_path, text)
+    assert run.returncode == 0, run.stderr
+    summary = summary_of(out)
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"]
+    assert summary["event_sensitivities"] == result.summary["event_sensitivities"]
+    assert _agree(result, text, "Kp", 2e-4) < 2e-4
+    the_loop_off_writes_the_same(tmp_path, out)
