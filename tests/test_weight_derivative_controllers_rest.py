@@ -15,12 +15,18 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn.analyses.weight_derivative import (_coupling_part, _driven_load_part, _sensor_dofs, _sensor_kinematics,
-                                               _sparse, exact_couplings, rest_support, times)
+from latdyn.analyses.weight_derivative import (_coupling_part, transposed_times, _driven_load_part, _hinge_part, _sensor_dofs,
+                                               _sensor_kinematics, _sparse, exact_couplings, exact_hinges,
+                                               exact_hinges_by_rates, linked_exact_hinges, rest_support, times)
+from latdyn.assembly.prepare import prepare
 from latdyn.model.kernels import load_kernels
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import _agree
+from tests.test_sensitivities_fuzz_findings import _richardson
+from tests.test_sensitivities_in_loop_linked_control import GIMBAL_PD
+from tests.test_weight_derivative_linked_rest import _at_events
+from tests.test_weight_derivative_rates import WHEEL_STOP, _evaluations_in_the_rates_term
 from tests.test_weight_derivative_rest import CONTROLLED_BOOM, _boom_state, _rotation, _row
 
 #: the controlled boom's PD of the arm's hinge reading, beside its angle and rate, the spar's tip's velocity relative
@@ -44,6 +50,17 @@ SPAR = (CONTROLLED_BOOM.replace("section: s, elements: 1}",
                  "    tip_v: {point: spar.end, quantity: velocity, frame: wheel, component: x}\n"
                  "    tip_b: {point: spar.end, quantity: velocity, frame: base, component: y}\n    angle: {", 1))
 
+#: the boom's latching hinge's torque a law a y + b(θ) naming the PD (its ∂²/∂θ² is b's: y moves through the couplings)
+HINGE_NAMING_A_CONTROLLER = CONTROLLED_BOOM.replace('torque: "pd"', 'torque: "0.5*pd + 0.3*sin(2*theta)"', 1)
+#: the 3D gimbal of rigid links latching (its inner ring) with a PD on the inner hinge, the outer hinge's torque a law
+#: of its angle naming the PD's output (free through the latch: its row reaches the sensitivities)
+GIMBAL_TORQUE_NAMING_A_CONTROLLER = GIMBAL_PD.replace(
+    'stiffness: "k1", rest_angle: "rest"}}}',
+    'stiffness: "k1", rest_angle: "rest", torque: "0.6*pd + 0.4*sin(2*theta) + 0.3*theta**2"}}}', 1)
+#: the wheel onto its rigid stop (restitution 0.9) on laws of θ and θ̇, its damper times an input g = 1
+WHEEL_STOP_INPUT = WHEEL_STOP.replace('damping: "c*(1 + theta**2)', 'damping: "g*c*(1 + theta**2)', 1) + "inputs: {g: 1.0}\n"
+assert '"0.5*pd + 0.3' in HINGE_NAMING_A_CONTROLLER and "0.6*pd" in GIMBAL_TORQUE_NAMING_A_CONTROLLER
+assert "g*c*(1" in WHEEL_STOP_INPUT
 
 def _velocity_in_body(geometry, velocity):
     """s = T_bᵀ (v_n + ω_n × T_n r − v_b − ω_b × (x_n + T_n r − x_b)) (codegen/joints.py point_velocity_in_body)."""
@@ -192,3 +209,77 @@ def test_latdyn_run_of_the_relative_velocity_pd_agrees_and_the_loop_off_writes_t
     assert summary["event_sensitivities"] == result.summary["event_sensitivities"]
     assert _agree(result, text, "Kp", 2e-4) < 2e-4
     the_loop_off_writes_the_same(tmp_path, out)
+
+
+def _hinges_and_couplings_product(assembler, state, w: np.ndarray) -> np.ndarray:
+    """The evaluation's hinges' and controllers' couplings' blocks of K alone, times w."""
+    k = assembler.evaluate(state, matrices=True).flat_blocks("stiffness")
+    return np.asarray(assembler.assemble([0.0 * k[0], 0.0 * k[1], k[2], 0.0 * k[3], k[4]]) @ w)
+
+
+def test_a_hinge_torque_naming_a_controller_takes_no_difference():
+    """The boom's latching hinge's torque 0.5 pd + 0.3 sin 2θ: its part of H is the generated
+    ``hinge_stiffness_by_angle`` with the law's second derivative b″(θ) (86d57d9 differenced its angle), and with the
+    PD's couplings it agrees with Richardson differences of their K w (measured ≤ 5.8e-12 on the hinge's row; the
+    difference 7.1e-11)."""
+    prepared, state, rng = _boom_state(HINGE_NAMING_A_CONTROLLER)
+    assembler, n = prepared.assembler, prepared.model.n_dofs
+    assert exact_hinges(assembler).all() and len(rest_support(assembler)) == 0
+    state.theta[0] = 0.35
+    row = int(prepared.model.hinge_dofs[0])
+    for _ in range(2):
+        w, dq = rng.normal(size=n), rng.normal(size=n)
+        rows, values = _hinge_part(assembler, state, w, 1.0)
+        exact = times(_sparse(rows, rows, values, n), dq) + times(_sparse(*_coupling_part(assembler, state, w, 1.0),
+                                                                          n), dq)
+        central = [(_hinges_and_couplings_product(assembler, assembler.advance(state, h * dq), w)
+                    - _hinges_and_couplings_product(assembler, assembler.advance(state, -h * dq), w)) / (2 * h)
+                   for h in (1e-4, 5e-5)]
+        numeric = (4 * central[1] - central[0]) / 3
+        assert abs(exact[row] - numeric[row]) <= 1e-10 * abs(numeric[row])
+
+
+def test_the_gimbals_torque_naming_a_controller_takes_no_difference_at_its_latch(monkeypatch):
+    """The 3D gimbal of rigid links, its outer hinge's torque 0.6 pd + 0.4 sin 2θ + 0.3 θ² beside the PD on the
+    latching inner hinge: both hinges generated through the reduction, no difference of W_rest at the latch (86d57d9
+    took 12), ∂(W w)/∂q δq agreeing with the Richardson reference of tests/test_weight_derivative_linked.py (measured
+    1.3e-11 on both)."""
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL_TORQUE_NAMING_A_CONTROLLER)))
+    assert linked_exact_hinges(prepared.assembler).all()
+    result, errors, differences = _at_events(GIMBAL_TORQUE_NAMING_A_CONTROLLER, monkeypatch)
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"] and differences == 0
+    assert errors and max(errors) < 5e-11, errors
+
+
+def test_an_input_named_hinge_law_beside_a_stop_takes_no_difference_along_the_rates(monkeypatch):
+    """The wheel onto its rigid stop, its damper g c (1 + θ²)(1 + θ̇²) with g an input: its ∂K_jj/∂θ̇ is the generated
+    ``hinge_stiffness_by_rate`` at the input's value (86d57d9 differenced K w along δv, two evaluations a parameter at
+    each stop), and through both stops the sensitivities by c agree with Richardson differences of whole runs (every
+    row within 1e-7 of its probe's largest; measured 1.7e-9; 86d57d9 stopped at the first stop with a traceback,
+    :func:`test_an_empty_generated_part_multiplies_to_floats`)."""
+    data = yaml.safe_load(WHEEL_STOP_INPUT)
+    data["solve"]["sensitivities"] = ["c"]
+    text = yaml.safe_dump(data)
+    prepared = prepare(latdyn.load_scene(data))
+    assert exact_hinges_by_rates(prepared.assembler).all()
+    counts = _evaluations_in_the_rates_term(monkeypatch)
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert [e["kind"] for e in result.summary["events"]] == ["stop", "stop"]
+    assert counts and not any(counts), counts
+    monkeypatch.undo()
+    expected = _richardson(text, "c", 1e-3 * data["parameters"]["c"])
+    for probe in ("angle", "tip_x", "mid_z"):
+        computed = result.sensitivities[(probe, "c")]
+        assert np.abs(computed - expected[probe]).max() <= 1e-7 * np.abs(expected[probe]).max(), probe
+
+
+def test_an_empty_generated_part_multiplies_to_floats():
+    """A model whose generated part along the rates is empty (every hinge's entry differenced, no coupling) multiplies
+    to float zeros, to which the difference is added in place (86d57d9: NumPy's integer ``bincount`` of nothing, a
+    traceback ``Cannot cast ufunc 'add' output from dtype('float64') to dtype('int64')`` at the wheel's stop with a
+    damper naming an input)."""
+    empty = _sparse(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), 4)
+    for product in (times, transposed_times):
+        out = product(empty, np.ones((4, 2)))
+        assert out.dtype == np.float64 and not out.any()
+        out[:, 0] += 0.5

@@ -232,13 +232,15 @@ def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
 
 
 def times(H, x: np.ndarray) -> np.ndarray:
-    """H x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums)."""
-    return csr.times(H, x) if isinstance(H, CSR) else np.asarray(H @ x)
+    """H x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums), floats even where H has no
+    entry (NumPy's ``bincount`` of nothing is integer: an empty generated part then took no float difference added in
+    place, a traceback at 86d57d9 on the wheel's stop with a damper naming an input)."""
+    return np.asarray(csr.times(H, x) if isinstance(H, CSR) else H @ x, float)
 
 
 def transposed_times(H, x: np.ndarray) -> np.ndarray:
-    """Hᵀ x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums)."""
-    return csr.transposed_times(H, x) if isinstance(H, CSR) else np.asarray(H.T @ x)
+    """Hᵀ x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums; floats, as :func:`times`)."""
+    return np.asarray(csr.transposed_times(H, x) if isinstance(H, CSR) else H.T @ x, float)
 
 
 def needs_the_kernel(scene, model) -> bool:
@@ -1043,20 +1045,30 @@ def _hinge_laws(assembler, j: int) -> tuple:
     return (("stiffness", hinge.stiffness), ("damping", hinge.damping), ("torque", torque))
 
 
+def _names_held_in_a_hinge_law(scene) -> set:
+    """The names a hinge law may read whose values its slopes in θ and θ̇ hold: the scene's inputs (a number at the
+    event, the value the law and its slope read from the scene's inputs as the compiled laws do) and the
+    controllers' outputs — a continuous controller only in a torque or force a y + b with a constant a
+    (latdyn.assembly.control ``driven``), whose y moves through the couplings (:func:`_coupling_part`,
+    :func:`_coupling_rates_part`) while the law's own ∂²/∂θ², ∂²/∂θ∂θ̇ are b's, SymPy's with y a symbol; a sampled one's
+    held output a number, as an input."""
+    inputs = set(getattr(getattr(scene, "inputs", None), "names", ()))
+    return inputs | set(getattr(scene, "controllers", None) or {})
+
+
 def exact_hinges(assembler) -> np.ndarray:
     """(free hinges,) bool: whether the free hinge's part of H is generated (:func:`_hinge_part`): each of its laws
-    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`) and naming no controller
-    (a continuous one's output moves with its sensors; an input it names is a number at the event, the value the
-    law and its slope read from the scene's inputs as the compiled laws do); otherwise its angle stays in
+    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`), naming inputs and
+    controllers' outputs alone (:func:`_names_held_in_a_hinge_law`); otherwise its angle stays in
     :func:`rest_support`, differenced as before."""
     model = assembler.model
-    inputs = set(getattr(getattr(model.scene, "inputs", None), "names", ()))
+    held = _names_held_in_a_hinge_law(model.scene)
     out = np.ones(len(model.free_hinges), bool)
     for i, j in enumerate(model.free_hinges):
         for key, law in _hinge_laws(assembler, int(j)):
             if law is None or "theta" not in law.depends_on:
                 continue
-            if set(getattr(law, "input_names", ())) - inputs or _slope_law(
+            if set(getattr(law, "input_names", ())) - held or _slope_law(
                     law, model.scene, f"joints.{model.hinges[j].name}.{key}") is None:
                 out[i] = False
     return out
@@ -1340,17 +1352,19 @@ def _linked_split(assembler, exact: np.ndarray):
 
 def exact_hinges_by_rates(assembler) -> np.ndarray:
     """(free hinges,) bool: whether the free hinge's part of ∂(K w)/∂v is generated (:func:`_hinge_rates_part`): each
-    of its laws that reads θ or θ̇ names no input (its slopes are then the law's own), and one that reads θ has its
-    slope law (:func:`_angle_slope_law`, whose ``d_rate`` is SymPy's ∂²f/∂θ∂θ̇); otherwise its entry stays in
-    :func:`rates_rest_product`'s difference."""
+    of its laws that reads θ or θ̇ names inputs and controllers' outputs alone (:func:`_names_held_in_a_hinge_law`:
+    held along the rates, their values the scene's at the event; its slopes are then the law's own), and one that
+    reads θ has its slope law (:func:`_angle_slope_law`, whose ``d_rate`` is SymPy's ∂²f/∂θ∂θ̇); otherwise its entry
+    stays in :func:`rates_rest_product`'s difference."""
     model = assembler.model
+    held = _names_held_in_a_hinge_law(model.scene)
     out = np.ones(len(model.free_hinges), bool)
     for i, j in enumerate(model.free_hinges):
         for key, law in _hinge_laws(assembler, int(j)):
             reads = set(getattr(law, "depends_on", ())) if law is not None else set()
             if not {"theta", "theta_dot"} & reads:
                 continue
-            if getattr(law, "input_names", ()) or ("theta" in reads and _slope_law(
+            if set(getattr(law, "input_names", ())) - held or ("theta" in reads and _slope_law(
                     law, model.scene, f"joints.{model.hinges[j].name}.{key}") is None):
                 out[i] = False
     return out
