@@ -32,9 +32,11 @@ and exact:
   with NumPy at the event (the events take the Python path; nothing is compiled for them: a scene without events,
   or without laws of θ, makes nothing new). A hinge that a continuous controller alone drives has no torque law
   there (csrc/evaluate.c ``hinge_forces``). A law naming an input is taken at the input's value at the event (the
-  law and its slope read the scene's inputs, as the compiled laws do). A hinge with a law of θ that names a
-  controller, or whose ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along
-  its angle;
+  law and its slope read the scene's inputs, as the compiled laws do); a torque a y + b naming a continuous
+  controller's output y (a constant a, b of θ, θ̇, t and inputs: latdyn.assembly.control refuses any other) with
+  b's second derivative, SymPy's of the law with y a symbol (y moves along q through the couplings below), a sampled
+  controller's held output as an input (:func:`_names_held_in_a_hinge_law`). A hinge whose ∂f/∂θ does not parse
+  back as a law (:func:`exact_hinges`) keeps the difference below along its angle;
 * the point loads' blocks K_l (the node's rows × the turns of the node and of the body the load turns with; a
   global load's frame half zero), along w_l on those columns: ``point_load_stiffness_D_q`` (codegen/joints.py: K_l w
   as the derivative of the load's force along the turns τ w at τ = 0, differentiated once more by the turns the
@@ -129,8 +131,8 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   rate beside anything but joints (a node's or a point's velocity, a free joint's force: their values move with the
   rates the move carries), a point at an offset or a cable's length (not measured on linked models), or a controller
   of those, a load's coupling entries, and the hinges whose K_jj moves with
-  their rate through a law naming an input (:func:`linked_exact_hinges`: ∂K_jj/∂θ̇ not generated for them, as
-  :func:`exact_hinges_by_rates`),
+  their rate where ∂K_jj/∂θ̇ is not generated (:func:`linked_exact_hinges`, :func:`exact_hinges_by_rates`: a law
+  whose slope in θ does not parse back as a law),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
   part's round-off, 1e-8 of H δq over the step on the slider-crank), centrally along each column's move (δq, the free
   rates along δv, δv̇, the dependent ones completed) as before, two evaluations a parameter — none where the model
@@ -156,7 +158,8 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
   (codegen/joints.py: f with each law expanded to second order in (θ, θ̇), its compliant stop with its damping
   included, differentiated by θ and θ̇ at the state), fed the laws' values and first derivatives and their mixed second derivatives,
   the ``d_rate`` of :func:`_angle_slope_law`'s law (SymPy's ∂²f/∂θ∂θ̇, evaluated with NumPy at the event), for the
-  hinges of :func:`exact_hinges_by_rates` (:func:`_hinge_rates_part`);
+  hinges of :func:`exact_hinges_by_rates` (:func:`_hinge_rates_part`; a law naming an input or a controller's output
+  at its value at the event, as along q);
 * the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
   alone (:func:`exact_couplings_by_rates`): K's entry −a ∂y/∂θ_j moves with a rate sensor's θ̇_i by
   −a ∂²y/∂θ_j∂θ̇_i, SymPy's mixed second derivatives of the output lambdified once per output in a process
@@ -171,7 +174,8 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
 
 Still a central difference (:func:`rates_rest_needed`; two evaluations a parameter, the adjoint's two a free rate),
 of the blocks not generated alone (:func:`rates_rest_product`: K w of those blocks, the others out): a hinge law of
-θ or θ̇ naming an input (:func:`exact_hinges_by_rates`), and the couplings and driven loads of the other controllers
+θ whose slope does not parse back as a law (:func:`exact_hinges_by_rates`), and the couplings and driven loads of the
+other controllers
 (:func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`: a controller reading a point, a body, a cable, an
 element, a joint's force, an input, a state or another controller). Rigid links and guides: the rates' move is in
 ``TransientSensitivities._linked_weight_derivative`` (above), not here.
@@ -1240,10 +1244,10 @@ def linked_exact_hinges(assembler) -> np.ndarray:
     generated (:func:`_hinge_part`, :func:`linked_configuration_tangent`): those of :func:`exact_hinges` whose
     K_jj = ∂f/∂θ does not move with the hinge's rate (:func:`linked_rate_moving_hinges`), or whose move with it is
     generated too (:func:`exact_hinges_by_rates`: s (∂K_jj/∂θ̇_j) w_j δθ̇_j, :func:`linked_rates_tangent`; the hinge's
-    rate is a free one, P does not move its row). The others (a law naming an input whose K_jj moves with the rate)
-    keep the difference (:func:`linked_rest_product`): before 10be92c's linkedrest their entries' move with the rates
-    was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch), after it
-    every hinge moving with its rate was differenced."""
+    rate is a free one, P does not move its row; a law naming an input since ctrlweight, 86d57d9 differenced it). The
+    others keep the difference (:func:`linked_rest_product`): before 10be92c's linkedrest their entries' move with the
+    rates was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch),
+    after it every hinge moving with its rate was differenced."""
     return exact_hinges(assembler) & (~linked_rate_moving_hinges(assembler) | exact_hinges_by_rates(assembler))
 
 
