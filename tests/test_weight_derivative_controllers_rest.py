@@ -15,9 +15,9 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn.analyses.weight_derivative import (_coupling_part, transposed_times, _driven_load_part, _hinge_part, _sensor_dofs,
-                                               _sensor_kinematics, _sparse, exact_couplings, exact_hinges,
-                                               exact_hinges_by_rates, linked_exact_hinges, rest_support, times)
+from latdyn.analyses.weight_derivative import (_coupling_part, _driven_load_part, _hinge_part, _sparse, exact_couplings,
+                                               exact_hinges, exact_hinges_by_rates, linked_exact_hinges, rest_support,
+                                               times, transposed_times)
 from latdyn.assembly.prepare import prepare
 from latdyn.model.kernels import load_kernels
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
@@ -25,6 +25,8 @@ from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_
 from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_fuzz_findings import _richardson
 from tests.test_sensitivities_in_loop_linked_control import GIMBAL_PD
+from tests.test_weight_derivative_couplings import \
+    test_a_sensors_second_derivative_is_the_central_difference_of_its_gradient as _the_sensors_check
 from tests.test_weight_derivative_linked_rest import _at_events
 from tests.test_weight_derivative_rates import WHEEL_STOP, _evaluations_in_the_rates_term
 from tests.test_weight_derivative_rest import CONTROLLED_BOOM, _boom_state, _rotation, _row
@@ -58,7 +60,8 @@ GIMBAL_TORQUE_NAMING_A_CONTROLLER = GIMBAL_PD.replace(
     'stiffness: "k1", rest_angle: "rest"}}}',
     'stiffness: "k1", rest_angle: "rest", torque: "0.6*pd + 0.4*sin(2*theta) + 0.3*theta**2"}}}', 1)
 #: the wheel onto its rigid stop (restitution 0.9) on laws of θ and θ̇, its damper times an input g = 1
-WHEEL_STOP_INPUT = WHEEL_STOP.replace('damping: "c*(1 + theta**2)', 'damping: "g*c*(1 + theta**2)', 1) + "inputs: {g: 1.0}\n"
+WHEEL_STOP_INPUT = (WHEEL_STOP.replace('damping: "c*(1 + theta**2)', 'damping: "g*c*(1 + theta**2)', 1)
+                    + "inputs: {g: 1.0}\n")
 assert '"0.5*pd + 0.3' in HINGE_NAMING_A_CONTROLLER and "0.6*pd" in GIMBAL_TORQUE_NAMING_A_CONTROLLER
 assert "g*c*(1" in WHEEL_STOP_INPUT
 
@@ -84,7 +87,8 @@ def _moved(geometry, delta):
 def test_the_generated_relative_velocity_and_its_derivatives_are_central_differences():
     """``point_velocity_in_body`` at random frames, points and rates: its value the formula's, its gradient by
     [d_n, π_n, d_b, π_b] the central difference of the value under the update, by the rates the formula's (linear);
-    ``point_velocity_in_body_D_q_D_q``'s gradient the same to round-off and its second derivative the central difference of
+    ``point_velocity_in_body_D_q_D_q``'s gradient the same to round-off and its
+    second derivative the central difference of
     that gradient (measured ≤ 1.2e-10 of the largest)."""
     kernels = load_kernels("auto", "default")
     rng = np.random.default_rng(13)
@@ -92,7 +96,8 @@ def test_the_generated_relative_velocity_and_its_derivatives_are_central_differe
         geometry = np.concatenate([rng.normal(size=6), _rotation(rng.normal(size=3)).reshape(9), rng.normal(size=3),
                                    _rotation(rng.normal(size=3)).reshape(9)])
         velocity = rng.normal(size=12)
-        value, by_q, by_rate = (np.asarray(x)[0] for x in kernels.point_velocity_in_body(_row(geometry), _row(velocity)))
+        value, by_q, by_rate = (np.asarray(x)[0]
+                                for x in kernels.point_velocity_in_body(_row(geometry), _row(velocity)))
         np.testing.assert_allclose(value, _velocity_in_body(geometry, velocity), rtol=1e-13, atol=1e-13)
         by_q, by_rate = by_q.reshape(3, 12), by_rate.reshape(3, 12)
         eye, h = np.eye(12), 1e-6
@@ -117,35 +122,11 @@ def test_the_generated_relative_velocity_and_its_derivatives_are_central_differe
 
 
 def test_the_sensors_gradient_is_csrc_evaluates_and_its_second_derivative_the_difference_of_it():
-    """The boom's PD's relative velocities at a moving state: the gradient the weight derivative takes is the one
-    csrc/evaluate.c computes (``sensor_jacobian``'s columns of K, to the bit), and its derivative along each of their
-    coordinates the central difference of that gradient (measured 4.4e-11 of its largest; relative to the root body,
-    fixed, the arm's middle node's is 0 there)."""
-    prepared, state, _ = _boom_state(RELATIVE)
-    assembler = prepared.assembler
-    control, n = assembler.control, prepared.model.n_dofs
-    native = assembler.native()
-    held = prepared.model.scene.controller_outputs.values.copy()
-    native.controller_outputs_at(state)
-    prepared.model.scene.controller_outputs.values[:] = held
-    jacobian = np.array(native.buffers["sensor_jacobian"])
-    checked = 0
-    for sensor, (kind, index) in enumerate(zip(control.sensor_kind, control.sensor_index)):
-        if kind != 13:
-            continue
-        gradient, second = _sensor_kinematics(assembler, state, 13, int(index), sensor)
-        first = int(control.sensor_column_start[sensor])
-        np.testing.assert_array_equal(gradient, jacobian[first:first + 12])
-        dofs = _sensor_dofs(assembler, 13, int(index), sensor)
-        for d in np.unique(dofs[dofs < n]):
-            unit = np.zeros(n)
-            unit[d] = 1e-6
-            ahead = _sensor_kinematics(assembler, assembler.advance(state, unit), 13, int(index), sensor)[0]
-            behind = _sensor_kinematics(assembler, assembler.advance(state, -unit), 13, int(index), sensor)[0]
-            moved = second[:, dofs == d].sum(axis=1)
-            assert np.abs(moved - (ahead - behind) / 2e-6).max() <= 2e-9 * max(np.abs(second).max(), 1.0)
-        checked += 1
-    assert checked == 2
+    """The boom's PD's two relative velocities at a moving state (tests/test_weight_derivative_couplings.py's check):
+    the gradient the weight derivative takes is the one csrc/evaluate.c computes (``sensor_jacobian``'s columns of K,
+    to the bit), and its derivative along each of their coordinates the central difference of that gradient
+    (measured 4.4e-11 of its largest; relative to the root body, fixed, the arm's middle node's is 0 there)."""
+    _the_sensors_check(RELATIVE, [13, 13])
 
 
 def _couplings_product(assembler, state, w: np.ndarray) -> np.ndarray:
@@ -199,14 +180,12 @@ def test_latdyn_run_of_the_relative_velocity_pd_agrees_and_the_loop_off_writes_t
     8.9e-5: there the reference's own two Richardson estimates, from h, h/2 and h/2, h/4, differ by 4.1e-4; the two
     trees' sensitivities 3.4e-8 apart), and the loop of steps off writes the same files byte for byte."""
     text = RELATIVE.replace("sensitivities: [Kp, k]", "sensitivities: [Kp]")
-    prepared, _, _ = _boom_state(text)
-    assert len(rest_support(prepared.assembler)) == 0
-    run, out = latdyn_run(tmp_path, text)
-    assert run.returncode == 0, run.stderr
-    summary = summary_of(out)
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     assert [e["kind"] for e in result.summary["events"]] == ["latch"]
-    assert summary["event_sensitivities"] == result.summary["event_sensitivities"]
+    assert len(rest_support(_boom_state(text)[0].assembler)) == 0
+    run, out = latdyn_run(tmp_path, text)
+    assert run.returncode == 0, run.stderr
+    assert summary_of(out)["event_sensitivities"] == result.summary["event_sensitivities"]
     assert _agree(result, text, "Kp", 2e-4) < 2e-4
     the_loop_off_writes_the_same(tmp_path, out)
 

@@ -11,7 +11,8 @@ stop; a chain of rigid bays with a boom of 24 elements (band storage) whose seco
 hinges' angles and rate drives — the exact part against Richardson-extrapolated differences of Pᵀ W_gen P w at a
 turned state with random rates, and at every event through the API no difference taken and ∂(W w)/∂q δq against the
 Richardson reference of tests/test_weight_derivative_linked.py; a controller whose output mixes an angle and a rate and
-reads an input keeps its entries in the difference, a hinge damper naming an input no longer (ctrlweight); the slider-crank through
+reads an input keeps its entries in the difference, a hinge damper naming an input no longer
+(ctrlweight); the slider-crank through
 the CLI, loop on and off (the whole runs' sensitivities against Richardson central differences of whole runs are
 measured in docs/performance.md, "The linked weight's loads, cables and couplings generated (issue 34)")."""
 from __future__ import annotations

@@ -6,10 +6,10 @@ rate; a continuous controller's couplings from SymPy's mixed second derivatives 
 turned, moving state of genuinely 3D arms (a hinge law of θ and θ̇, a damped compliant stop in contact, a PD nonlinear
 in angle and rate) the term with no evaluation of the model, against Richardson-extrapolated central differences of
 the moving block's K w (the central difference of the whole K w it replaces was 5.5e-8 … 1.7e-7 off); loads a
-controller of angles and rates drives, their block and couplings, the same; a hinge law naming an input at the input's value
-at the event, the same (86d57d9 differenced it); and whole runs through a latch and a rigid stop against Richardson differences of
-whole runs (API and ``latdyn run``), the loop of steps on and off to the bit, the adjoint with the forward method —
-each with no difference of K w along δv left at the events."""
+controller of angles and rates drives, their block and couplings, the same; a hinge law naming an input, at the
+input's value at the event, the same (86d57d9 differenced it); and whole runs through a latch and a rigid stop against
+Richardson differences of whole runs (API and ``latdyn run``), the loop of steps on and off to the bit, the adjoint
+with the forward method — each with no difference of K w along δv left at the events."""
 from __future__ import annotations
 
 import numpy as np

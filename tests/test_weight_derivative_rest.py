@@ -286,7 +286,8 @@ def test_a_saturated_controller_adds_nothing_and_a_controller_of_a_relative_velo
     about it, csrc/evaluate.c); the same controller reading a point's velocity in a body's axes is generated since
     ctrlweight, no difference along its couplings (86d57d9 kept one; a controller reading an input or a point:
     tests/test_weight_derivative_couplings.py; a cable's tension or a section force:
-    tests/test_weight_derivative_force_sensors.py; a relative velocity: tests/test_weight_derivative_controllers_rest.py)."""
+    tests/test_weight_derivative_force_sensors.py; a relative velocity:
+    tests/test_weight_derivative_controllers_rest.py)."""
     from latdyn.analyses.weight_derivative import _coupling_part, exact_couplings
 
     clipped = CONTROLLED_BOOM.replace('(1 + angle**2)"}', '(1 + angle**2)", limits: [-0.01, 0.01]}')

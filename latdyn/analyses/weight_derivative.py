@@ -243,7 +243,8 @@ def times(H, x: np.ndarray) -> np.ndarray:
 
 
 def transposed_times(H, x: np.ndarray) -> np.ndarray:
-    """Hᵀ x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums; floats, as :func:`times`)."""
+    """Hᵀ x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums; floats, as
+    :func:`times`)."""
     return np.asarray(csr.transposed_times(H, x) if isinstance(H, CSR) else H.T @ x, float)
 
 
@@ -884,8 +885,8 @@ def _body_velocity_kinematics(assembler, state, index: int, sensor: int):
     csrc/evaluate.c's."""
     control = assembler.control
     node, c, body = index // 3, index % 3, int(control.sensor_frame_node[sensor])
-    geometry = np.concatenate([state.x[node], state.x[body], np.reshape(state.T[node], 9), control.sensor_offset[sensor],
-                               np.reshape(state.T[body], 9)])
+    geometry = np.concatenate([state.x[node], state.x[body], np.reshape(state.T[node], 9),
+                               control.sensor_offset[sensor], np.reshape(state.T[body], 9)])
     velocity = np.concatenate([state.v[node], state.w[node], state.v[body], state.w[body]])
     rows = (np.ascontiguousarray(geometry[None], dtype=float), np.ascontiguousarray(velocity[None], dtype=float))
     gradient = assembler.kernels.point_velocity_in_body(*rows)[1]    # csrc/evaluate.c's, to the bit
