@@ -21,12 +21,13 @@ from latdyn.analyses.weight_derivative import (_coupling_part, _driven_load_part
 from latdyn.assembly.prepare import prepare
 from latdyn.model.kernels import load_kernels
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
-from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_fuzz_findings import _richardson
 from tests.test_sensitivities_in_loop_linked_control import GIMBAL_PD
 from tests.test_weight_derivative_couplings import \
     test_a_sensors_second_derivative_is_the_central_difference_of_its_gradient as _the_sensors_check
+from tests.test_weight_derivative_couplings import \
+    test_through_the_latch_the_sensitivities_agree_and_the_loop_keeps_the_bits as _through_the_latch
 from tests.test_weight_derivative_linked_rest import _at_events
 from tests.test_weight_derivative_rates import WHEEL_STOP, _evaluations_in_the_rates_term
 from tests.test_weight_derivative_rest import CONTROLLED_BOOM, _boom_state, _rotation, _row
@@ -159,18 +160,9 @@ def test_a_controller_reading_a_points_velocity_relative_to_a_body_takes_no_diff
 def test_through_the_latch_the_sensitivities_agree_and_the_loop_keeps_the_bits():
     """Through the arm's latch with the spar's hinge driven by the relative velocities: the sensitivities by Ks agree
     with Richardson differences of whole runs (measured 5.9e-6, 86d57d9's difference 5.7e-6: the reference's own error,
-    the two trees' sensitivities 3.7e-10 apart), and the loop of steps on and off give the same bits."""
-    prepared, _, _ = _boom_state(SPAR)
-    assert len(rest_support(prepared.assembler)) == 0
-    data = yaml.safe_load(SPAR)
-    data["solve"]["sensitivities"] = ["Ks"]
-    text = yaml.safe_dump(data)
-    runs = runs_with_the_loop_on_and_off(text)
-    native, python = runs[True], runs[False]
-    assert [e["kind"] for e in native.summary["events"]] == ["latch"]
-    assert native.summary["sensitivity_steps_in_loop"] > 0
-    assert_same_sensitivities(native, python)
-    assert _agree(native, text, "Ks", 1e-5) < 1e-5
+    the two trees' sensitivities 3.7e-10 apart), and the loop of steps on and off give the same bits, with steps in
+    the loop (tests/test_weight_derivative_couplings.py's check, no difference left in H)."""
+    _through_the_latch(SPAR, "Ks", 1e-5)
 
 
 def test_latdyn_run_of_the_relative_velocity_pd_agrees_and_the_loop_off_writes_the_same(tmp_path):
