@@ -85,13 +85,14 @@ def _moved(geometry, delta):
     return out
 
 
-def test_the_generated_relative_velocity_and_its_derivatives_are_central_differences():
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_the_generated_relative_velocity_and_its_derivatives_are_central_differences(backend):
     """``point_velocity_in_body`` at random frames, points and rates: its value the formula's, its gradient by
     [d_n, π_n, d_b, π_b] the central difference of the value under the update, by the rates the formula's (linear);
     ``point_velocity_in_body_D_q_D_q``'s gradient the same to round-off and its
     second derivative the central difference of
-    that gradient (measured ≤ 1.2e-10 of the largest)."""
-    kernels = load_kernels("auto", "default")
+    that gradient, on both backends (measured 1.6e-16, 2.4e-10 and 1.9e-10 of the largest at step 1e-6)."""
+    kernels = load_kernels(backend, "default")
     rng = np.random.default_rng(13)
     for _ in range(3):
         geometry = np.concatenate([rng.normal(size=6), _rotation(rng.normal(size=3)).reshape(9), rng.normal(size=3),
@@ -140,7 +141,8 @@ def _couplings_product(assembler, state, w: np.ndarray) -> np.ndarray:
 def test_a_controller_reading_a_points_velocity_relative_to_a_body_takes_no_difference(text):
     """The PDs reading the relative velocities: no coordinate left to difference (86d57d9 differenced all 19), and
     the couplings' part of H along random δq at random w agrees with Richardson-extrapolated differences of the
-    couplings' K w (measured ≤ 1.1e-11 on the couplings' rows; 86d57d9's difference 2.4e-10)."""
+    couplings' K w (measured 1.1e-11, 2.2e-12 on the arm's, 7.0e-11, 3.3e-11 on the spar's, of the block's largest;
+    86d57d9's difference: docs/performance.md "Controllers' weight derivatives generated (issue 34)")."""
     prepared, state, rng = _boom_state(text)
     assembler, n = prepared.assembler, prepared.model.n_dofs
     assert exact_couplings(assembler).all() and len(rest_support(assembler)) == 0
@@ -154,7 +156,7 @@ def test_a_controller_reading_a_points_velocity_relative_to_a_body_takes_no_diff
                    for h in (1e-4, 5e-5)]
         numeric = (4 * central[1] - central[0]) / 3
         assert np.abs(numeric).max() > 0.0
-        assert np.abs(exact - numeric).max() <= 1e-10 * np.abs(numeric).max()
+        assert np.abs(exact - numeric).max() <= 2e-10 * np.abs(numeric).max()
 
 
 def test_through_the_latch_the_sensitivities_agree_and_the_loop_keeps_the_bits():
@@ -191,8 +193,8 @@ def _hinges_and_couplings_product(assembler, state, w: np.ndarray) -> np.ndarray
 def test_a_hinge_torque_naming_a_controller_takes_no_difference():
     """The boom's latching hinge's torque 0.5 pd + 0.3 sin 2θ: its part of H is the generated
     ``hinge_stiffness_by_angle`` with the law's second derivative b″(θ) (86d57d9 differenced its angle), and with the
-    PD's couplings it agrees with Richardson differences of their K w (measured ≤ 5.8e-12 on the hinge's row; the
-    difference 7.1e-11)."""
+    PD's couplings it agrees with Richardson differences of their K w (measured 1.3e-12, 5.8e-12 on the hinge's row;
+    86d57d9's difference 7.1e-11)."""
     prepared, state, rng = _boom_state(HINGE_NAMING_A_CONTROLLER)
     assembler, n = prepared.assembler, prepared.model.n_dofs
     assert exact_hinges(assembler).all() and len(rest_support(assembler)) == 0
