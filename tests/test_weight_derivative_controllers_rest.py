@@ -18,6 +18,7 @@ import latdyn
 from latdyn.analyses.weight_derivative import (_coupling_part, _driven_load_part, _hinge_part, _sparse, exact_couplings,
                                                exact_hinges, exact_hinges_by_rates, linked_exact_hinges, rest_support,
                                                times, transposed_times)
+from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.assembly.prepare import prepare
 from latdyn.model.kernels import load_kernels
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
@@ -29,7 +30,8 @@ from tests.test_weight_derivative_couplings import \
 from tests.test_weight_derivative_couplings import \
     test_through_the_latch_the_sensitivities_agree_and_the_loop_keeps_the_bits as _through_the_latch
 from tests.test_weight_derivative_linked_rest import _at_events
-from tests.test_weight_derivative_rates import WHEEL_STOP, _evaluations_in_the_rates_term
+from tests.test_sensitivities_rate_stiffness import moving_state
+from tests.test_weight_derivative_rates import WHEEL_STOP, _evaluations_in_the_rates_term, _richardson_by_rates
 from tests.test_weight_derivative_rest import CONTROLLED_BOOM, _boom_state, _rotation, _row
 
 #: the controlled boom's PD of the arm's hinge reading, beside its angle and rate, the spar's tip's velocity relative
@@ -63,6 +65,27 @@ GIMBAL_TORQUE_NAMING_A_CONTROLLER = GIMBAL_PD.replace(
 #: the wheel onto its rigid stop (restitution 0.9) on laws of θ and θ̇, its damper times an input g = 1
 WHEEL_STOP_INPUT = (WHEEL_STOP.replace('damping: "c*(1 + theta**2)', 'damping: "g*c*(1 + theta**2)', 1)
                     + "inputs: {g: 1.0}\n")
+#: the controlled boom's PD mixing points' positions (global at the wheel, at an offset, in the wheel's axes) with the
+#: hinge's rate and the wheel's velocity: its couplings move with the rates through ∂²y/∂s_p∂s_r
+PD_OF_POINTS_AND_RATES = (CONTROLLED_BOOM.replace(
+    '  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2)"}',
+    '  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2) - 2*(tip_x - 0.6)*rate '
+    '+ 3*sin(spar_y)*wheel_vz + 0.5*mid_w*rate*wheel_vz"}', 1)
+    .replace("    angle: {", "    spar_y: {point: spar.start, quantity: position, component: y}\n"
+             '    mid_w: {point: "arm.node[1]", quantity: displacement, component: x, frame: wheel}\n'
+             "    wheel_vz: {point: wheel, quantity: velocity, component: z}\n    angle: {", 1))
+#: the spar on a hinge of its own driven by a controller of its angle and rate, the tip's and the spar's start's
+#: positions and the wheel's velocity (free through the arm's latch: its row reaches the sensitivities)
+SPAR_OF_POINTS_AND_RATES = (CONTROLLED_BOOM.replace(
+    "section: s, elements: 1}", 'section: s, elements: 1,\n         start: {hinge: {axis: [0, 1, 1], stiffness: 3.0, '
+    'torque: "sc"}}}', 1)
+    .replace("\nsolve:", '\n  sc: {output: "-Ks*sin(spar_angle - 0.1) - 0.5*(tip_x - 0.6)*spar_rate '
+                         '+ 0.8*spar_y*wheel_vz*(1 + spar_rate)"}\nsolve:', 1)
+    .replace("Kp: 0.4, Kd: 0.05}", "Kp: 0.4, Kd: 0.05, Ks: 0.8}", 1)
+    .replace("    angle: {", "    spar_angle: {hinge: spar.start, quantity: angle}\n"
+             "    spar_rate: {hinge: spar.start, quantity: rate}\n"
+             "    spar_y: {point: spar.start, quantity: position, component: y}\n"
+             "    wheel_vz: {point: wheel, quantity: velocity, component: z}\n    angle: {", 1))
 assert '"0.5*pd + 0.3' in HINGE_NAMING_A_CONTROLLER and "0.6*pd" in GIMBAL_TORQUE_NAMING_A_CONTROLLER
 assert "g*c*(1" in WHEEL_STOP_INPUT
 
@@ -256,3 +279,23 @@ def test_an_empty_generated_part_multiplies_to_floats():
         out = product(empty, np.ones((4, 2)))
         assert out.dtype == np.float64 and not out.any()
         out[:, 0] += 0.5
+
+
+@pytest.mark.parametrize("text", [PD_OF_POINTS_AND_RATES, SPAR_OF_POINTS_AND_RATES], ids=["arm", "spar"])
+def test_a_controller_of_points_and_rates_moves_with_the_rates_without_a_difference(monkeypatch, text):
+    """The PDs mixing points' positions with rates (a hinge's, the wheel's velocity): at a turned, moving state their
+    couplings' ∂(K w)/∂v δv (3 columns) is SymPy's mixed second derivatives times the sensors' generated gradients,
+    with no evaluation of the model (86d57d9 differenced it, two evaluations a column), within 1e-9 of the Richardson
+    reference's largest entry (measured 2.5e-14 on the arm's; 86d57d9's difference 2.0e-11)."""
+    prepared, state, rng = moving_state(text)
+    owner = TransientSensitivities(prepared)
+    n = prepared.model.n_dofs
+    w, dv = rng.normal(size=n), rng.normal(size=(n, 3))
+    assert owner.stiffness_moves_with_rates(state) and "controllers' couplings" in owner._rates_moving[1]
+    counts = _evaluations_in_the_rates_term(monkeypatch)
+    computed = owner._stiffness_by_rates(state, w, dv)
+    assert counts == [0]
+    monkeypatch.undo()
+    reference = _richardson_by_rates(prepared, state, w, dv, owner._rates_moving[1])
+    assert np.abs(reference).max() > 0.0
+    assert np.abs(computed - reference).max() <= 1e-9 * np.abs(reference).max()

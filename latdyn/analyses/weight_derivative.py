@@ -163,7 +163,12 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
 * the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
   alone (:func:`exact_couplings_by_rates`): K's entry −a ∂y/∂θ_j moves with a rate sensor's θ̇_i by
   −a ∂²y/∂θ_j∂θ̇_i, SymPy's mixed second derivatives of the output lambdified once per output in a process
-  (:func:`_output_mixed`), 0 while the output is saturated (:func:`_coupling_rates_part`);
+  (:func:`_output_mixed`), 0 while the output is saturated (:func:`_coupling_rates_part`); and from a controller that
+  reads points' positions (global at their node or at an offset, in a body's axes) and cables' lengths beside joints'
+  angles, joints' rates and nodes' velocities (:func:`_position_and_rate_reads`, a model without rigid links or
+  guides): K's entry −a Σ_p ∂f/∂s_p ∂s_p/∂q_c moves with a rate sensor r by −a Σ_p ∂²f/∂s_p∂s_r ∂s_p/∂q_c (those
+  sensors' gradients hold no rate; a rate sensor's ∂s_r/∂v is a coordinate's unit), the gradients those of
+  :func:`_sensor_kinematics` (:func:`_general_coupling_rates_part`);
 * the point loads such a controller drives (:func:`exact_loads_by_rates`): a component a y + b moves with a rate
   sensor by a ∂y/∂θ̇_i, the load's block (linear in its values) by K_l(a ∂y/∂θ̇_i e_c) w from the generated
   ``point_load_stiffness_D_q``, and its couplings g ∂y/∂θ_j (g: ``point_load``'s force at a e_c) by g ∂²y/∂θ_j∂θ̇_i
@@ -174,11 +179,11 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
 
 Still a central difference (:func:`rates_rest_needed`; two evaluations a parameter, the adjoint's two a free rate),
 of the blocks not generated alone (:func:`rates_rest_product`: K w of those blocks, the others out): a hinge law of
-θ whose slope does not parse back as a law (:func:`exact_hinges_by_rates`), and the couplings and driven loads of the
-other controllers
-(:func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`: a controller reading a point, a body, a cable, an
-element, a joint's force, an input, a state or another controller). Rigid links and guides: the rates' move is in
-``TransientSensitivities._linked_weight_derivative`` (above), not here.
+θ whose slope does not parse back as a law (:func:`exact_hinges_by_rates`), the loads driven by controllers other
+than of joints alone, and the couplings of the other controllers (a point's velocity at an offset or relative to a
+body, a cable's tension, an element's section force, a joint's force, an input, a state or another controller
+read; :func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`). Rigid links and guides: the rates' move is
+in ``TransientSensitivities._linked_weight_derivative`` (above), not here.
 """
 from __future__ import annotations
 
@@ -1434,18 +1439,109 @@ def _joint_reads(control, k: int):
     return None if _output_mixed(controller, angles, rates) is None else (first, angles, rates)
 
 
+#: the sensor kinds whose gradient along q does not move with the rates (a joint's angle, a node's or a point's
+#: position component, global, at an offset or in a body's axes, a cable's length) and
+#: those read at rates whose gradient along v is constant (a joint's rate, a node's velocity component):
+#: :func:`_position_and_rate_reads`
+_RATE_FREE_POSITIONS, _PLAIN_RATES = (0, 2, 5, 7, 8), (1, 3)
+
+
+def _position_and_rate_reads(assembler, k: int):
+    """(position reads, rate reads) of continuous controller ``k`` (their positions among its reads), or None unless
+    it reads sensors of :data:`_RATE_FREE_POSITIONS` and :data:`_PLAIN_RATES` alone, at least one rate and one
+    position, no input, state or other controller, on a model without rigid links or guides, with mixed second
+    derivatives of its output by them that are functions (:func:`_output_mixed`) and the sensors' second derivatives
+    generated (:func:`_exact_controllers`). Its coupling entry K_rc = −a Σ_p ∂f/∂s_p ∂s_p/∂q_c then moves with the
+    rates through ∂²f/∂s_p∂s_r alone: a position sensor's gradient holds no rate, a rate sensor's ∂s_r/∂v is a
+    coordinate's unit."""
+    control = assembler.control
+    if assembler.model.links is not None or not _exact_controllers(assembler)[k]:
+        return None
+    controller = control.controllers[k]
+    reads = _controller_reads(control, k)
+    if controller.states or any(kind is None for kind, _, _ in reads):
+        return None
+    kinds = [kind for kind, _, _ in reads]
+    positions = tuple(p for p, kind in enumerate(kinds) if kind in _RATE_FREE_POSITIONS)
+    rates = tuple(p for p, kind in enumerate(kinds) if kind in _PLAIN_RATES)
+    if len(positions) + len(rates) != len(kinds) or not positions or not rates:
+        return None
+    return None if _output_mixed(controller, positions, rates) is None else (positions, rates)
+
+
+def _rate_column(assembler, kind: int, index: int) -> int:
+    """The free rate a rate sensor reads (a joint's rate: its coordinate's; a node's velocity component: its
+    translation's), n_total where it is no free coordinate."""
+    model = assembler.model
+    return int(model.hinge_dofs[index] if kind == 1 else model.node_dofs[index // 3, index % 3])
+
+
+def _general_coupling_rates_part(assembler, state, w: np.ndarray):
+    """(rows, cols, values) of the couplings' part of ∂(K w)/∂v for a hinge's force driven by a controller of
+    :func:`_position_and_rate_reads` (not of joints alone: those are :func:`_coupling_rates_part`'s): K's entry
+    K_rc = −a Σ_p ∂f/∂s_p ∂s_p/∂q_c moves with rate sensor r by −a Σ_p ∂²f/∂s_p∂s_r ∂s_p/∂q_c, so along w: row r of
+    the hinge, column the rate's, −a Σ_p ∂²f/∂s_p∂s_r (∂s_p/∂q · w) — SymPy's mixed second derivatives
+    (:func:`_output_mixed`) at the sensors' values the evaluation computes, the gradients ∂s_p/∂q those of
+    :func:`_sensor_kinematics` (csrc/evaluate.c's); 0 while the output is saturated."""
+    control, model = assembler.control, assembler.model
+    n = model.n_dofs
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    taken = [(int(a), int(control.actuator_controller[a])) for a in np.flatnonzero(kinds == 0)
+             if _joint_reads(control, int(control.actuator_controller[a])) is None
+             and _position_and_rate_reads(assembler, int(control.actuator_controller[a])) is not None]
+    if not taken:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    native = assembler.native()
+    held = model.scene.controller_outputs
+    kept = held.values.copy()
+    native.controller_outputs_at(state)
+    held.values[:] = kept
+    sensed = np.array(native.buffers["sensor_values"], float)
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    t = float(state.t)
+    out_rows, out_cols, out_values = [], [], []
+    for a, k in taken:
+        controller = control.controllers[k]
+        positions, rates = _position_and_rate_reads(assembler, k)
+        reads = _controller_reads(control, k)
+        values = [float(sensed[sensor]) for _, _, sensor in reads]
+        lo, hi = control.limits[k]
+        if not lo <= float(_output_curvature(controller, positions)(t, *values)[0]) <= hi:
+            continue   # saturated: ∂y/∂s = 0 about the state (csrc/evaluate.c controller_outputs)
+        along = np.array([float(_sensor_kinematics(assembler, state, reads[p][0], reads[p][1], reads[p][2])[0]
+                                @ full[_sensor_dofs(assembler, reads[p][0], reads[p][1], reads[p][2])])
+                          for p in positions])
+        if not np.any(along):
+            continue
+        mixed = np.asarray(_output_mixed(controller, positions, rates)(t, *values), float).reshape(len(positions),
+                                                                                                   len(rates))
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        out_rows.append(np.full(len(rates), int(model.hinge_dofs[control.actuator_index[a]]), np.int64))
+        out_cols.append(np.array([_rate_column(assembler, reads[r][0], reads[r][1]) for r in rates], np.int64))
+        out_values.append(-gain * (mixed.T @ along))
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
+
+
 def exact_couplings_by_rates(assembler) -> np.ndarray:
     """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of ∂(K w)/∂v generated
     (:func:`_coupling_rates_part`): its actuator is a hinge's force, and its controller reads joints' angles and
-    rates alone (:func:`_joint_reads`). Its entry −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone
-    (an angle sensor does not read a rate); the same for a load's component such a controller drives (its entries
+    rates alone (:func:`_joint_reads`), or positions and plain rates (:func:`_position_and_rate_reads`,
+    :func:`_general_coupling_rates_part`; a model without rigid links or guides). A joints' controller's entry
+    −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone (an angle sensor does not read a rate); the same for a load's component such a controller drives (its entries
     g ∂y/∂θ_j, g the load's generalized force per unit output: :func:`_load_rates_part`); the others keep
     :func:`rates_rest_product`'s difference."""
     control = assembler.control
     actuators = np.asarray(control.coupling_actuator, np.int64)
     if not len(actuators):
         return np.zeros(0, bool)
-    return _plain_controllers(control)[np.asarray(control.actuator_controller, np.int64)[actuators]]
+    out = _plain_controllers(control)[np.asarray(control.actuator_controller, np.int64)[actuators]]
+    on_hinges = np.asarray(control.actuator_kind, np.int64)[actuators] == 0
+    general = np.array([_position_and_rate_reads(assembler, k) is not None for k in range(len(control.controllers))],
+                       bool)
+    return out | (on_hinges & general[np.asarray(control.actuator_controller, np.int64)[actuators]])
 
 
 def _plain_controllers(control) -> np.ndarray:
@@ -1498,6 +1594,8 @@ def _coupling_rates_part(assembler, state, w: np.ndarray, exact: np.ndarray | No
     actuators = np.unique(np.asarray(control.coupling_actuator, np.int64)[exact])
     for a in actuators[np.asarray(control.actuator_kind)[actuators] == 0]:   # a load's: :func:`_load_rates_part`
         k = int(control.actuator_controller[a])
+        if _joint_reads(control, k) is None:   # a controller of positions and rates: _general_coupling_rates_part
+            continue
         first, angles, rates = _joint_reads(control, k)
         indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
         columns = dofs[indices[list(angles)]]
@@ -1579,9 +1677,10 @@ def rates_tangent_of_weight(assembler, state, w: np.ndarray):
     hinge_rows, hinge_values = _hinge_rates_part(assembler, state, w)
     coupling_rows, coupling_cols, coupling_values = _coupling_rates_part(assembler, state, w)
     load_rows, load_cols, load_values = _load_rates_part(assembler, state, w)
-    return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows]),
-                   np.concatenate([hinge_rows, coupling_cols, load_cols]),
-                   np.concatenate([hinge_values, coupling_values, load_values]), n)
+    general_rows, general_cols, general_values = _general_coupling_rates_part(assembler, state, w)
+    return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows, general_rows]),
+                   np.concatenate([hinge_rows, coupling_cols, load_cols, general_cols]),
+                   np.concatenate([hinge_values, coupling_values, load_values, general_values]), n)
 
 
 def linked_rates_tangent(assembler, state, w: np.ndarray):
