@@ -1530,8 +1530,9 @@ def exact_couplings_by_rates(assembler) -> np.ndarray:
     (:func:`_coupling_rates_part`): its actuator is a hinge's force, and its controller reads joints' angles and
     rates alone (:func:`_joint_reads`), or positions and plain rates (:func:`_position_and_rate_reads`,
     :func:`_general_coupling_rates_part`; a model without rigid links or guides). A joints' controller's entry
-    −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone (an angle sensor does not read a rate); the same for a load's component such a controller drives (its entries
-    g ∂y/∂θ_j, g the load's generalized force per unit output: :func:`_load_rates_part`); the others keep
+    −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone (an angle sensor does not read a rate); the same
+    for a load's component such a controller drives (its entries g ∂y/∂θ_j, g the load's generalized force per unit
+    output: :func:`_load_rates_part`); the others keep
     :func:`rates_rest_product`'s difference."""
     control = assembler.control
     actuators = np.asarray(control.coupling_actuator, np.int64)
