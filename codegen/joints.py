@@ -884,6 +884,83 @@ def _cable_tension_D_q_D_q_kernel() -> KernelSpec:
                       variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
 
 
+RELATIVE_GEOMETRY = Argument("relative_geometry", 27, "x_n[3] x_b[3] T_n[9] r[3] T_b[9]: the reference points of the "
+                             "point's node and of the body, the node's frame, the point from the node's reference "
+                             "point in node axes, and the body's frame (frames row-major)")
+RELATIVE_VELOCITY = Argument("relative_velocity", 12, "v_n[3] ω_n[3] v_b[3] ω_b[3]: the velocities of the two nodes' "
+                             "reference points and their spatial angular velocities")
+
+
+def point_velocity_in_body(geometry, velocity):
+    """The velocity of the point p = x_n + T_n r of a node relative to a body, in the body's axes (SCENE.md
+    ``controllers``: a ``{point: …, quantity: velocity, frame: BODY}`` probe; csrc/evaluate.c ``sensor_value``, kind
+    13):
+
+        s = T_bᵀ V,   V = ṗ − v_b − ω_b × u,   ṗ = v_n + ω_n × o,   o = T_n r,   u = x_n + o − x_b,
+
+    component c the body's axis b_c = T_b e_c dotted with V (Eq. 2: the point at T_n r from its node)."""
+    x_n, x_b = _vector(geometry[0:3]), _vector(geometry[3:6])
+    T_n, r, T_b = _matrix(geometry[6:15]), _vector(geometry[15:18]), _matrix(geometry[18:27])
+    v_n, w_n, v_b, w_b = (_vector(velocity[3 * k:3 * k + 3]) for k in range(4))
+    o = T_n * r
+    u = x_n + o - x_b
+    return T_b.T * (v_n + w_n.cross(o) - v_b - w_b.cross(u))
+
+
+def _relative_moved(geometry, delta):
+    """The geometry of :func:`point_velocity_in_body` after the configuration update of both nodes by ``delta``
+    [d_n, π_n, d_b, π_b]: x += δd, T ← (I + skew δπ) T (spatial, to first order: all a derivative at δ = 0 needs)."""
+    moved = list(geometry)
+    moved[0:3] = list(_vector(geometry[0:3]) + delta[0:3, 0])
+    moved[3:6] = list(_vector(geometry[3:6]) + delta[6:9, 0])
+    moved[6:15] = list(_turned(_matrix(geometry[6:15]), delta[3:6, 0]))
+    moved[18:27] = list(_turned(_matrix(geometry[18:27]), delta[9:12, 0]))
+    return moved
+
+
+def _point_velocity_in_body_kernel() -> KernelSpec:
+    """A point's velocity relative to a body in its axes (:func:`point_velocity_in_body`) with its exact derivatives
+    by the two nodes' coordinates [d_n, π_n, d_b, π_b] (the spatial update, at fixed rates: a controller's coupling
+    entries of K) and by their rates [v_n, ω_n, v_b, ω_b] (C's): the sensor of csrc/evaluate.c, kind 13."""
+    geometry, velocity = RELATIVE_GEOMETRY.symbols(), RELATIVE_VELOCITY.symbols()
+    delta = sp.Matrix(sp.symbols("delta_0:12"))
+    value = point_velocity_in_body(geometry, velocity)
+    moved = point_velocity_in_body(_relative_moved(geometry, delta), velocity)
+    outputs = [Output("velocity_in_body", (3,), _rows(value), "T_bᵀ (v_n + ω_n × o − v_b − ω_b × (x_n + o − x_b))"),
+               Output("velocity_in_body_D_q", (3, 12), _rows(_jacobian(moved, delta, {d: 0 for d in delta})),
+                      "∂s/∂[d_n, π_n, d_b, π_b] at fixed rates (spatial update)"),
+               Output("velocity_in_body_D_rate", (3, 12), _rows(value.jacobian(_vector(velocity))),
+                      "∂s/∂[v_n, ω_n, v_b, ω_b]")]
+    return KernelSpec(name="point_velocity_in_body", doc="A point's velocity relative to a body, in the body's axes, "
+                      "and its exact derivatives by the two nodes' coordinates and rates (a controller's sensor)",
+                      inputs=[RELATIVE_GEOMETRY, RELATIVE_VELOCITY], outputs=outputs, variant="joints",
+                      equations="Eq. 2 (the point), relative to a body's frame")
+
+
+def _point_velocity_in_body_D_q_D_q_kernel() -> KernelSpec:
+    """The second derivative of :func:`point_velocity_in_body` by the two nodes' coordinates at fixed rates:
+    ∂(∂s/∂q_c)/∂q_i, the gradient ``velocity_in_body_D_q`` (column c, the update δ at 0) differentiated once more by
+    the update ε it starts from (column i), as ``cable_tension_D_q_D_q`` is built: the sensor's move along δq in an
+    event's impulse weight derivative (latdyn/analyses/weight_derivative.py ``_sensor_kinematics``, kind 13)."""
+    geometry, velocity = RELATIVE_GEOMETRY.symbols(), RELATIVE_VELOCITY.symbols()
+    delta, second = sp.Matrix(sp.symbols("delta_0:12")), sp.Matrix(sp.symbols("epsilon_0:12"))
+
+    def gradient(start):
+        return _jacobian(point_velocity_in_body(_relative_moved(start, delta), velocity), delta, {d: 0 for d in delta})
+
+    moved = gradient(_relative_moved(list(geometry), second))
+    by_q = [entry for c in range(3) for entry in _jacobian(moved[c, :].T, second, {e: 0 for e in second})]
+    outputs = [Output("velocity_in_body_D_q", (3, 12), _rows(gradient(list(geometry))),
+                      "∂s/∂[d_n, π_n, d_b, π_b] at fixed rates (spatial update)"),
+               Output("velocity_in_body_D_q_D_q", (3, 12, 12), by_q,
+                      "∂(∂s_k/∂q_c)/∂q_i at fixed rates (spatial update): component k, row c the gradient's column, "
+                      "column i the move")]
+    return KernelSpec(name="point_velocity_in_body_D_q_D_q", doc="The gradient of a point's velocity relative to a "
+                      "body by the two nodes' coordinates and its exact derivative by them (the sensor in an event's "
+                      "impulse weight with sensitivities)", inputs=[RELATIVE_GEOMETRY, RELATIVE_VELOCITY],
+                      outputs=outputs, variant="joints", equations="Eq. 2 (the point), relative to a body's frame")
+
+
 ROTATION_VECTOR = Argument("rotation_vector", 3, "w: a rotation vector (axis times angle), global")
 
 #: Below θ² = SO3_SWITCH the exponential's scalars are their Taylor polynomials in θ² (through θ⁸:
@@ -1328,6 +1405,7 @@ def build_kernels() -> list[KernelSpec]:
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
             _cable_stiffness_D_q_kernel(), _cable_rest_length_kernel(), _cable_stiffness_D_rest_length_kernel(),
             _cable_tension_kernel(), _cable_tension_D_q_D_q_kernel(),
+            _point_velocity_in_body_kernel(), _point_velocity_in_body_D_q_D_q_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),
             *(_rates_D_q_kernel(kind) for kind in ("rigid_link_edge", "prismatic_link_edge", "slider_closure_edge",

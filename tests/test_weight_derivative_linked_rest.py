@@ -11,7 +11,8 @@ stop; a chain of rigid bays with a boom of 24 elements (band storage) whose seco
 hinges' angles and rate drives — the exact part against Richardson-extrapolated differences of Pᵀ W_gen P w at a
 turned state with random rates, and at every event through the API no difference taken and ∂(W w)/∂q δq against the
 Richardson reference of tests/test_weight_derivative_linked.py; a controller whose output mixes an angle and a rate and
-reads an input, and a hinge damper naming an input, keep their entries in the difference; the slider-crank through
+reads an input keeps its entries in the difference, a hinge damper naming an input no longer
+(ctrlweight); the slider-crank through
 the CLI, loop on and off (the whole runs' sensitivities against Richardson central differences of whole runs are
 measured in docs/performance.md, "The linked weight's loads, cables and couplings generated (issue 34)")."""
 from __future__ import annotations
@@ -80,7 +81,7 @@ GIMBAL_MIXED = (GIMBAL_LOADS.replace("parameters: {k1: 6.0,", "parameters: {Kp: 
 #: moves with the rate the reduction's move carries (∂K_jj/∂θ̇ generated: tests/test_weight_derivative_linked_rates.py)
 GIMBAL_DAMPED = GIMBAL_LOADS.replace('stiffness: "k1", rest_angle: "rest"}}}',
                                      'stiffness: "k1", rest_angle: "rest", damping: "0.05*(1 + 4*theta**2)"}}}')
-#: the same damper times an input g = 1 (its ∂K_jj/∂θ̇ not generated: its entry stays in the difference)
+#: the same damper times an input g = 1 (its ∂K_jj/∂θ̇ generated at the input's value since ctrlweight)
 GIMBAL_DAMPED_INPUT = GIMBAL_LOADS.replace('stiffness: "k1", rest_angle: "rest"}}}',
                                            'stiffness: "k1", rest_angle: "rest", damping: "0.05*g*(1 + 4*theta**2)"}}}'
                                            ) + "inputs: {g: 1.0}\n"
@@ -229,16 +230,16 @@ def test_the_slider_cranks_cables_through_the_cli_loop_on_and_off(tmp_path):
     assert differences == 0
 
 
-def test_a_hinge_whose_stiffness_moves_with_its_rate_through_a_law_naming_an_input_keeps_the_difference(monkeypatch):
+def test_a_hinge_whose_stiffness_moves_with_its_rate_through_a_law_naming_an_input_is_generated(monkeypatch):
     """The gimbal with loads and its outer hinge damped by 0.05 g (1 + 4θ²), g an input (K_jj holds c′(θ) θ̇; its
-    ∂K_jj/∂θ̇ is generated for laws naming no input, tests/test_weight_derivative_linked_rates.py): that hinge's entry
-    is differenced along the move (its rate moves with it), the latch's ∂(W w)/∂q δq agreeing with the Richardson
-    reference, where 10be92c, whose generated hinges' part left the rate's move out, was 1.7e-4 off (the same damper
-    without the input)."""
+    ∂K_jj/∂θ̇ generated at the input's value, tests/test_weight_derivative_controllers_rest.py): no difference taken
+    at the latch (86d57d9 took 10, its entry differenced along the move), the latch's ∂(W w)/∂q δq agreeing with the
+    Richardson reference (measured 5.7e-12 on both), where 10be92c, whose generated hinges' part left the rate's move
+    out, was 1.7e-4 off (the same damper without the input)."""
     result, errors, differences = _at_events(GIMBAL_DAMPED_INPUT, monkeypatch)
-    assert [e["kind"] for e in result.summary["events"]] == ["latch"] and differences > 0
+    assert [e["kind"] for e in result.summary["events"]] == ["latch"] and differences == 0
     assert errors and max(errors) < 5e-11, errors
     from latdyn.analyses.weight_derivative import linked_exact_hinges
 
     prepared = prepare(latdyn.load_scene(yaml.safe_load(GIMBAL_DAMPED_INPUT)))
-    assert linked_exact_hinges(prepared.assembler).tolist() == [False, True]
+    assert linked_exact_hinges(prepared.assembler).tolist() == [True, True]

@@ -281,11 +281,13 @@ def test_a_pd_controllers_coupling_in_h_is_sympys_second_derivative_and_no_diffe
     _assert_h_is_richardsons(assembler, state, rng, n)
 
 
-def test_a_saturated_controller_adds_nothing_and_a_controller_of_a_relative_velocity_keeps_the_difference():
+def test_a_saturated_controller_adds_nothing_and_a_controller_of_a_relative_velocity_takes_no_difference():
     """The PD's output clipped at the state (limits [−0.01, 0.01]): its coupling's part of H is empty (∂y/∂s = 0
-    about it, csrc/evaluate.c); the same controller reading a point's velocity in a body's axes keeps the difference
-    along its couplings (a controller reading an input or a point: tests/test_weight_derivative_couplings.py; a
-    cable's tension or a section force: tests/test_weight_derivative_force_sensors.py)."""
+    about it, csrc/evaluate.c); the same controller reading a point's velocity in a body's axes is generated since
+    ctrlweight, no difference along its couplings (86d57d9 kept one; a controller reading an input or a point:
+    tests/test_weight_derivative_couplings.py; a cable's tension or a section force:
+    tests/test_weight_derivative_force_sensors.py; a relative velocity:
+    tests/test_weight_derivative_controllers_rest.py)."""
     from latdyn.analyses.weight_derivative import _coupling_part, exact_couplings
 
     clipped = CONTROLLED_BOOM.replace('(1 + angle**2)"}', '(1 + angle**2)", limits: [-0.01, 0.01]}')
@@ -297,7 +299,7 @@ def test_a_saturated_controller_adds_nothing_and_a_controller_of_a_relative_velo
                      .replace("    angle: {", '    spin: {point: "arm.node[1]", quantity: velocity, component: x, '
                               'frame: wheel}\n    angle: {', 1))
     assembler = prepare(latdyn.load_scene(yaml.safe_load(with_relative))).assembler
-    assert not exact_couplings(assembler).any() and len(rest_support(assembler))
+    assert exact_couplings(assembler).all() and not len(rest_support(assembler))
 
 
 def test_through_the_latch_the_controlled_booms_sensitivities_agree_and_the_loop_keeps_the_bits(monkeypatch):

@@ -32,9 +32,11 @@ and exact:
   with NumPy at the event (the events take the Python path; nothing is compiled for them: a scene without events,
   or without laws of θ, makes nothing new). A hinge that a continuous controller alone drives has no torque law
   there (csrc/evaluate.c ``hinge_forces``). A law naming an input is taken at the input's value at the event (the
-  law and its slope read the scene's inputs, as the compiled laws do). A hinge with a law of θ that names a
-  controller, or whose ∂f/∂θ does not parse back as a law (:func:`exact_hinges`), keeps the difference below along
-  its angle;
+  law and its slope read the scene's inputs, as the compiled laws do); a torque a y + b naming a continuous
+  controller's output y (a constant a, b of θ, θ̇, t and inputs: latdyn.assembly.control refuses any other) with
+  b's second derivative, SymPy's of the law with y a symbol (y moves along q through the couplings below), a sampled
+  controller's held output as an input (:func:`_names_held_in_a_hinge_law`). A hinge whose ∂f/∂θ does not parse
+  back as a law (:func:`exact_hinges`) keeps the difference below along its angle;
 * the point loads' blocks K_l (the node's rows × the turns of the node and of the body the load turns with; a
   global load's frame half zero), along w_l on those columns: ``point_load_stiffness_D_q`` (codegen/joints.py: K_l w
   as the derivative of the load's force along the turns τ w at τ = 0, differentiated once more by the turns the
@@ -50,7 +52,8 @@ and exact:
   element's K is the runtime's zero, its derivative too (:func:`_cable_part`);
 * the continuous controllers' couplings (:func:`exact_couplings`) from a controller that reads joints' angles and
   rates, points' positions and displacements (global at their node or at an offset, or in a body's axes), nodes'
-  velocities and points' velocities at an offset, cables' lengths and tensions, elements' section forces, free
+  velocities, points' velocities at an offset and relative to a body, cables' lengths and tensions, elements' section
+  forces, free
   joints' forces whose laws are generated, inputs, its own states and earlier such controllers (:func:`_exact_controllers`): K's entry −a ∂y/∂q_c (a joint's force) or F(e_p) ∂y/∂q_c (a load
   component) moves along q with y's second derivative through the chain rule (:func:`_controller_curvatures`):
   SymPy's first and second derivatives of each output's expression by its reads that move (lambdified once per
@@ -64,14 +67,15 @@ and exact:
   damper's c ℓ̇ at the state's rates held; 0 while slack) from ``cable_tension_D_q_D_q``, ∂N/∂q differentiated once
   more under the update of the ends, codegen/joints.py beside ``cable_stiffness_D_q``; an element's section force
   from ``beam_section_forces_D_q_D_q``, the forward-mode program of the lowered product (∂S/∂q) a seeded as
-  ``beam_stiffness_D_q``'s, codegen/derivation.py, at a = each of the element's fourteen coordinates; a variant
-  generated before these two kernels keeps the difference for those controllers); 0 while an output is saturated
-  (:func:`_coupling_part`, :func:`_driven_load_part`).
+  ``beam_stiffness_D_q``'s, codegen/derivation.py, at a = each of the element's fourteen coordinates; a point's
+  velocity relative to a body, in its axes, from ``point_velocity_in_body_D_q_D_q`` (codegen/joints.py: the
+  gradient of ``point_velocity_in_body``, the sensor csrc/evaluate.c takes its value and gradient from, differentiated
+  once more under the update of both nodes, the rates held); a variant generated before these kernels keeps the
+  difference for those controllers); 0 while an output is saturated (:func:`_coupling_part`,
+  :func:`_driven_load_part`).
 
-Not generated, H_rest: the couplings of a controller reading a point's velocity relative to a body (whose value
-moves with q; its gradient is hand-written in csrc/evaluate.c, so a second derivative would be hand-written physics
-again), a free joint's force whose law is not generated, or a controller of those, and the blocks of the loads such
-controllers drive. Their product (W
+Not generated, H_rest: the couplings of a controller reading a free joint's force whose law is not generated, or a
+controller of those, and the blocks of the loads such controllers drive. Their product (W
 without the generated blocks) w is differenced centrally along each coordinate those blocks are on
 (:func:`rest_support`: those couplings' rows and columns, the driven loads' nodes and frame bodies, a hinge not in
 :func:`exact_hinges`), two evaluations per coordinate, step
@@ -127,8 +131,8 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   rate beside anything but joints (a node's or a point's velocity, a free joint's force: their values move with the
   rates the move carries), a point at an offset or a cable's length (not measured on linked models), or a controller
   of those, a load's coupling entries, and the hinges whose K_jj moves with
-  their rate through a law naming an input (:func:`linked_exact_hinges`: ∂K_jj/∂θ̇ not generated for them, as
-  :func:`exact_hinges_by_rates`),
+  their rate where ∂K_jj/∂θ̇ is not generated (:func:`linked_exact_hinges`, :func:`exact_hinges_by_rates`: a law
+  whose slope in θ does not parse back as a law),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
   part's round-off, 1e-8 of H δq over the step on the slider-crank), centrally along each column's move (δq, the free
   rates along δv, δv̇, the dependent ones completed) as before, two evaluations a parameter — none where the model
@@ -154,11 +158,17 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
   (codegen/joints.py: f with each law expanded to second order in (θ, θ̇), its compliant stop with its damping
   included, differentiated by θ and θ̇ at the state), fed the laws' values and first derivatives and their mixed second derivatives,
   the ``d_rate`` of :func:`_angle_slope_law`'s law (SymPy's ∂²f/∂θ∂θ̇, evaluated with NumPy at the event), for the
-  hinges of :func:`exact_hinges_by_rates` (:func:`_hinge_rates_part`);
+  hinges of :func:`exact_hinges_by_rates` (:func:`_hinge_rates_part`; a law naming an input or a controller's output
+  at its value at the event, as along q);
 * the continuous controllers' couplings on a joint's force from a controller that reads joints' angles and rates
   alone (:func:`exact_couplings_by_rates`): K's entry −a ∂y/∂θ_j moves with a rate sensor's θ̇_i by
   −a ∂²y/∂θ_j∂θ̇_i, SymPy's mixed second derivatives of the output lambdified once per output in a process
-  (:func:`_output_mixed`), 0 while the output is saturated (:func:`_coupling_rates_part`);
+  (:func:`_output_mixed`), 0 while the output is saturated (:func:`_coupling_rates_part`); and from a controller that
+  reads points' positions (global at their node or at an offset, in a body's axes) and cables' lengths beside joints'
+  angles, joints' rates and nodes' velocities (:func:`_position_and_rate_reads`, a model without rigid links or
+  guides): K's entry −a Σ_p ∂f/∂s_p ∂s_p/∂q_c moves with a rate sensor r by −a Σ_p ∂²f/∂s_p∂s_r ∂s_p/∂q_c (those
+  sensors' gradients hold no rate; a rate sensor's ∂s_r/∂v is a coordinate's unit), the gradients those of
+  :func:`_sensor_kinematics` (:func:`_general_coupling_rates_part`);
 * the point loads such a controller drives (:func:`exact_loads_by_rates`): a component a y + b moves with a rate
   sensor by a ∂y/∂θ̇_i, the load's block (linear in its values) by K_l(a ∂y/∂θ̇_i e_c) w from the generated
   ``point_load_stiffness_D_q``, and its couplings g ∂y/∂θ_j (g: ``point_load``'s force at a e_c) by g ∂²y/∂θ_j∂θ̇_i
@@ -169,10 +179,11 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
 
 Still a central difference (:func:`rates_rest_needed`; two evaluations a parameter, the adjoint's two a free rate),
 of the blocks not generated alone (:func:`rates_rest_product`: K w of those blocks, the others out): a hinge law of
-θ or θ̇ naming an input (:func:`exact_hinges_by_rates`), and the couplings and driven loads of the other controllers
-(:func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`: a controller reading a point, a body, a cable, an
-element, a joint's force, an input, a state or another controller). Rigid links and guides: the rates' move is in
-``TransientSensitivities._linked_weight_derivative`` (above), not here.
+θ whose slope does not parse back as a law (:func:`exact_hinges_by_rates`), the loads driven by controllers other
+than of joints alone, and the couplings of the other controllers (a point's velocity at an offset or relative to a
+body, a cable's tension, an element's section force, a joint's force, an input, a state or another controller
+read; :func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`). Rigid links and guides: the rates' move is
+in ``TransientSensitivities._linked_weight_derivative`` (above), not here.
 """
 from __future__ import annotations
 
@@ -230,13 +241,16 @@ def _sparse(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, n: int):
 
 
 def times(H, x: np.ndarray) -> np.ndarray:
-    """H x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums)."""
-    return csr.times(H, x) if isinstance(H, CSR) else np.asarray(H @ x)
+    """H x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums), floats even where H has no
+    entry (NumPy's ``bincount`` of nothing is integer: an empty generated part then took no float difference added in
+    place, a traceback at 86d57d9 on the wheel's stop with a damper naming an input)."""
+    return np.asarray(csr.times(H, x) if isinstance(H, CSR) else H @ x, float)
 
 
 def transposed_times(H, x: np.ndarray) -> np.ndarray:
-    """Hᵀ x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums)."""
-    return csr.transposed_times(H, x) if isinstance(H, CSR) else np.asarray(H.T @ x)
+    """Hᵀ x for :func:`configuration_tangent_of_weight`'s H (either storage; the same sums; floats, as
+    :func:`times`)."""
+    return np.asarray(csr.transposed_times(H, x) if isinstance(H, CSR) else H.T @ x, float)
 
 
 def needs_the_kernel(scene, model) -> bool:
@@ -641,19 +655,25 @@ def _controller_reads(control, k: int) -> list:
 #: the sensor kinds whose values move along q with a second derivative :func:`_sensor_kinematics` gives
 #: (latdyn.assembly.control: a joint's angle, a point's global position component at its node or at an offset, a
 #: point's position component in a body's axes, a point's velocity at an offset (by its node's turn: v + ω × T r at
-#: the rates held), a cable's length, a cable's tension, an element's section force, a free joint's force), and those
-#: held along q (a joint's rate, a node's velocity)
-_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 6, 7, 8, 11, 12, 14), (1, 3)
+#: the rates held), a cable's length, a cable's tension, an element's section force, a point's velocity relative to a
+#: body in its axes (at the rates held), a free joint's force), and those held along q (a joint's rate, a node's
+#: velocity)
+_MOVING_SENSORS, _HELD_SENSORS = (0, 2, 5, 6, 7, 8, 11, 12, 13, 14), (1, 3)
 #: the generated second derivative a force sensor's move along q needs (codegen/joints.py, codegen/derivation.py): a
 #: cable's tension (kind 11) and an element's section force (12); a variant generated before it keeps the difference
 _FORCE_SECOND = {11: "cable_tension_D_q_D_q", 12: "beam_section_forces_D_q_D_q"}
+#: the generated second derivatives of the sensors that have their own kernel: the force sensors' and a point's
+#: velocity relative to a body (13, codegen/joints.py ``point_velocity_in_body_D_q_D_q``); a joints unit generated
+#: before it keeps the difference
+_SENSOR_SECOND = {**_FORCE_SECOND, 13: "point_velocity_in_body_D_q_D_q"}
 
 
 def _exact_controllers(assembler) -> list:
     """(controllers,) bool: whether a continuous controller's output has its second derivatives along q generated
     (:func:`_controller_curvatures`): it reads joints' angles and rates, points' positions and displacements
-    (global, at an offset, in a body's axes), nodes' velocities, points' velocities at an offset, cables' lengths
-    and tensions, elements' section forces (where the variant holds :data:`_FORCE_SECOND`'s kernels), free joints'
+    (global, at an offset, in a body's axes), nodes' velocities, points' velocities at an offset and relative to a
+    body, cables' lengths and tensions, elements' section forces (where the variant holds :data:`_SENSOR_SECOND`'s
+    kernels), free joints'
     forces whose laws are generated
     (:func:`exact_hinges`), inputs, its own states (held across the impulse) and earlier controllers of this kind
     alone, with an output whose second derivatives by the sensors that move
@@ -667,7 +687,7 @@ def _exact_controllers(assembler) -> list:
     model = assembler.model
     generated = dict(zip((int(j) for j in model.free_hinges), exact_hinges(assembler)))
     info = getattr(assembler.kernels, "info", None) or {}
-    held = {kind for kind, name in _FORCE_SECOND.items() if name not in info}
+    held = {kind for kind, name in _SENSOR_SECOND.items() if name not in info}
     out = []
     for k, controller in enumerate(control.controllers):
         reads = _controller_reads(control, k)
@@ -739,6 +759,8 @@ def _sensor_kinematics(assembler, state, kind: int, index: int, sensor: int):
         return _tension_kinematics(assembler, state, index)
     if kind == 12:
         return _section_force_kinematics(assembler, state, index, sensor)
+    if kind == 13:
+        return _body_velocity_kinematics(assembler, state, index, sensor)
     if kind == 14:   # s = −f of the joint's laws (csrc/evaluate.c): −∂f/∂θ = −K_jj, moving with −∂K_jj/∂θ
         states, laws, curvatures, contacts = _hinge_rows(assembler, state, [index])
         kernels = assembler.kernels
@@ -858,6 +880,23 @@ def _section_force_kinematics(assembler, state, index: int, sensor: int):
     gradient = weight[0] * along[:, k] + (weight[1] * along[:, k + 1] if k < 3 else 0.0)
     second = weight[0] * moved[:, k] + (weight[1] * moved[:, k + 1] if k < 3 else 0.0)
     return gradient, second
+
+
+def _body_velocity_kinematics(assembler, state, index: int, sensor: int):
+    """:func:`_sensor_kinematics` of a point's velocity relative to a body, in its axes (latdyn.assembly.control
+    BODY_VELOCITY; index 3 n + c, the point's offset in ``sensor_offset``, the body's node in ``sensor_frame_node``):
+    the generated ``point_velocity_in_body_D_q_D_q`` (codegen/joints.py) at the state, the rates held: the gradient's
+    derivative by the update of both nodes; the gradient by [d_n, π_n, d_b, π_b] is ``point_velocity_in_body``'s, as
+    csrc/evaluate.c's."""
+    control = assembler.control
+    node, c, body = index // 3, index % 3, int(control.sensor_frame_node[sensor])
+    geometry = np.concatenate([state.x[node], state.x[body], np.reshape(state.T[node], 9),
+                               control.sensor_offset[sensor], np.reshape(state.T[body], 9)])
+    velocity = np.concatenate([state.v[node], state.w[node], state.v[body], state.w[body]])
+    rows = (np.ascontiguousarray(geometry[None], dtype=float), np.ascontiguousarray(velocity[None], dtype=float))
+    gradient = assembler.kernels.point_velocity_in_body(*rows)[1]    # csrc/evaluate.c's, to the bit
+    second = assembler.kernels.point_velocity_in_body_D_q_D_q(*rows)[1]
+    return np.asarray(gradient, float).reshape(3, 12)[c], np.asarray(second, float).reshape(3, 12, 12)[c]
 
 
 def _controller_curvatures(assembler, state, exact: list, with_outputs: bool = False):
@@ -1016,20 +1055,30 @@ def _hinge_laws(assembler, j: int) -> tuple:
     return (("stiffness", hinge.stiffness), ("damping", hinge.damping), ("torque", torque))
 
 
+def _names_held_in_a_hinge_law(scene) -> set:
+    """The names a hinge law may read whose values its slopes in θ and θ̇ hold: the scene's inputs (a number at the
+    event, the value the law and its slope read from the scene's inputs as the compiled laws do) and the
+    controllers' outputs — a continuous controller only in a torque or force a y + b with a constant a
+    (latdyn.assembly.control ``driven``), whose y moves through the couplings (:func:`_coupling_part`,
+    :func:`_coupling_rates_part`) while the law's own ∂²/∂θ², ∂²/∂θ∂θ̇ are b's, SymPy's with y a symbol; a sampled one's
+    held output a number, as an input."""
+    inputs = set(getattr(getattr(scene, "inputs", None), "names", ()))
+    return inputs | set(getattr(scene, "controllers", None) or {})
+
+
 def exact_hinges(assembler) -> np.ndarray:
     """(free hinges,) bool: whether the free hinge's part of H is generated (:func:`_hinge_part`): each of its laws
-    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`) and naming no controller
-    (a continuous one's output moves with its sensors; an input it names is a number at the event, the value the
-    law and its slope read from the scene's inputs as the compiled laws do); otherwise its angle stays in
+    is constant, of t alone, or of θ with a second derivative (:func:`_angle_slope_law`), naming inputs and
+    controllers' outputs alone (:func:`_names_held_in_a_hinge_law`); otherwise its angle stays in
     :func:`rest_support`, differenced as before."""
     model = assembler.model
-    inputs = set(getattr(getattr(model.scene, "inputs", None), "names", ()))
+    held = _names_held_in_a_hinge_law(model.scene)
     out = np.ones(len(model.free_hinges), bool)
     for i, j in enumerate(model.free_hinges):
         for key, law in _hinge_laws(assembler, int(j)):
             if law is None or "theta" not in law.depends_on:
                 continue
-            if set(getattr(law, "input_names", ())) - inputs or _slope_law(
+            if set(getattr(law, "input_names", ())) - held or _slope_law(
                     law, model.scene, f"joints.{model.hinges[j].name}.{key}") is None:
                 out[i] = False
     return out
@@ -1201,10 +1250,10 @@ def linked_exact_hinges(assembler) -> np.ndarray:
     generated (:func:`_hinge_part`, :func:`linked_configuration_tangent`): those of :func:`exact_hinges` whose
     K_jj = ∂f/∂θ does not move with the hinge's rate (:func:`linked_rate_moving_hinges`), or whose move with it is
     generated too (:func:`exact_hinges_by_rates`: s (∂K_jj/∂θ̇_j) w_j δθ̇_j, :func:`linked_rates_tangent`; the hinge's
-    rate is a free one, P does not move its row). The others (a law naming an input whose K_jj moves with the rate)
-    keep the difference (:func:`linked_rest_product`): before 10be92c's linkedrest their entries' move with the rates
-    was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch), after it
-    every hinge moving with its rate was differenced."""
+    rate is a free one, P does not move its row; a law naming an input since ctrlweight, 86d57d9 differenced it). The
+    others keep the difference (:func:`linked_rest_product`): before 10be92c's linkedrest their entries' move with the
+    rates was left out (a damper 0.05 (1 + 4θ²) on the gimbal's outer hinge: 1.7e-4 of ∂(W w)/∂q δq at the latch),
+    after it every hinge moving with its rate was differenced."""
     return exact_hinges(assembler) & (~linked_rate_moving_hinges(assembler) | exact_hinges_by_rates(assembler))
 
 
@@ -1313,17 +1362,19 @@ def _linked_split(assembler, exact: np.ndarray):
 
 def exact_hinges_by_rates(assembler) -> np.ndarray:
     """(free hinges,) bool: whether the free hinge's part of ∂(K w)/∂v is generated (:func:`_hinge_rates_part`): each
-    of its laws that reads θ or θ̇ names no input (its slopes are then the law's own), and one that reads θ has its
-    slope law (:func:`_angle_slope_law`, whose ``d_rate`` is SymPy's ∂²f/∂θ∂θ̇); otherwise its entry stays in
-    :func:`rates_rest_product`'s difference."""
+    of its laws that reads θ or θ̇ names inputs and controllers' outputs alone (:func:`_names_held_in_a_hinge_law`:
+    held along the rates, their values the scene's at the event; its slopes are then the law's own), and one that
+    reads θ has its slope law (:func:`_angle_slope_law`, whose ``d_rate`` is SymPy's ∂²f/∂θ∂θ̇); otherwise its entry
+    stays in :func:`rates_rest_product`'s difference."""
     model = assembler.model
+    held = _names_held_in_a_hinge_law(model.scene)
     out = np.ones(len(model.free_hinges), bool)
     for i, j in enumerate(model.free_hinges):
         for key, law in _hinge_laws(assembler, int(j)):
             reads = set(getattr(law, "depends_on", ())) if law is not None else set()
             if not {"theta", "theta_dot"} & reads:
                 continue
-            if getattr(law, "input_names", ()) or ("theta" in reads and _slope_law(
+            if set(getattr(law, "input_names", ())) - held or ("theta" in reads and _slope_law(
                     law, model.scene, f"joints.{model.hinges[j].name}.{key}") is None):
                 out[i] = False
     return out
@@ -1388,18 +1439,110 @@ def _joint_reads(control, k: int):
     return None if _output_mixed(controller, angles, rates) is None else (first, angles, rates)
 
 
+#: the sensor kinds whose gradient along q does not move with the rates (a joint's angle, a node's or a point's
+#: position component, global, at an offset or in a body's axes, a cable's length) and
+#: those read at rates whose gradient along v is constant (a joint's rate, a node's velocity component):
+#: :func:`_position_and_rate_reads`
+_RATE_FREE_POSITIONS, _PLAIN_RATES = (0, 2, 5, 7, 8), (1, 3)
+
+
+def _position_and_rate_reads(assembler, k: int):
+    """(position reads, rate reads) of continuous controller ``k`` (their positions among its reads), or None unless
+    it reads sensors of :data:`_RATE_FREE_POSITIONS` and :data:`_PLAIN_RATES` alone, at least one rate and one
+    position, no input, state or other controller, on a model without rigid links or guides, with mixed second
+    derivatives of its output by them that are functions (:func:`_output_mixed`) and the sensors' second derivatives
+    generated (:func:`_exact_controllers`). Its coupling entry K_rc = −a Σ_p ∂f/∂s_p ∂s_p/∂q_c then moves with the
+    rates through ∂²f/∂s_p∂s_r alone: a position sensor's gradient holds no rate, a rate sensor's ∂s_r/∂v is a
+    coordinate's unit."""
+    control = assembler.control
+    if assembler.model.links is not None or not _exact_controllers(assembler)[k]:
+        return None
+    controller = control.controllers[k]
+    reads = _controller_reads(control, k)
+    if controller.states or any(kind is None for kind, _, _ in reads):
+        return None
+    kinds = [kind for kind, _, _ in reads]
+    positions = tuple(p for p, kind in enumerate(kinds) if kind in _RATE_FREE_POSITIONS)
+    rates = tuple(p for p, kind in enumerate(kinds) if kind in _PLAIN_RATES)
+    if len(positions) + len(rates) != len(kinds) or not positions or not rates:
+        return None
+    return None if _output_mixed(controller, positions, rates) is None else (positions, rates)
+
+
+def _rate_column(assembler, kind: int, index: int) -> int:
+    """The free rate a rate sensor reads (a joint's rate: its coordinate's; a node's velocity component: its
+    translation's), n_total where it is no free coordinate."""
+    model = assembler.model
+    return int(model.hinge_dofs[index] if kind == 1 else model.node_dofs[index // 3, index % 3])
+
+
+def _general_coupling_rates_part(assembler, state, w: np.ndarray):
+    """(rows, cols, values) of the couplings' part of ∂(K w)/∂v for a hinge's force driven by a controller of
+    :func:`_position_and_rate_reads` (not of joints alone: those are :func:`_coupling_rates_part`'s): K's entry
+    K_rc = −a Σ_p ∂f/∂s_p ∂s_p/∂q_c moves with rate sensor r by −a Σ_p ∂²f/∂s_p∂s_r ∂s_p/∂q_c, so along w: row r of
+    the hinge, column the rate's, −a Σ_p ∂²f/∂s_p∂s_r (∂s_p/∂q · w) — SymPy's mixed second derivatives
+    (:func:`_output_mixed`) at the sensors' values the evaluation computes, the gradients ∂s_p/∂q those of
+    :func:`_sensor_kinematics` (csrc/evaluate.c's); 0 while the output is saturated."""
+    control, model = assembler.control, assembler.model
+    n = model.n_dofs
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    taken = [(int(a), int(control.actuator_controller[a])) for a in np.flatnonzero(kinds == 0)
+             if _joint_reads(control, int(control.actuator_controller[a])) is None
+             and _position_and_rate_reads(assembler, int(control.actuator_controller[a])) is not None]
+    if not taken:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    native = assembler.native()
+    held = model.scene.controller_outputs
+    kept = held.values.copy()
+    native.controller_outputs_at(state)
+    held.values[:] = kept
+    sensed = np.array(native.buffers["sensor_values"], float)
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    t = float(state.t)
+    out_rows, out_cols, out_values = [], [], []
+    for a, k in taken:
+        controller = control.controllers[k]
+        positions, rates = _position_and_rate_reads(assembler, k)
+        reads = _controller_reads(control, k)
+        values = [float(sensed[sensor]) for _, _, sensor in reads]
+        lo, hi = control.limits[k]
+        if not lo <= float(_output_curvature(controller, positions)(t, *values)[0]) <= hi:
+            continue   # saturated: ∂y/∂s = 0 about the state (csrc/evaluate.c controller_outputs)
+        along = np.array([float(_sensor_kinematics(assembler, state, reads[p][0], reads[p][1], reads[p][2])[0]
+                                @ full[_sensor_dofs(assembler, reads[p][0], reads[p][1], reads[p][2])])
+                          for p in positions])
+        if not np.any(along):
+            continue
+        mixed = np.asarray(_output_mixed(controller, positions, rates)(t, *values), float).reshape(len(positions),
+                                                                                                   len(rates))
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        out_rows.append(np.full(len(rates), int(model.hinge_dofs[control.actuator_index[a]]), np.int64))
+        out_cols.append(np.array([_rate_column(assembler, reads[r][0], reads[r][1]) for r in rates], np.int64))
+        out_values.append(-gain * (mixed.T @ along))
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
+
+
 def exact_couplings_by_rates(assembler) -> np.ndarray:
     """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of ∂(K w)/∂v generated
     (:func:`_coupling_rates_part`): its actuator is a hinge's force, and its controller reads joints' angles and
-    rates alone (:func:`_joint_reads`). Its entry −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone
-    (an angle sensor does not read a rate); the same for a load's component such a controller drives (its entries
-    g ∂y/∂θ_j, g the load's generalized force per unit output: :func:`_load_rates_part`); the others keep
+    rates alone (:func:`_joint_reads`), or positions and plain rates (:func:`_position_and_rate_reads`,
+    :func:`_general_coupling_rates_part`; a model without rigid links or guides). A joints' controller's entry
+    −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone (an angle sensor does not read a rate); the same
+    for a load's component such a controller drives (its entries g ∂y/∂θ_j, g the load's generalized force per unit
+    output: :func:`_load_rates_part`); the others keep
     :func:`rates_rest_product`'s difference."""
     control = assembler.control
     actuators = np.asarray(control.coupling_actuator, np.int64)
     if not len(actuators):
         return np.zeros(0, bool)
-    return _plain_controllers(control)[np.asarray(control.actuator_controller, np.int64)[actuators]]
+    out = _plain_controllers(control)[np.asarray(control.actuator_controller, np.int64)[actuators]]
+    on_hinges = np.asarray(control.actuator_kind, np.int64)[actuators] == 0
+    general = np.array([_position_and_rate_reads(assembler, k) is not None for k in range(len(control.controllers))],
+                       bool)
+    return out | (on_hinges & general[np.asarray(control.actuator_controller, np.int64)[actuators]])
 
 
 def _plain_controllers(control) -> np.ndarray:
@@ -1452,6 +1595,8 @@ def _coupling_rates_part(assembler, state, w: np.ndarray, exact: np.ndarray | No
     actuators = np.unique(np.asarray(control.coupling_actuator, np.int64)[exact])
     for a in actuators[np.asarray(control.actuator_kind)[actuators] == 0]:   # a load's: :func:`_load_rates_part`
         k = int(control.actuator_controller[a])
+        if _joint_reads(control, k) is None:   # a controller of positions and rates: _general_coupling_rates_part
+            continue
         first, angles, rates = _joint_reads(control, k)
         indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
         columns = dofs[indices[list(angles)]]
@@ -1533,9 +1678,10 @@ def rates_tangent_of_weight(assembler, state, w: np.ndarray):
     hinge_rows, hinge_values = _hinge_rates_part(assembler, state, w)
     coupling_rows, coupling_cols, coupling_values = _coupling_rates_part(assembler, state, w)
     load_rows, load_cols, load_values = _load_rates_part(assembler, state, w)
-    return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows]),
-                   np.concatenate([hinge_rows, coupling_cols, load_cols]),
-                   np.concatenate([hinge_values, coupling_values, load_values]), n)
+    general_rows, general_cols, general_values = _general_coupling_rates_part(assembler, state, w)
+    return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows, general_rows]),
+                   np.concatenate([hinge_rows, coupling_cols, load_cols, general_cols]),
+                   np.concatenate([hinge_values, coupling_values, load_values, general_values]), n)
 
 
 def linked_rates_tangent(assembler, state, w: np.ndarray):

@@ -102,7 +102,7 @@ class ModelData(ctypes.Structure):
         ("n_sampled", I64), ("sampled_laws", P), ("sampled_sensor_start", P), ("sampled_slot", P),
         ("sampled_state_start", P), ("sampled_state_slot", P), ("sampled_limits", P), ("sampled_rate", P),
         ("cable_tension", P), ("section_forces_D_q", P), ("inertia_matrices", P),
-        ("hinge_event_tolerance", P), ("cable_tolerance", P),
+        ("hinge_event_tolerance", P), ("cable_tolerance", P), ("point_velocity_in_body", P),
     ]
 
 

@@ -21,7 +21,7 @@ import ctypes
 import numpy as np
 
 from latdyn.assembly.compiled_laws import LawsUnavailable, compile_laws, unprintable
-from latdyn.assembly.control import CABLE_TENSION, SECTION_FORCE
+from latdyn.assembly.control import BODY_VELOCITY, CABLE_TENSION, SECTION_FORCE
 from latdyn.assembly.library import (
     ConfigurationData,
     HINGE_LAW_VALUES,
@@ -346,6 +346,8 @@ class NativeModel:
             cable_tension=_kernel_address(kernels, "cable_tension") if CABLE_TENSION in wired.sensor_kind else None,
             section_forces_D_q=_kernel_address(kernels, "beam_section_forces_D_q") if SECTION_FORCE in wired.sensor_kind
             else None,
+            point_velocity_in_body=(_kernel_address(kernels, "point_velocity_in_body")
+                                    if BODY_VELOCITY in wired.sensor_kind else None),
             inertia_matrices=(_kernel_address(kernels, "beam_inertia_matrices")
                               if "beam_inertia_matrices" in (getattr(kernels, "libraries", None) or {}) else None),
         )

@@ -246,6 +246,10 @@ typedef struct {
      * (latdyn/model/model.py lock_tolerance; 0 where none), (ce) that of each cable element's gap
      * (latdyn/model/cables.py cable_tolerance) */
     const double *hinge_event_tolerance, *cable_tolerance;
+    /* sensors of kind 13: the generated point_velocity_in_body (codegen/joints.py: the point's velocity relative to
+     * the body in its axes with its exact derivatives by the two nodes' coordinates and rates; NULL without such a
+     * sensor) */
+    void (*point_velocity_in_body)(int64_t, const double *, const double *, double *, double *, double *);
 } Model;
 
 /* Scratch buffers, allocated once by the caller. */
@@ -830,33 +834,25 @@ static double sensor_value(const Model *m, const Configuration *c, Work *w, int6
         break;
     }
     case 13: {  /* a point's velocity relative to a body, in its axes: s = b_c · V, V = ṗ − v_b − ω_b × u,
-                 * ṗ = v_n + ω_n × o, o = T_n r, u = x_n + o − x_b, b_c = T_b e_c. Columns: the point node's
-                 * [x, π] (K): ω_b × b_c, o × (b_c × (ω_n − ω_b)); the body's [x, π] (K): b_c × ω_b, b_c × V;
-                 * the point node's [v, ω] (C): b_c, o × b_c; the body's [v, ω] (C): −b_c, b_c × u */
+                 * ṗ = v_n + ω_n × o, o = T_n r, u = x_n + o − x_b, b_c = T_b e_c: the generated
+                 * point_velocity_in_body (codegen/joints.py) with ∂s/∂[x_n, π_n, x_b, π_b] (K) and
+                 * ∂s/∂[v_n, ω_n, v_b, ω_b] (C) */
         const int64_t node = index / 3, component = index % 3, body = m->sensor_frame_node[i];
-        const double *r = m->sensor_offset + 3 * i, *Tb = c->T + 9 * body;
-        const double *wn = c->w + 3 * node, *wb = c->w + 3 * body;
         double *jacobian = w->sensor_jacobian + m->sensor_column_start[i];
-        double o[3], u[3], b[3], V[3], spin[3], relative[3], t1[3], t2[3];
-        matvec3(c->T + 9 * node, r, o);
-        for (int q = 0; q < 3; ++q) {
-            u[q] = c->x[3 * node + q] + o[q] - c->x[3 * body + q];
-            b[q] = Tb[3 * q + component];
-            relative[q] = wn[q] - wb[q];
-        }
-        cross(wn, o, spin);
-        cross(wb, u, t1);
-        for (int q = 0; q < 3; ++q) V[q] = c->v[3 * node + q] + spin[q] - c->v[3 * body + q] - t1[q];
-        value = b[0] * V[0] + b[1] * V[1] + b[2] * V[2];
-        cross(wb, b, jacobian);          /* ∂s/∂x_n */
-        cross(b, relative, t2);
-        cross(o, t2, jacobian + 3);      /* ∂s/∂π_n */
-        cross(b, wb, jacobian + 6);      /* ∂s/∂x_b */
-        cross(b, V, jacobian + 9);       /* ∂s/∂π_b */
-        memcpy(jacobian + 12, b, 3 * sizeof(double));  /* ∂s/∂v_n */
-        cross(o, b, jacobian + 15);      /* ∂s/∂ω_n */
-        for (int q = 0; q < 3; ++q) jacobian[18 + q] = -b[q];  /* ∂s/∂v_b */
-        cross(b, u, jacobian + 21);      /* ∂s/∂ω_b */
+        double geometry[27], velocity[12], s[3], by_q[36], by_rate[36];
+        memcpy(geometry, c->x + 3 * node, 3 * sizeof(double));
+        memcpy(geometry + 3, c->x + 3 * body, 3 * sizeof(double));
+        memcpy(geometry + 6, c->T + 9 * node, 9 * sizeof(double));
+        memcpy(geometry + 15, m->sensor_offset + 3 * i, 3 * sizeof(double));
+        memcpy(geometry + 18, c->T + 9 * body, 9 * sizeof(double));
+        memcpy(velocity, c->v + 3 * node, 3 * sizeof(double));
+        memcpy(velocity + 3, c->w + 3 * node, 3 * sizeof(double));
+        memcpy(velocity + 6, c->v + 3 * body, 3 * sizeof(double));
+        memcpy(velocity + 9, c->w + 3 * body, 3 * sizeof(double));
+        m->point_velocity_in_body(1, geometry, velocity, s, by_q, by_rate);
+        value = s[component];
+        memcpy(jacobian, by_q + 12 * component, 12 * sizeof(double));
+        memcpy(jacobian + 12, by_rate + 12 * component, 12 * sizeof(double));
         break;
     }
     case 14: {  /* a free joint's force (the probe's, positive when it drives θ or s up): −f of its law (spring,
