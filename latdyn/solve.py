@@ -88,7 +88,13 @@ def _run(scene, out_dir, backend: str, progress: bool, resume: bool, checkpoint_
         writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
     with writer, _sigterm_interrupts(enabled=checkpointer is not None):
         _analyse(prepared, probes, writer, out_dir, analysis, progress, checkpointer, resume_from)
-        close_run(writer, wall0, compiled0)
+        try:
+            close_run(writer, wall0, compiled0)
+        except KeyboardInterrupt:   # every step taken and every row written: only the files' finishing was left
+            writer.close({"error": checkpoints.INTERRUPTED_CLOSING}, status="interrupted")
+            if checkpointer is not None:
+                checkpointer.discard()
+            raise
     if checkpointer is not None:
         checkpointer.discard()  # finished: nothing to resume
     result = writer.result()
