@@ -254,7 +254,14 @@ class TimeLoop:
         finally:
             self.bar.close()
             self._summarize()
+        if self.checkpointer is not None:   # the steps all taken: an interrupt while the files close keeps this one
+            self.checkpointer.last_step = self._checkpoint_the_last_step
         return self.progress
+
+    def _checkpoint_the_last_step(self) -> float:
+        """Write the checkpoint of the last accepted step (the run's last); its time."""
+        self._save_checkpoint(self.last)
+        return float(self.last.progress.state.t)
 
     def advance_to(self, t: float) -> TransientProgress:
         """Step on from where the loop is (after :meth:`begin`) to time ``t`` (≤ t_end) and pause
