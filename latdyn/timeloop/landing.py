@@ -1,27 +1,27 @@
 """Which event comes first in a step, and the search on the step's size that lands on it: one rule for the run
 without sensitivities (latdyn.timeloop.loop.TimeLoop._landing) and the run with them
-(latdyn.analyses.transient_sensitivities.TransientSensitivities.land), which differ only in the tolerance they land
-to (the events' own, :func:`latdyn.model.model.lock_tolerance` and :func:`latdyn.model.cables.cable_tolerance`; the
-sensitivities' 1e-12, whose event-time derivative assumes the step ends on the event) and in the passes they allow.
+(latdyn.analyses.transient_sensitivities.TransientSensitivities.land). Both land on a hinge's event to
+:data:`LANDING` by :func:`land`; with sensitivities, whose event-time derivative assumes the step ends on the event,
+a landing that ends elsewhere is refused, and a cable element's change is landed on alike (to :data:`LANDING` · EA),
+where the run without takes its own regula falsi on the trial ends (TimeLoop._cable_landing, docs/cables.md).
 
 The events, in the order of the step (linear interpolation of the angle and of the cable element's gap from the
 step's start): a hinge crossing its lock_at or a stop from inside (a rigid stop's impact or a compliant stop's
 onset), a cable element's gap crossing zero from the side the step held it on; else (nothing crossed) a hinge that
-ended within the tolerance of its lock_at, or a cable element the events turn over (its gap within the tolerance,
-moving towards zero). Two sessions chose otherwise before (hinges first with sensitivities, then cables; both by
-fraction without): fuzz8's finding 2 (tests/test_fuzz_run_findings7.py) was the difference."""
+ended within the events' tolerance of its lock_at, or a cable element the events turn over (its gap within the
+tolerance, moving towards zero). The two runs chose otherwise before (hinges first with sensitivities, then cables;
+both by fraction without): fuzz8's finding 2 (tests/test_fuzz_run_findings7.py) was the difference."""
 from __future__ import annotations
 
 from typing import Callable, NamedTuple
 
-from latdyn.model.cables import cable_tolerance
-from latdyn.model.model import lock_tolerance
 from latdyn.timeloop.events import cable_crossings, cable_events, cable_gaps, lock_events, stop_crossings
 
 
-#: |θ − θ_event| (rad, times max(1, |θ_event|)) to which a step lands on a latch or a stop, and |g| (times the
-#: element's EA) on a cable element's change, with sensitivities or without (the events' own tolerances,
-#: lock_tolerance 1e-7 and cable_tolerance 1e-9 EA, say which steps reach an event; this one where a landing aims)
+#: |θ − θ_event| (rad, times max(1, |θ_event|)) to which a step lands on a latch or a stop, with sensitivities or
+#: without, and |g| (times the element's EA) on a cable element's change with sensitivities (the events' own
+#: tolerances, lock_tolerance 1e-7 and cable_tolerance 1e-9 EA, say which steps reach an event; this one where a
+#: landing aims)
 LANDING = 1e-12
 #: retries at most of a landing's search (:func:`land`)
 LANDING_PASSES = 30
@@ -29,13 +29,11 @@ LANDING_PASSES = 30
 
 class Event(NamedTuple):
     """The first event of a step: ``fraction`` of the step at its crossing (None: reached at the step's end, not
-    crossed), ``hinge`` and ``at`` (its lock_at or stop) or ``element`` (a cable element), ``tolerance`` the
-    events' own on its gap (rad or m for a hinge, N for a cable element)."""
+    crossed), ``hinge`` and ``at`` (its lock_at or stop) or ``element`` (a cable element)."""
     fraction: float | None
     hinge: int | None = None
     at: float | None = None
     element: int | None = None
-    tolerance: float = 0.0
 
     def tight(self, assembler) -> float:
         """The landing's tolerance on :meth:`gap`: :data:`LANDING` · max(1, |at|), or :data:`LANDING` · EA."""
@@ -74,20 +72,19 @@ def first_event(assembler, old, new, cables: bool = True, cable_floor: float = 0
     if found:
         f, kind, index, at = min(found)
         if kind == 0:
-            return Event(float(f), hinge=int(index), at=float(at), tolerance=lock_tolerance(at))
-        return Event(float(f), element=int(index), tolerance=float(cable_tolerance(model.cables.EA[index])))
+            return Event(float(f), hinge=int(index), at=float(at))
+        return Event(float(f), element=int(index))
     if not reached:
         return None
     if latched:
         k = latched[0]
-        return Event(None, hinge=int(k), at=float(model.hinges[k].lock_at),
-                     tolerance=lock_tolerance(model.hinges[k].lock_at))
+        return Event(None, hinge=int(k), at=float(model.hinges[k].lock_at))
     if crossed_cables:
         sides = list(model.cables.sides)
         turned, _ = cable_events(assembler, sides, old, new)
         for e, (a, b) in enumerate(zip(sides, turned)):
             if a != b:
-                return Event(None, element=e, tolerance=float(cable_tolerance(model.cables.EA[e])))
+                return Event(None, element=e)
     return None
 
 
@@ -101,8 +98,8 @@ def land(step, old, attempt, gap: Callable, tight: float, passes: int, shortest:
     damped cable going taut: −20 at 0, +5.1 at 0.89 h, +2.5 at h; its next trial fell past h and the landing stopped
     5e-5 off: benchmarks/fuzz_sensitivities.py, tests/test_sensitivities_fuzz_finds.py); the secant from the step's
     start through each retry that the run without sensitivities took ended short of a compliant stop's onset
-    whenever the retry did (3e-5 s short, then slivers of 3e-5 and 4.3e-7 s, 59 steps where the landing to the
-    tolerance takes 45: fuzz7's finding 4, tests/test_event_landing_one_rule.py)."""
+    whenever the retry did (3e-5 s short, then slivers of 3e-5 and 4.3e-7 s, 59 steps where this landing takes 45:
+    fuzz7's finding 4, tests/test_fuzz_run_findings6.py)."""
     new, stats, h, lands = attempt
     a, ga = 0.0, gap(old)
     b, gb = h, gap(new)
