@@ -23,7 +23,8 @@ Checks per case (a process of its own, ``--worker``):
     derivatives), for the forward method and for the adjoint;
 (d) ``latdyn run`` (every ``--cli-every``-th case) against the API, sha-256 (forward, and the adjoint where taken);
 (f) the same scene without ``solve.sensitivities``: its events and the first one's time, recorded, not judged (the
-    run without lands to the events' tolerance and not on the cables' inner elements' changes: on scenes whose
+    run without lands on a hinge's event as the run with them, latdyn/timeloop/landing.py, but on a cable's change by
+    its own passes and not on the cables' inner elements' changes: on scenes whose
     two-element cables' inner node is not resolved by dt the times differ by milliseconds, seed 6 case 50, where
     the derivatives agree with differences of the runs with sensitivities);
 (e) no traceback: a failure that is not a SceneError/SolverError-style refusal is recorded (``crash``), and the

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 import time
 
@@ -88,13 +89,29 @@ def _run(scene, out_dir, backend: str, progress: bool, resume: bool, checkpoint_
         writer.summary.update(resumed_from_t=resume_from.t, resumes=resume_from.resumes + 1)
     with writer, _sigterm_interrupts(enabled=checkpointer is not None):
         _analyse(prepared, probes, writer, out_dir, analysis, progress, checkpointer, resume_from)
-        close_run(writer, wall0, compiled0)
+        try:
+            close_run(writer, wall0, compiled0)
+        except KeyboardInterrupt:   # every step taken: the last one's checkpoint, from which --resume finishes the files
+            _keep_the_last_step(checkpointer, writer)
+            raise
     if checkpointer is not None:
         checkpointer.discard()  # finished: nothing to resume
     result = writer.result()
     if analysis == "modes":
         result.modes = np.asarray(writer.summary.get("modes_hz", []))
     return result
+
+
+def _keep_the_last_step(checkpointer: checkpoints.Checkpointer | None, writer: ResultWriter) -> None:
+    """A run interrupted (Ctrl-C, SIGTERM) after its last step, while its files are finished: the checkpoint of
+    that step (:attr:`latdyn.timeloop.checkpoint.Checkpointer.last_step`), so that ``--resume`` finishes the files
+    as the uninterrupted run writes them, and summary.json's ``checkpoint_t`` says where it stands."""
+    if checkpointer is None or checkpointer.last_step is None or writer.closed:
+        return
+    try:
+        writer.summary["checkpoint_t"] = checkpointer.last_step()
+    except Exception as exc:  # noqa: BLE001 - the interrupt matters more
+        print(f"latdyn: could not write a checkpoint: {type(exc).__name__}: {exc}", file=sys.stderr)
 
 
 def open_run(scene: Scene, out_dir, backend: str = "auto",

@@ -43,7 +43,7 @@ def test_a_trial_a_whole_turn_past_a_stop_is_cut_not_landed_on(tmp_path):
 
 
 def test_a_landing_that_ends_short_of_the_stop_its_trial_crossed_is_said(monkeypatch):
-    """With that cut taken away the landing keeps the retry of 0.00279 s, which closed 0.002 of the 0.572 rad to the
+    """With that cut taken away the landing keeps the retry of 0.00949 s, which closed 0.007 of the 0.572 rad to the
     stop, after a trial that turned the hinge by h |Δθ̇| = 12.5 rad: a warning names the hinge, the stop, the step
     and the remedy (before: nothing said)."""
     import latdyn.timeloop.loop as loop
@@ -54,4 +54,4 @@ def test_a_landing_that_ends_short_of_the_stop_its_trial_crossed_is_said(monkeyp
     assert said, result.summary.get("warnings")
     assert said[0].startswith("the step from t = 0.06 of 0.03 s crossed the stop -0.597 of m0.end")
     assert "without resolving it (its rate changed by 417.1 rad/s over the step, which turns it by 12.5 > 0.25)" in said[0]
-    assert "the step kept, 0.00279 s, ends 0.57 short of it" in said[0] and "rerun with a smaller dt" in said[0]
+    assert "the step kept, 0.00949 s, ends 0.565 short of it" in said[0] and "rerun with a smaller dt" in said[0]

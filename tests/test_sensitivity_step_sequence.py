@@ -3,8 +3,8 @@
 (latdyn/analyses/transient_sensitivities.py ``TransientSensitivities.land``).
 
 A run with sensitivities lands on each event to 1e-12 and restarts at dt after it and after each step onto the grid, so
-that its step sizes are differentiable in p; a run without lands to the events' tolerance in at most 4 passes and grows
-its steps back from the short one (docs/parameters.md, "Sensitivities through events"). Those two rules are the whole
+that its step sizes are differentiable in p; a run without lands on a hinge's event as it does (latdyn.timeloop.landing),
+on a cable's change by at most 4 passes of its own, and grows its steps back from the short one (docs/parameters.md, "Sensitivities through events"). Those two rules are the whole
 difference (measured: the run with sensitivities under the plain rules writes the plain run's probes to the bit); the
 plain run under the sensitivities' restart came 16 times as many Newton cuts on docs/cables.md's damped truss (305
 against 19 over 0.8 s, twice the CPU time), so the plain run keeps its rules and the run with sensitivities says so.

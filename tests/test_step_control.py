@@ -241,7 +241,7 @@ def test_a_landing_whose_retry_fails_accepts_the_step_it_keeps(monkeypatch):
 
     retry_failed = run((loop.TimeLoop, "_land_on_event", landing), (loop.TimeLoop, "_step", failing_first_retry))
     assert failed and retry_failed.summary["events"][0]["kind"] == "latch"
-    not_landed = run((loop, "crossing_fraction", lambda *args, **kwargs: None))
+    not_landed = run((loop, "first_event", lambda *args, **kwargs: None))
     assert retry_failed.summary["events"] == not_landed.summary["events"]
     for name in ("th", "S_ctl", "u"):
         assert np.array_equal(retry_failed.probes[name], not_landed.probes[name]), name

@@ -9,13 +9,11 @@ import numpy as np
 
 from latdyn.analyses.parameter_keys import CABLE_KEY as _CABLE_KEY
 from latdyn.errors import SolverError
-from latdyn.timeloop.events import cable_crossings, cable_events, cable_gaps
+from latdyn.timeloop.events import cable_events
+from latdyn.timeloop.landing import LANDING
 
 __all__ = ["CableSensitivities", "LANDING"]
 
-#: |θ − θ_event| (rad, times max(1, |θ_event|)) to which a step lands on a latch or a stop when
-#: sensitivities are asked (the loop's own landing stops at lock_tolerance, 1e-7)
-LANDING = 1e-12
 
 
 def _turned(T: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -162,27 +160,6 @@ class CableSensitivities:
         return rows, block, gravity
 
     # ------------------------------------------------------------------ the event
-    def landing(self, old, new):
-        """(gap(state) of the element to land on, the tolerance LANDING · EA) for the step old → new: the
-        element whose gap crosses zero first (linear interpolation) from the side it is held on, or one the
-        events would turn over (its gap within the loop's tolerance) farther than that from zero; None."""
-        cables, assembler = self.cables, self.owner.assembler
-        crossed = cable_crossings(assembler, old, new)
-        if crossed:
-            e = min(crossed, key=lambda c: c[1])[0]
-        else:
-            turned, _ = cable_events(assembler, list(cables.sides), old, new)
-            after, _ = cable_gaps(assembler, new)
-            near = [e for e, (a, b) in enumerate(zip(cables.sides, turned))
-                    if a != b and abs(after[e]) > LANDING * cables.EA[e]]
-            if not near:
-                return None
-            e = near[0]
-
-        def gap(state):
-            return float(cable_gaps(assembler, state)[0][e])
-        return gap, LANDING * float(cables.EA[e])
-
     def event(self, old, new):
         """(element, the cable's change or None) of the cable element the events turn over at the end
         of the step old → new (latdyn.timeloop.events.cable_events), or None; several at once are

@@ -156,18 +156,15 @@ from latdyn.numerics.inertia import split_inertia
 from latdyn.numerics.linalg import issparse
 from latdyn.scene.expressions import TimeFunction, _drop_deltas
 from latdyn.step.integrators import consistent_acceleration, start_without_scipy
-from latdyn.timeloop.events import (cable_crossings, cable_gaps, crossing_fraction, first_crossing, lock_events,
-                                   may_stick, sticking_hinges, stop_hits)
+from latdyn.timeloop.events import cable_crossings, cable_gaps, lock_events, may_stick, sticking_hinges, stop_hits
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
+from latdyn.timeloop.landing import LANDING_PASSES, first_event, land
 
 __all__ = ["TransientSensitivities"]
 
 
 #: |v̇_0| and |Q_cᵀ r| below which a start counts as at rest in equilibrium (SI units; module docstring)
 AT_REST = 1e-9
-#: passes at most of that landing's search on the step size (regula falsi, Illinois-modified, while the step
-#: brackets the event; a secant where it does not)
-LANDING_PASSES = 30
 #: landings at most of one step on a cable element that an earlier landing's step shows past its change before
 #: the element it landed on (:meth:`TransientSensitivities.land`)
 RELANDINGS = 4
@@ -382,24 +379,24 @@ class TransientSensitivities(ParameterDerivatives):
 
     # ------------------------------------------------------------------ landing on an event
     def land(self, step, old, attempt):
-        """The step from ``old`` landed on the first latch or stop it crosses or reaches to
-        |θ − θ_event| ≤ :data:`LANDING` (regula falsi on the step size from 0 and the step tried), or else on the
-        first cable element's change of side to a gap |g| ≤ :data:`LANDING` · EA
-        (:meth:`CableSensitivities.landing`), where the
-        derivative of the event time assumes it exactly; ``step(h)`` takes a step of size h from
-        ``old``. Returns (state, stats, h, lands) of the last converged step.
+        """The step from ``old`` landed on the first event it crosses or reaches (latdyn.timeloop.landing
+        first_event, the rule of the run without sensitivities): a latch or stop to |θ − θ_event| ≤ :data:`LANDING`
+        · max(1, |θ_event|), a cable element's change of side to a gap |g| ≤ :data:`LANDING` · EA, where the
+        derivative of the event time assumes it exactly, by the search of the run without sensitivities
+        (latdyn.timeloop.landing.land) to this tolerance, at most :data:`LANDING_PASSES` retries; ``step(h)`` takes
+        a step of size h from ``old``. Returns (state, stats, h, lands) of the last converged step.
 
         A cable landing whose step ends with another element past its change (the trial's linear interpolation
         put that one later: a reel paying out a massive cable, its elements' gaps far from linear in the step's
         size) lands again, on that element, from the step kept (at most :data:`RELANDINGS` times): the earlier
         change is the event (a reel of L + 0.3 t on tests/test_sensitivity_step_sequence.py's mast was refused as
         "several cable elements changing at one instant", one element at −6.6e-12, another at −0.36)."""
-        event = self._hinge_event_first(old, attempt[0])
-        best, gap, tight = self._land_once(step, old, attempt)
-        if gap is None:
+        event = first_event(self.assembler, old, attempt[0], cables=self.cables is not None)
+        if event is None:
             return attempt
+        best, gap, tight = self._land_once(step, old, attempt, event)
         for _ in range(RELANDINGS):
-            if event is not None or best is attempt or not cable_crossings(self.assembler, old, best[0]):
+            if event.hinge is not None or best is attempt or not cable_crossings(self.assembler, old, best[0]):
                 break
             best, gap, tight = self._land_once(step, old, best)
         if abs(ga_start := gap(old)) <= tight and abs(gap(best[0])) > tight:
@@ -408,62 +405,13 @@ class TransientSensitivities(ParameterDerivatives):
             self._refuse_landing_short(old, attempt, best, event, gap)
         return best
 
-    def _land_once(self, step, old, attempt):
-        """One landing's search of :meth:`land` from the step ``attempt``: (the last converged step, the gap
-        function it landed on and its tolerance; the step and None, None where it crosses nothing)."""
-        new, stats, h, lands = attempt
-        event = self._hinge_event_first(old, new)
-        cable = None if event is not None or self.cables is None else self.cables.landing(old, new)
-        if event is not None:
-            k, at = event
-            gap, tight = (lambda state: float(state.theta[k] - at)), LANDING * max(1.0, abs(at))
-        elif cable is not None:
-            gap, tight = cable
-        else:
-            return attempt, None, None
-        a, ga = 0.0, gap(old)
-        b, gb = h, gap(new)
-        # the zero bracketed (the gap changes sign over the step): regula falsi, Illinois-modified, keeps it
-        # bracketed. The plain secant through the last two trials left it where the gap is not monotone in
-        # the step's size (a damped cable going taut: -20 at 0, +5.1 at 0.89 h, +2.5 at h; its next trial
-        # fell past h and the landing stopped 5e-5 off, the event times' derivatives O(1) wrong: found by
-        # benchmarks/fuzz_sensitivities.py, tests/test_sensitivities_fuzz_finds.py)
-        bracketed = ga * gb < 0.0
-        best = attempt
-        for _ in range(LANDING_PASSES):
-            if abs(gb) <= tight or gb == ga:
-                break
-            c = b - gb * (b - a) / (gb - ga)
-            if not 0.0 < c <= h * (1 + 1e-12):
-                break
-            retry, retry_stats = step(c)
-            if not retry_stats.converged:
-                break
-            best = (retry, retry_stats, c, False)
-            gc = gap(retry)
-            if not bracketed or gc * gb < 0.0:
-                a, ga = b, gb
-            else:
-                ga = 0.5 * ga
-            b, gb = c, gc
-        return best, gap, tight
-
-    def _hinge_event_first(self, old, new):
-        """(hinge, the lock_at or stop it crosses) of :func:`first_crossing` over the step old → new where no cable
-        element crosses its change earlier in the step (linear interpolation of the angle and of the gap, as the
-        run without sensitivities orders them: latdyn.timeloop.events.crossing_fraction), else None (the landing
-        aims at the cable's change; the hinge's event is landed on by a later step). A compliant stop's onset at
-        0.86 of the step was landed on ahead of a two-element cable going taut at 0.16 of it: the cable's change
-        was taken at the onset's time, 3.4 ms late, its time's derivative by the rest length 6.68 where central
-        differences give 1.4e-5 (tests/test_fuzz_run_findings7.py, fuzz8's finding 2)."""
-        event = first_crossing(self.assembler, old, new)
-        if event is None or self.cables is None:
-            return event
-        crossed = cable_crossings(self.assembler, old, new)
-        hinge = crossing_fraction(self.assembler, old, new)   # None: a lock_at reached at the step's end
-        if crossed and min(f for _, f, _ in crossed) < (1.0 if hinge is None else hinge):
-            return None
-        return event
+    def _land_once(self, step, old, attempt, event=None):
+        """One landing's search of :meth:`land` from the step ``attempt`` onto ``event`` (None: the first event of
+        the step, which exists): (the last converged step, the gap function it landed on, its tolerance)."""
+        if event is None:
+            event = first_event(self.assembler, old, attempt[0], cables=self.cables is not None)
+        gap, tight = event.gap(self.assembler), event.tight(self.assembler)
+        return land(step, old, attempt, gap, tight, LANDING_PASSES), gap, tight
 
     def _ends_on_a_change(self, old, new) -> bool:
         """Whether the step old → new ends on an event its derivative takes (a latch, a stop, a compliant
@@ -480,8 +428,8 @@ class TransientSensitivities(ParameterDerivatives):
         a trial of 0.03 s ended at θ = −6.17 past a stop at −0.597, the shorter steps near −0.03, their
         sizes' δh left out put rows 1.8e-2 off Richardson differences stable in h = 1e-3..1e-4). Refused
         (SolverError) when it happens, naming the joint or cable."""
-        if event is not None:
-            k, at = event
+        if event.hinge is not None:
+            k, at = event.hinge, event.at
             what = f"the {'lock_at' if at == self.model.hinges[k].lock_at else 'stop'} {at:g} of {self.model.hinges[k].name}"
         else:
             what = "a cable element's change of side"

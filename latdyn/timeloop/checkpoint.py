@@ -263,6 +263,10 @@ class Checkpointer:
         self.seconds = 0.0  # wall time spent writing checkpoints
         self.bytes = 0  # size of the last one
         self._last = time.perf_counter()
+        #: writes the checkpoint of the run's last step (its time loop sets it when the steps are all taken), for
+        #: an interrupt while the run's files are finished (latdyn.solve.run): ``--resume`` then finishes them
+        #: without a step (fuzz7's finding 5: such a run left no checkpoint, and summary.json said interrupted)
+        self.last_step = None
 
     def due(self) -> bool:
         return time.perf_counter() - self._last >= self.interval

@@ -403,6 +403,16 @@ class StepControl:
         :meth:`after_accepted`."""
         return not self.adaptive and 2 * self._grown_from(h, lands) < self.dt
 
+    def restart_differs(self, run: TransientProgress, h: float, lands: bool) -> bool:
+        """Whether the restart at dt after the accepted step of size ``h`` that ended at ``run.state`` (``lands`` as
+        in :meth:`after_accepted`, the run's grid index past it) makes the next step other than fixed steps not
+        restarted take: they grow back short (:meth:`grows_back_short`) and do not reach the next grid point, which
+        the restart's step reaches or comes nearer to. Called before :meth:`after_accepted`."""
+        if not self.grows_back_short(h, lands):
+            return False
+        left = self.grid_time(run.grid_index + 1) - run.state.t
+        return 2 * self._grown_from(h, lands) < left * (1 - 1e-9)
+
     def _watch_crawl(self, run: TransientProgress, h: float, event: bool) -> None:
         """Count the accepted step of size ``h`` (``event``: it ended on a latch or a stop) into the
         crawl window; a full window that advanced less than CRAWL_STEPS crawling steps ends the run,

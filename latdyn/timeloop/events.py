@@ -155,8 +155,8 @@ def cable_events(assembler, sides: list, old: State, new: State) -> tuple[list, 
 
 # ----------------------------------------------------------------------------- hard stops
 # Hinge ``limits: [lo, hi]`` with ``restitution`` e are events, like lock_at: a step in which
-# a hinge crosses a stop from inside is shortened to land on it (secant on the angle, as for
-# latches); then, for every free hinge on or beyond a stop and moving into it, the
+# a hinge crosses a stop from inside is shortened to land on it (regula falsi on the step's size, as for
+# latches: latdyn.timeloop.landing); then, for every free hinge on or beyond a stop and moving into it, the
 # configuration is projected onto the stop, Δq = −X μ with Nᵀ(q + Δq) = stop, and the
 # velocities jump so that the hinge rate reverses, θ̇⁺ = −e θ̇⁻ (Newton's impact law), by the
 # impulse that conserves momentum, v⁺ = v⁻ + X λ, Nᵀv⁺ = −e Nᵀv⁻, X the impulse response of

@@ -42,6 +42,7 @@ from latdyn.timeloop import checkpoint as checkpoints
 from latdyn.timeloop.control import Resize, StepControl
 from latdyn.timeloop.impulse import prescribed_acceleration_jump, prescribed_velocity_jump
 from latdyn.timeloop.jumps import acceleration_only_jumps, starts_on_a_jump
+from latdyn.timeloop.landing import LANDING_PASSES, first_event, land
 from latdyn.timeloop.events import (CABLE_LANDING, TAUT_JUMP_STEP, cable_events, cable_gaps, cable_sides, crossing_fraction, hinge_events,
                                    lock_events, restart_accelerations, stick_at_start, stop_crossings)
 from latdyn.timeloop.progress import (DRIFT_WARNING, impacts_before, UNBOUNDED, UNBOUNDED_ROWS, UNRESOLVED_TURN, TransientProgress, cable_work,
@@ -56,6 +57,9 @@ SENSITIVITY_ROWS_IN_LOOP = True
 #: Whether the loop of steps in C records the rows on its way (csrc/rows.c) instead of returning to
 #: Python for each (False: a row at a time, the reference it must equal: tests/test_native_rows.py).
 NATIVE_ROWS = True
+
+#: passes at most of a landing on a cable element's change without sensitivities (:meth:`TimeLoop._cable_landing`)
+CABLE_PASSES = 4
 
 
 class Attempt(NamedTuple):
@@ -250,7 +254,14 @@ class TimeLoop:
         finally:
             self.bar.close()
             self._summarize()
+        if self.checkpointer is not None:   # the steps all taken: an interrupt while the files close keeps this one
+            self.checkpointer.last_step = self._checkpoint_the_last_step
         return self.progress
+
+    def _checkpoint_the_last_step(self) -> float:
+        """Write the checkpoint of the last accepted step (the run's last); its time."""
+        self._save_checkpoint(self.last)
+        return float(self.last.progress.state.t)
 
     def advance_to(self, t: float) -> TransientProgress:
         """Step on from where the loop is (after :meth:`begin`) to time ``t`` (≤ t_end) and pause
@@ -594,9 +605,10 @@ class TimeLoop:
 
     def _land_on_event(self, attempt: Attempt) -> Attempt:
         """A hinge reaching lock_at or a stop, or a cable going slack or taut, inside the step: the step
-        shortened to land on it (secant on the angle or the cable's gap, at most 4 passes, never shorter
-        than dt_min, nor than CABLE_LANDING · dt for a cable's change; the last shorter step that
-        converged)."""
+        shortened to land on the first (latdyn.timeloop.landing.first_event, with sensitivities or without): a
+        hinge's to 1e-12 (latdyn.timeloop.landing.land, never shorter than dt_min), a cable's by the regula falsi
+        on the trial ends (:meth:`_cable_landing`, never shorter than CABLE_LANDING · dt) or, with sensitivities,
+        to 1e-12 · EA; the last shorter step that converged."""
         self._last_trial = attempt.new
         if self.sensitivities is not None:  # their derivative is that of a step landing exactly on the event
             landed = Attempt(*self.sensitivities.land(self._step, self.progress.state, attempt))
@@ -620,17 +632,39 @@ class TimeLoop:
         return Attempt(new, stats, landed.h, landed.lands)
 
     def _landing(self, attempt: Attempt) -> Attempt:
-        """:meth:`_land_on_event` without sensitivities: the secant passes."""
+        """:meth:`_land_on_event` without sensitivities: the first event of the step (latdyn.timeloop.landing
+        first_event, the rule the sensitivities' landing takes too); a hinge's landed on as the sensitivities'
+        landing lands on it (latdyn.timeloop.landing.land to :data:`latdyn.timeloop.landing.LANDING`, at most
+        :data:`LANDING_PASSES` retries, none shorter than dt_min), a cable's by :meth:`_cable_landing`."""
+        progress = self.progress
+        old = progress.state
+        event = first_event(self.assembler, old, attempt.new, reached=False)
+        if event is None:
+            return attempt
+        if event.hinge is not None:
+            def step(h):
+                retry, retry_stats = self._step(h)
+                progress.factorizations += factorizations(retry_stats)
+                if retry_stats.converged:
+                    progress.newton_iterations += retry_stats.iterations
+                return retry, retry_stats
+            landed = Attempt(*land(step, old, attempt, event.gap(self.assembler), event.tight(self.assembler), LANDING_PASSES,
+                                   shortest=self.control.dt_min))
+            if landed.new is not attempt.new:
+                self._note_short_landing(old, attempt, landed.new)
+            return landed
+        return self._cable_landing(attempt)
+
+    def _cable_landing(self, attempt: Attempt) -> Attempt:
+        """A cable element's change first in the step (no hinge event before it): the secant on the bracket
+        [short, past] of the trial ends (regula falsi), so that the landing does not end short of the change, which
+        left the next step a sliver of 1e-7 s to land on (docs/cables.md: after such slivers Newton failed on the
+        example truss with damped cables), at most :data:`CABLE_PASSES` passes."""
         progress = self.progress
         new, stats, h, lands = attempt
         old = progress.state
-        # a cable's change alone (no hinge event in the step): the secant on the bracket [short, past]
-        # of the trial ends (regula falsi), so that the landing does not end short of the change, which
-        # left the next step a sliver of 1e-7 s to land on (docs/cables.md: after such slivers Newton
-        # failed on the example truss with damped cables); a hinge's: the secant from the step's start
-        bracket = self.model.cables is not None and crossing_fraction(self.assembler, old, new) is None
         short, past = old, new
-        for _ in range(4):
+        for _ in range(CABLE_PASSES):
             floor = CABLE_LANDING * self.control.dt / (past.t - short.t) if short is old else 0.0
             fraction = crossing_fraction(self.assembler, short, past, cables=True, cable_floor=floor)
             if fraction is None:
@@ -643,10 +677,8 @@ class TimeLoop:
             if not retry_stats.converged:
                 break
             progress.newton_iterations += retry_stats.iterations
-            if not bracket or crossing_fraction(self.assembler, old, retry, cables=True) is not None:
-                past = retry  # the change is in the retried step (or a hinge's: from the start again)
-                if not bracket:
-                    short = old
+            if crossing_fraction(self.assembler, old, retry, cables=True) is not None:
+                past = retry  # the change is in the retried step
             else:
                 short = retry
             new, stats, h, lands = retry, retry_stats, shorter, False
@@ -759,9 +791,12 @@ class TimeLoop:
         # the step after an event lands on the grid and the next ones are nominal, their sizes smooth in the
         # parameters (latdyn/analyses/transient_sensitivities.py)
         restarted = events.stopped or (self.sensitivities is not None and (events.any or attempt.lands or turned))
-        if self.sensitivities is not None and (events.any or turned or (
-                restarted and not events.stopped and self.control.grows_back_short(h, attempt.lands))):
-            progress.steps_for_sensitivities += 1   # a run without sensitivities steps otherwise here (_summarize)
+        # a run without sensitivities steps otherwise here (_summarize): it lands on a cable's change by its own
+        # passes, and where it grows its steps back from a short one, the step after it ends short of the grid point
+        # that the restart at dt reaches (a hinge's event it lands on as this run does: latdyn.timeloop.landing)
+        if self.sensitivities is not None and (turned or (restarted and not events.stopped and
+                                                          self.control.restart_differs(progress, h, attempt.lands))):
+            progress.steps_for_sensitivities += 1
         self.control.after_accepted(progress, integrator, h, events.any, restarted, attempt.lands)
         if tension_jumped and progress.h > TAUT_JUMP_STEP * self.control.dt:
             # the steps after a damped cable's jump of tension grow from TAUT_JUMP_STEP · dt
@@ -955,8 +990,9 @@ class TimeLoop:
             self.writer.warn(
                 f"{progress.steps_for_sensitivities} of the run's steps are the sensitivities' own: each event and "
                 "cable change ends a step to 1e-12, and the step after it, or after a step onto the grid, restarts at "
-                "solve.dt; the same scene without solve.sensitivities lands to the events' tolerance in at most 4 "
-                "passes and grows its steps back from the short one, so its probes differ from these (by at most 0.16 of "
+                "solve.dt; the same scene without solve.sensitivities lands on a hinge's event as this run does, on "
+                "a cable's change by at most 4 passes of its own, and grows its steps back from the short one, so its "
+                "probes differ from these (by at most 0.16 of "
                 "the step's own error on the scenes measured: docs/parameters.md, \"Sensitivities through events\")")
 
     # ------------------------------------------------------------------------- checkpoints
