@@ -1014,8 +1014,10 @@ class TransientSensitivities(ParameterDerivatives):
         was 1.8e-7 of the angle off Richardson differences after a rigid stop)."""
         outputs = getattr(self.scene, "controller_outputs", None)
         named = set(outputs.names) if outputs is not None else set()
-        if not named or not any(named & set(getattr(law, "input_names", ()))
-                                for laws in self.derivatives.values() for law in laws.values()):
+        chained = self.controllers is not None and self.controllers.compiled is not None and any(
+            self.controllers.chained.values())
+        if not named or not (chained or any(named & set(getattr(law, "input_names", ()))
+                                            for laws in self.derivatives.values() for law in laws.values())):
             yield
             return
         held = outputs.values.copy()
@@ -1070,7 +1072,8 @@ class TransientSensitivities(ParameterDerivatives):
         def beside(moved):
             total = np.zeros((model.n_total + 1, len(self.names)))
             if self.controllers is not None:
-                self.controllers.add(moved, total)
+                with self._controller_outputs_at(moved):   # a chained output the compiled partials read moves
+                    self.controllers.add(moved, total)
             held = self._held_forces(moved, False)
             if held is not None:
                 total += held
