@@ -22,6 +22,7 @@ import latdyn
 from tests.cli_runs import latdyn_run, the_loop_off_writes_the_same
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_refusals_lifted import _adjoint_error, _both
+from tests.test_sensitivities_refusals_lifted2 import _richardson_error, _run
 
 CHAINED = """
 title: a wheel on a hinge, its set point reading the hinge's angle, hitting a rigid stop twice
@@ -54,35 +55,6 @@ DIRECT = CHAINED.replace("Kp*(lead - angle)", "Kp*(a0 - 0.7*angle)")
 #: one impact (to 0.34 s)
 ONE_STOP = CHAINED.replace("t_end: 0.4", "t_end: 0.34")
 assert "Kp*(a0 - 0.7*angle)" in DIRECT and "t_end: 0.34" in ONE_STOP
-
-
-def _run(text: str, **parameters):
-    """``text`` through the API at ``parameters``, Newton's tolerance 1e-12."""
-    data = yaml.safe_load(text)
-    data["parameters"].update(parameters)
-    data["solve"]["tol"] = 1e-12
-    return latdyn.run(latdyn.load_scene(data))
-
-
-def _richardson_error(text: str, result, name: str, relative: float = 1e-4) -> float:
-    """The largest error of ``result``'s sensitivities by ``name`` (each probe over its rows, relative to its
-    largest) and of the event times' (relative to the largest) against Richardson-extrapolated central differences
-    of whole runs, steps ``relative`` and half of it."""
-    p0 = yaml.safe_load(text)["parameters"][name]
-    central, times = [], []
-    for step in (relative * abs(p0), relative / 2 * abs(p0)):
-        up, down = _run(text, **{name: p0 + step}), _run(text, **{name: p0 - step})
-        assert [e["kind"] for e in up.summary["events"]] == [e["kind"] for e in down.summary["events"]]
-        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes})
-        times.append(np.array([(a["t"] - b["t"]) / (2 * step)
-                               for a, b in zip(up.summary["events"], down.summary["events"])]))
-    worst = 0.0
-    for probe in central[0]:
-        expected = (4 * central[1][probe] - central[0][probe]) / 3
-        worst = max(worst, np.abs(result.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max())
-    expected = (4 * times[1] - times[0]) / 3
-    computed = np.array([event["dt"][name] for event in result.summary["event_sensitivities"]])
-    return max(worst, np.abs(computed - expected).max() / np.abs(expected).max())
 
 
 @pytest.mark.parametrize("text, events", [(CHAINED, 2), (ONE_STOP, 1)], ids=["two-stops", "one-stop"])
