@@ -1011,7 +1011,11 @@ class TransientSensitivities(ParameterDerivatives):
         (``latdyn_controller_outputs_at``), put back after it, where a parameter's derivative law names a controller
         (a hinge torque or guide force ``Kt*pd``: ∂τ/∂p = pd at fixed output, whose move along w, ∂y/∂q w, the
         difference of the static ∂r/∂p in :meth:`_stiffness_derivative` then holds; left at the step's outputs it
-        was 1.8e-7 of the angle off Richardson differences after a rigid stop)."""
+        was 1.8e-7 of the angle off Richardson differences after a rigid stop), or where a continuous controller reads
+        another and the output partials are compiled (``ControllerPartials``: a law reads an earlier controller's
+        output from the scene's array, codegen/laws.py ``_block``; ``pd: "Kp*(lead - angle)"`` with ``lead: "a0 +
+        0.3*angle"`` lost lead's move along w in :meth:`_terms_beside_stiffness_along`, and Kp was 1.3e-6 off
+        Richardson differences through the wheel's two rigid stops, tests/test_controller_stop_sensitivities.py)."""
         outputs = getattr(self.scene, "controller_outputs", None)
         named = set(outputs.names) if outputs is not None else set()
         chained = self.controllers is not None and self.controllers.compiled is not None and any(
