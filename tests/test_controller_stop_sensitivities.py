@@ -30,19 +30,28 @@ CHAINED = WHEEL_KT_STOPS.replace("sensitivities: [Kt, Kp, k]", "sensitivities: [
 DIRECT = CHAINED.replace("Kp*(lead - angle)", "Kp*(a0 - 0.7*angle)")
 #: one impact (to 0.34 s)
 ONE_STOP = CHAINED.replace("t_end: 0.4", "t_end: 0.34")
+#: pd nonlinear in the chained output (Kp lead²), and lead reading the hinge's rate too
+NONLINEAR = CHAINED.replace("Kp*(lead - angle)", "Kp*(lead - angle) + 0.5*Kp*lead*lead")
+BY_RATE = (CHAINED.replace('lead: {output: "a0 + 0.3*angle"}', 'lead: {output: "a0 + 0.3*angle + 0.05*w"}')
+           .replace("    angle: {hinge: arm.end, quantity: angle}\n",
+                    "    angle: {hinge: arm.end, quantity: angle}\n    w: {hinge: arm.end, quantity: rate}\n"))
+assert "0.5*Kp*lead*lead" in NONLINEAR and "0.05*w" in BY_RATE and "quantity: rate" in BY_RATE
 assert "Kp*(lead - angle)" in CHAINED and "sensitivities: [Kp, Kt]" in CHAINED
 assert "Kp*(a0 - 0.7*angle)" in DIRECT and "t_end: 0.34" in ONE_STOP
 
 
-@pytest.mark.parametrize("text, events", [(CHAINED, 2), (ONE_STOP, 1)], ids=["two-stops", "one-stop"])
-def test_a_gain_inside_an_output_reading_a_chained_output_agrees_with_richardson_through_stops(text, events):
+@pytest.mark.parametrize("text, events, tolerance", [(CHAINED, 2, 1e-8), (ONE_STOP, 1, 1e-8), (NONLINEAR, 2, 1e-6),
+                                                     (BY_RATE, 2, 1e-6)],
+                         ids=["two-stops", "one-stop", "nonlinear", "lead-by-rate"])
+def test_a_gain_inside_an_output_reading_a_chained_output_agrees_with_richardson_through_stops(text, events,
+                                                                                                tolerance):
     """Measured (every probe's worst over the rows, relative to its largest; the event times too): Kp 9.8e-10
     (before the outputs moved with the states 1.3e-6, off from the first impact's row on, ≤ 1e-10 before it), Kt
-    2.4e-9 (the same before: its partial reads no chained output); one impact Kp 2.5e-10 (before 4.0e-7). Both fail
-    before."""
+    2.4e-9 (the same before: its partial reads no chained output); one impact Kp 2.5e-10 (before 4.0e-7); pd
+    nonlinear in lead 5.1e-8 (before 4.5e-5); lead reading the rate too 1.9e-8 (before 4.7e-6). Each fails before."""
     result = _run(text)
     assert [e["kind"] for e in result.summary["events"]] == ["stop"] * events
-    assert _richardson_error(text, result, "Kp") <= 1e-8
+    assert _richardson_error(text, result, "Kp") <= tolerance
 
 
 def test_the_chained_set_point_gives_the_sensitivities_of_the_same_law_written_out():
