@@ -7,9 +7,9 @@ jump's w (latdyn/analyses/transient_sensitivities.py ``_terms_beside_stiffness_a
 compiled partial (latdyn/analyses/derivative_laws.py ``ControllerPartials``) reads lead from the scene's controller
 outputs (codegen/laws.py ``_block``: a symbol named like a controller reads its output), which were left at the step's
 values while the states moved: lead's move 0.3 ∂angle/∂q w was lost, and Kp was 1.3e-6 off Richardson differences
-(the same at difference steps 1e-4 and 1e-5, and on main 86d57d9), while the same physics written without the chain,
-``Kp*(a0 - 0.7*angle)``, was 1.6e-10 off. The difference now moves the outputs with the states
-(``TransientSensitivities._controller_outputs_at``)."""
+(fwdrefusals found it the same at difference steps 1e-4 and 1e-5, and on main 86d57d9), while the same physics
+written without the chain, ``Kp*(a0 - 0.7*angle)``, was 1.6e-10 off. The difference now moves the outputs with the
+states (``TransientSensitivities._controller_outputs_at``)."""
 from __future__ import annotations
 
 import json
