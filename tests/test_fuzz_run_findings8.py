@@ -7,7 +7,13 @@ A study (shared/STUDY.md) adds four energy probes to every transient case (``_st
 differentiated (an adaptive run with a load in t; any scene with a controller: latdyn/analyses/energy_sensitivities.py)
 every case of the study is refused, by a probe the user never wrote, while the scene alone runs (exit 0). Fuzz seed 1
 case 1 (an adaptive chain, benchmarks/fuzz_combined5.py --seed 1) found it; the scenes here are the smallest that
-show it. Strict xfails: where to mend is the lead's choice (the report, /work/notes/s19/report-fuzz9.md)."""
+show it. Strict xfails: where to mend is the lead's choice (the report, /work/notes/s19/report-fuzz9.md).
+
+Under arc length and displacement control the load factor is a result, and its sensitivity along the path
+``result.sensitivities[("load_factor", NAME)]`` (docs/parameters.md: "in memory and from Result.load"). 86d57d9 kept
+it in memory only: sensitivities.csv had no ``load_factor/NAME`` columns, so ``latdyn run`` wrote no row of the path
+parameter's derivative (only summary.json's end, max and min) and ``Result.load`` of the folder had none (found
+comparing the objectivity check's loaded results, seed 2 case 0, a tilted arch through its limit point)."""
 from __future__ import annotations
 
 import csv
@@ -20,6 +26,7 @@ import pytest
 import yaml
 
 import latdyn
+from latdyn.results.result import Result
 from tests.cli_runs import latdyn_run, summary_of
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -108,3 +115,48 @@ def test_a_study_of_a_scene_with_sensitivities_solves_its_cases(tmp_path, scene,
     assert [r["status"] for r in rows] == ["solved", "solved"], [r["message"][:200] for r in rows]
     table = latdyn.study(str(path), out=str(tmp_path / "api"))
     assert list(table["status"]) == ["solved", "solved"]
+
+
+#: a shallow toggle of two beams in 3D (rise 0.08 over half-spans 1, the top pushed down and a little sideways),
+#: beyond its limit load: arc length follows the snap-through to λ = 1 on the far branch
+TOGGLE = """
+title: a shallow 3D toggle through its limit point, arc length
+parameters: {EI: 1.0, EA0: 50000.0, P: 1.0}
+sections:
+  s: {EA: EA0, EIy: EI, EIz: EI, GJ: 0.8*EI, rhoA: 0.1}
+bodies:
+  a: {at: [-1.0, 0.0, 0.0], fixed: true}
+  b: {at: [1.0, 0.0, 0.0], fixed: true}
+  top: {at: [0.0, 0.0, 0.08]}
+beams:
+  left: {from: a, to: top, section: s, elements: 3, y_axis: [0.0, 0.0, 1.0]}
+  right: {from: b, to: top, section: s, elements: 3, y_axis: [0.0, 0.0, 1.0]}
+loads:
+  - {at: top, force: [0, 0.01, "-25.0*P"]}
+solve: {analysis: static, method: arc-length, steps: 8, max_steps: 300, sensitivities: [EA0, P]}
+output:
+  probes:
+    top_z: {point: top, quantity: displacement, component: z}
+"""
+
+
+@pytest.mark.parametrize("method", ["arc-length", "displacement-control"])
+def test_the_load_factors_sensitivity_along_the_path_is_written_and_loaded(tmp_path, method):
+    """``latdyn run`` writes ``load_factor/NAME`` beside the probes' columns of sensitivities.csv, and
+    ``Result.load`` of the folder gives the API's ``result.sensitivities[("load_factor", NAME)]``, bit for bit, every
+    row (the path passes its limit point: λ falls between rows). On 86d57d9 the columns were missing."""
+    text = TOGGLE if method == "arc-length" else TOGGLE.replace(
+        "method: arc-length, steps: 8, max_steps: 300",
+        "method: displacement-control, steps: 8, control: {point: top, direction: z, to: -0.12}")
+    run, out = latdyn_run(tmp_path, text, quiet=True)
+    assert run.returncode == 0, run.stderr
+    result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert (result.t[1:] < result.t[:-1]).any()   # past the limit point
+    with open(out / "sensitivities.csv", newline="") as f:
+        header = next(csv.reader(f))
+    assert [c for c in header if c.startswith("load_factor/")] == ["load_factor/EA0", "load_factor/P"]
+    loaded = Result.load(out)
+    for name in ("EA0", "P"):
+        assert abs(result.sensitivities[("load_factor", name)]).max() > 0.0
+        assert (loaded.sensitivities[("load_factor", name)] == result.sensitivities[("load_factor", name)]).all()
+        assert (loaded.sensitivities[("top_z", name)] == result.sensitivities[("top_z", name)]).all()
