@@ -527,9 +527,7 @@ def judge(record: dict) -> list[str]:
         if "error" in off:
             problems.append(f"loop off: {off['error'][:150]}")
         else:
-            for key in four.COMPARED:
-                if off["digest"][key] != f[key]:
-                    problems.append(f"loop off != on: {key}")
+            problems += _differing(off["digest"], f, "loop off != on")
     a = record.get("a")
     if a:
         if a["missing"]:
@@ -543,9 +541,7 @@ def judge(record: dict) -> list[str]:
         if "resume_error" in r:
             problems.append(f"resume: {r['resume_error'][:150]}")
         elif "digest" in r:
-            for key in four.COMPARED:
-                if r["digest"][key] != f[key]:
-                    problems.append(f"resumed != whole: {key}")
+            problems += _differing(r["digest"], f, "resumed != whole")
     if record.get("plain_same_rows") is False:
         problems.append("static: the run without sensitivities takes other rows")
     s = record.get("study")
@@ -562,10 +558,13 @@ def judge(record: dict) -> list[str]:
         if "error" in cli:
             problems.append(f"cli: {cli['error'][-200:]}")
         else:
-            for key in four.COMPARED:
-                if cli["digest"][key] != f[key]:
-                    problems.append(f"cli != api: {key}")
+            problems += _differing(cli["digest"], f, "cli != api")
     return problems
+
+
+def _differing(digest: dict, whole: dict, what: str) -> list[str]:
+    """The files and summary keys (fuzz_combined4.COMPARED) whose sha-256 differ from the whole run's."""
+    return [f"{what}: {key}" for key in four.COMPARED if digest[key] != whole[key]]
 
 
 def _cli(case: Path, env: dict, timeout: float) -> dict:
