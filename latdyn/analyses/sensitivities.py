@@ -1069,10 +1069,18 @@ class StaticSensitivities(ParameterDerivatives):
         return self._at_extremes(self.table(), series)
 
     def write(self, folder) -> None:
-        """``sensitivities.csv``: ``load_factor,<probe>/<NAME>,…``, one row per recorded row."""
+        """``sensitivities.csv``: ``load_factor,<probe>/<NAME>,…``, one row per recorded row; under displacement
+        control and arc length then ``load_factor/<NAME>,…``, the load factor's own (what :meth:`table` gives
+        as ``("load_factor", NAME)``, and ``Result.load`` reads back)."""
         from latdyn.results.files import atomic_write_bytes, csv_line
 
-        text = csv_line(["load_factor", *self.columns]) + "".join(csv_line([lam, *values]) for lam, values in self.rows)
+        header = ["load_factor", *self.columns]
+        moved = [[] for _ in self.rows]
+        if self.controlled:
+            header += [f"load_factor/{name}" for name in self.names]
+            moved = self.load_factor_rows
+        text = csv_line(header) + "".join(csv_line([lam, *values, *extra])
+                                          for (lam, values), extra in zip(self.rows, moved))
         atomic_write_bytes(Path(folder) / SENSITIVITIES_FILE, text.encode("utf-8"))
 
 
