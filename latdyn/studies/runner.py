@@ -59,7 +59,8 @@ at its default (``solve.rho_inf``), and the scene loader decides whether it is a
 - ``solved`` — otherwise. ``t_reached`` is the last recorded time.
 
 These four energy probes are added to every transient case as ``_study_K``, ``_study_S``,
-``_study_P``, ``_study_W`` (a scene that uses one of these names is refused).
+``_study_P``, ``_study_W`` (a scene that uses one of these names is refused), except a case whose
+``solve.sensitivities`` would refuse them (:func:`_with_energy_probes`): it is judged on non-finite values alone.
 
 **Error** — over the times the case and the reference have in common (equal to 10⁻⁹ of
 the time; a case recording every ``output.every`` or every step shares the reference's
@@ -426,10 +427,35 @@ def _csv_header(path: Path) -> list[str]:
 
 # =========================================================================== cases
 def _with_energy_probes(raw: dict) -> dict:
-    """The case scene with :data:`ENERGY_PROBES` added (transient analyses only)."""
+    """The case scene with :data:`ENERGY_PROBES` added (transient analyses only), except where the scene's
+    ``solve.sensitivities`` would refuse them (an energy probe is differentiated with the scene's own probes, and
+    some are not: with cables, controllers, an adaptive run's loads in t —
+    latdyn/analyses/energy_sensitivities.py): the case is then judged on non-finite values alone, as a structure
+    that never receives energy, rather than refused for a probe its author never wrote."""
     solve = raw.get("solve") or {}
     if solve.get("analysis", "transient") != "transient":
         return raw
+    if solve.get("sensitivities") and _energies_refuse_the_sensitivities(raw):
+        return raw
+    return _add_energy_probes(raw)
+
+
+def _energies_refuse_the_sensitivities(raw: dict) -> bool:
+    """Whether adding :data:`ENERGY_PROBES` to ``raw`` makes its ``solve.sensitivities`` refused where without
+    them it is not (latdyn/analyses/sensitivities.py ``refusal``: the same check the run makes first)."""
+    from latdyn.analyses.sensitivities import refusal
+    from latdyn.scene.loader import load_scene
+
+    try:
+        if refusal(load_scene(copy.deepcopy(raw))) is not None:
+            return False   # refused for the scene's own reasons: the case's run reports those
+        return refusal(load_scene(_add_energy_probes(copy.deepcopy(raw)))) is not None
+    except SceneError:
+        return False   # a scene that does not load: the case's run reports it
+
+
+def _add_energy_probes(raw: dict) -> dict:
+    """``raw`` with :data:`ENERGY_PROBES` added to its probes (a list or a mapping)."""
     if raw.get("output") is None:
         raw["output"] = {}
     output = raw["output"]
