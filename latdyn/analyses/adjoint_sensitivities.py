@@ -110,7 +110,8 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
-from latdyn.analyses.transient_sensitivities import TransientSensitivities, _NodeRotations, _StepColumns
+from latdyn.analyses.transient_sensitivities import (TransientSensitivities, _NodeRotations, _StepColumns,
+                                                      friction_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
@@ -174,10 +175,7 @@ class AdjointSensitivities(TransientSensitivities):
         from latdyn.errors import SceneError
 
         self._refused = True   # nothing for :meth:`finish` to write: the run is refused (exit 2)
-        joint = self.model.hinges[int(stuck[0])]
-        key = (f"bodies.{joint.beam}.guide.friction" if joint.end == "guide"
-               else f"beams.{joint.beam}.{joint.end}.hinge.friction")
-        raise SceneError(self.scene.file, key,
+        raise SceneError(self.scene.file, friction_key(self.model.hinges[int(stuck[0])]),
                          f"at t = {float(state.t):.6g} the joint sticks: the discrete adjoint differentiates friction "
                          "while the joints slip, not a stick or a release yet; expected solve.sensitivity_method: "
                          "forward (the default), which does (docs/parameters.md, \"Friction\")")

@@ -160,7 +160,7 @@ from latdyn.timeloop.events import cable_crossings, cable_gaps, lock_events, may
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 from latdyn.timeloop.landing import LANDING_PASSES, first_event, land
 
-__all__ = ["TransientSensitivities"]
+__all__ = ["TransientSensitivities", "friction_key"]
 
 
 #: |v̇_0| and |Q_cᵀ r| below which a start counts as at rest in equilibrium (SI units; module docstring)
@@ -182,6 +182,12 @@ WEIGHT_STEP = 1e-5
 DERIVATIVE_CACHES = ("_kinds", "_sections_only", "_section_layout_made", "_section_scale", "_section_use",
                      "_section_elements_distinct", "_section_values_held", "_load_layout_made", "_load_laws_distinct",
                      "_hinge_uses_found", "_body_uses_found", "_joint_laws", "_link_section_uses")
+
+
+def friction_key(joint) -> str:
+    """The scene key of a joint's friction: a guide's (``bodies.NAME.guide.friction``) or a hinge's."""
+    return (f"bodies.{joint.beam}.guide.friction" if joint.end == "guide"
+            else f"beams.{joint.beam}.{joint.end}.hinge.friction")
 
 
 class TransientSensitivities(ParameterDerivatives):
@@ -1265,9 +1271,7 @@ class TransientSensitivities(ParameterDerivatives):
         its stick or release is not differentiated here (docs/parameters.md, "Friction")."""
         stuck = np.flatnonzero(self.model.stuck)
         joint = self.model.hinges[int(stuck[0]) if len(stuck) else int(sticking_hinges(self.model)[0])]
-        key = (f"bodies.{joint.beam}.guide.friction" if joint.end == "guide"
-               else f"beams.{joint.beam}.{joint.end}.hinge.friction")
-        raise SceneError(self.scene.file, key,
+        raise SceneError(self.scene.file, friction_key(joint),
                          f"at t = {new.t:.6g} {why}: solve.sensitivities differentiates a joint's slipping, "
                          "sticking and release by friction, not this; expected a run without it, or no "
                          "solve.sensitivities (docs/parameters.md, \"Friction\")")
