@@ -1675,7 +1675,7 @@ def _load_rates_part(assembler, state, w: np.ndarray):
 #: section force (their gradient along q holds no rate), a point's velocity at an offset (v + ω × T r: its value and
 #: its gradient by the node's turn linear in the node's rates) and relative to a body (``point_velocity_in_body``,
 #: linear in both nodes' rates); a cable's tension and a free joint's force (their damping's rates) are not yet
-_RATE_MOVED_SENSORS = (0, 1, 2, 3, 5, 6, 7, 8, 12, 13)
+_RATE_MOVED_SENSORS = (0, 1, 2, 3, 5, 6, 7, 8, 11, 12, 13, 14)
 
 
 def _rates_chain_controllers(assembler) -> np.ndarray:
@@ -1692,10 +1692,12 @@ def _rates_chain_controllers(assembler) -> np.ndarray:
     if assembler.model.links is not None:
         return out
     exact = _exact_controllers(assembler)
+    model = assembler.model
+    by_rates = dict(zip((int(j) for j in model.free_hinges), exact_hinges_by_rates(assembler)))
     for k, controller in enumerate(control.controllers):
         reads = _controller_reads(control, k)
-        if not exact[k] or not all(kind is None or kind in _RATE_MOVED_SENSORS or (kind == CONTROLLER and out[index])
-                                   for kind, index, _ in reads):
+        if not exact[k] or not all(kind is None or (kind in _RATE_MOVED_SENSORS and (kind != 14 or by_rates.get(index)))
+                                   or (kind == CONTROLLER and out[index]) for kind, index, _ in reads):
             continue
         moving = tuple(p for p, (kind, _, _) in enumerate(reads) if kind is not None)
         out[k] = _output_curvature(controller, moving) is not None
@@ -1736,6 +1738,25 @@ def _read_moves(assembler, state, kind: int, index: int, sensor: int, full: np.n
         np.add.at(V, dofs, np.asarray(at[2], float).reshape(3, 12)[c])
         np.add.at(M, dofs, np.asarray(units, float).reshape(12, 3, 12)[:, c] @ full[dofs])
         return float(gradient @ full[dofs]), V, M
+    if kind == 11:   # N = N_el + c ℓ̇, affine in the ends' rates: ∂N/∂q at the unit rates less at none
+        geometry, velocity, section, taut = _cable_inputs(assembler, state, np.array([index]))
+        if not taut[0]:
+            return 0.0, V, M   # slack: 0, its gradients too (csrc/evaluate.c)
+        at = assembler.kernels.cable_tension(geometry, velocity, section)
+        rows = lambda a: np.ascontiguousarray(np.repeat(a, 13, axis=0))  # noqa: E731
+        units = np.asarray(assembler.kernels.cable_tension(rows(geometry), np.vstack([np.eye(12), np.zeros(12)]),
+                                                           rows(section))[1], float).reshape(13, 12)
+        np.add.at(V, dofs, np.asarray(at[2], float).reshape(12))
+        np.add.at(M, dofs, (units[:12] - units[12]) @ full[dofs])
+        return float(np.asarray(at[1], float).reshape(12) @ full[dofs]), V, M
+    if kind == 14:   # s = −f of the joint's laws: ∂s/∂θ̇ = −C_jj, and −K_jj moves with θ̇ by −∂K_jj/∂θ̇
+        states, laws, curvatures, contacts = _hinge_rows(assembler, state, [index], "d_rate")
+        kernels = assembler.kernels
+        force = kernels.hinge_force(states, laws, contacts)
+        by_rate = np.asarray(kernels.hinge_stiffness_by_rate(states, laws, curvatures, contacts)[0]).reshape(1)
+        V[dofs[0]] = -float(np.asarray(force[2]).reshape(1)[0])
+        M[dofs[0]] = -float(by_rate[0]) * full[dofs[0]]
+        return -float(np.asarray(force[1]).reshape(1)[0]) * full[dofs[0]], V, M
     gradient = _sensor_kinematics(assembler, state, kind, index, sensor)[0]
     if kind == 6:
         node, c = index // 3, index % 3
