@@ -174,16 +174,30 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
   ``point_load_stiffness_D_q``, and its couplings g ∂y/∂θ_j (g: ``point_load``'s force at a e_c) by g ∂²y/∂θ_j∂θ̇_i
   (:func:`_load_rates_part`); with the hinges' and couplings' parts one sparse n × n matrix,
   :func:`rates_tangent_of_weight`;
+* the couplings (on a hinge's force) and driven loads of the other controllers of :func:`_exact_controllers`
+  (:func:`_rates_chain_controllers`, a model without rigid links or guides): those reading points' velocities at an
+  offset or relative to a body, cables' tensions, elements' section forces, free joints' forces (whose laws are
+  generated along the rates), inputs, their states and other such controllers. Each read a_p carries
+  G_p = ∂a_p/∂q · w, V_p = ∂a_p/∂v and M_p = ∂(∂a_p/∂q · w)/∂v (:func:`_read_moves`: a point's velocity at an
+  offset, v + ω × T r, and relative to a body, ``point_velocity_in_body``, linear and homogeneous in the rates, value
+  and gradient along q alike, so V is its rate gradient and M its gradient's product at the unit rates; a cable's
+  tension N_el + c ℓ̇ affine in them, ``cable_tension``'s gradient at the unit rates less at none; a free joint's
+  force −f by −∂f/∂θ̇ (``hinge_force``) and −∂K_jj/∂θ̇ w_j (``hinge_stiffness_by_rate``); an angle, a position, a
+  cable's length and a section force no rate; a rate a unit V), a controller's output through the chain rule,
+  M_k = Σ_pr ∂²f/∂a_p∂a_r G_p V_r + Σ_p ∂f/∂a_p M_p with SymPy's second derivatives by all its moving reads
+  (:func:`_chain_rates_moves`, 0 while saturated); a hinge's row moves by −a M_k
+  (:func:`_chain_coupling_rates_part`), a driven load's node rows by K_l(a e_c) w V_k + g M_k
+  (:func:`_chain_load_rates_part`, ``point_load_stiffness_D_q`` and ``point_load`` as :func:`_load_rates_part`);
 * the damped taut cables' blocks: K_c is affine in the rates, so ``cable_stiffness_D_q`` at δv less at 0
   (:func:`cable_stiffness_by_rates`).
 
 Still a central difference (:func:`rates_rest_needed`; two evaluations a parameter, the adjoint's two a free rate),
 of the blocks not generated alone (:func:`rates_rest_product`: K w of those blocks, the others out): a hinge law of
-θ whose slope does not parse back as a law (:func:`exact_hinges_by_rates`), the loads driven by controllers other
-than of joints alone, and the couplings of the other controllers (a point's velocity at an offset or relative to a
-body, a cable's tension, an element's section force, a joint's force, an input, a state or another controller
-read; :func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`). Rigid links and guides: the rates' move is
-in ``TransientSensitivities._linked_weight_derivative`` (above), not here.
+θ whose slope does not parse back as a law (:func:`exact_hinges_by_rates`), and the couplings and driven loads of a
+controller outside :func:`_exact_controllers` or whose second derivatives by its rate reads are not functions, or
+which reads a free joint's force whose laws are not generated along the rates (:func:`exact_couplings_by_rates`,
+:func:`exact_loads_by_rates`). Rigid links and guides: the rates' move is in
+``TransientSensitivities._linked_weight_derivative`` (above), not here.
 """
 from __future__ import annotations
 
@@ -1529,7 +1543,9 @@ def exact_couplings_by_rates(assembler) -> np.ndarray:
     """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of ∂(K w)/∂v generated
     (:func:`_coupling_rates_part`): its actuator is a hinge's force, and its controller reads joints' angles and
     rates alone (:func:`_joint_reads`), or positions and plain rates (:func:`_position_and_rate_reads`,
-    :func:`_general_coupling_rates_part`; a model without rigid links or guides). A joints' controller's entry
+    :func:`_general_coupling_rates_part`; a model without rigid links or guides), or its controller is one of
+    :func:`_rates_chain_controllers` (on a hinge's force or a load's component: :func:`_chain_coupling_rates_part`,
+    :func:`_chain_load_rates_part`). A joints' controller's entry
     −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone (an angle sensor does not read a rate); the same
     for a load's component such a controller drives (its entries g ∂y/∂θ_j, g the load's generalized force per unit
     output: :func:`_load_rates_part`); the others keep
@@ -1554,7 +1570,8 @@ def _plain_controllers(control) -> np.ndarray:
 def exact_loads_by_rates(assembler) -> np.ndarray:
     """(loads,) bool: whether the point load's part of ∂(K w)/∂v is generated (:func:`_load_rates_part`): a load no
     continuous controller drives (its block does not move with the rates), or one whose driven components' controllers
-    read joints' angles and rates alone (:func:`_joint_reads`); otherwise its block stays in
+    read joints' angles and rates alone (:func:`_joint_reads`) or are of :func:`_rates_chain_controllers`
+    (:func:`_chain_load_rates_part`); otherwise its block stays in
     :func:`rates_rest_product`'s difference."""
     control = assembler.control
     out = np.ones(len(assembler.loads), bool)
@@ -1674,7 +1691,8 @@ def _load_rates_part(assembler, state, w: np.ndarray):
 #: and velocity component, a point's position at an offset and in a body's axes, a cable's length and an element's
 #: section force (their gradient along q holds no rate), a point's velocity at an offset (v + ω × T r: its value and
 #: its gradient by the node's turn linear in the node's rates) and relative to a body (``point_velocity_in_body``,
-#: linear in both nodes' rates); a cable's tension and a free joint's force (their damping's rates) are not yet
+#: linear in both nodes' rates), a cable's tension (affine in its ends' rates) and a free joint's force (its laws'
+#: rates, where :func:`exact_hinges_by_rates` has the hinge)
 _RATE_MOVED_SENSORS = (0, 1, 2, 3, 5, 6, 7, 8, 11, 12, 13, 14)
 
 
@@ -1909,7 +1927,9 @@ def _chain_load_rates_part(assembler, state, w: np.ndarray, moves: dict | None =
 def rates_tangent_of_weight(assembler, state, w: np.ndarray):
     """∂(K w)/∂v (n × n, sparse as :func:`configuration_tangent_of_weight`'s H; applied by :func:`times`,
     :func:`transposed_times`) of the hinges', the couplings' and the driven loads' parts generated
-    (:func:`_hinge_rates_part`, :func:`_coupling_rates_part`, :func:`_load_rates_part`) at ``state``, a model
+    (:func:`_hinge_rates_part`, :func:`_coupling_rates_part`, :func:`_load_rates_part`,
+    :func:`_general_coupling_rates_part`, :func:`_chain_coupling_rates_part`, :func:`_chain_load_rates_part`) at
+    ``state``, a model
     without rigid links or guides (module docstring, "Along the rates"); the taut cables' part is
     :func:`cable_stiffness_by_rates`'s, the rest :func:`rates_rest_product`'s."""
     n = assembler.model.n_dofs
