@@ -1634,6 +1634,29 @@ def _coupling_rates_part(assembler, state, w: np.ndarray, exact: np.ndarray | No
     return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
 
 
+def _driven_component(assembler, state, a: int, full: np.ndarray, columns: np.ndarray) -> tuple:
+    """(the load's node rows (6,), K_l(a e_c) w (6,), g = ``point_load``'s force at a e_c (6,)) of driven load
+    component ``a`` (an actuator of kind 1; a the gain of its law a y + b, 1 for the controller's name alone) at
+    ``state``, w on the load's columns ``columns`` of ``full`` (a global load's block without its frame half,
+    csrc/evaluate.c): the generated ``point_load_stiffness_D_q`` and ``point_load`` (:func:`_load_rates_part`,
+    :func:`_chain_load_rates_part`)."""
+    control, model, loads = assembler.control, assembler.model, assembler.loads
+    l = int(control.actuator_index[a])
+    gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+    unit = np.zeros(6)
+    unit[int(control.actuator_component[a])] = gain
+    follower = loads[l].frame != "global"
+    along = full[columns[l]].copy()
+    if not follower:
+        along[3:] = 0.0   # a global load's block has no frame half (csrc/evaluate.c)
+    node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
+    rows = lambda a_: np.ascontiguousarray(np.reshape(a_, (1, -1)), dtype=float)  # noqa: E731
+    T, r, R = rows(state.T[node]), rows(assembler._load_offsets[l]), rows(state.T[frame] if follower else np.eye(3))
+    block = np.asarray(assembler.kernels.point_load_stiffness_D_q(T, r, rows(unit), R, rows(along))[0]).reshape(6)
+    force = np.asarray(assembler.kernels.point_load(T, r, rows(unit), R, rows(np.zeros(6)))[0]).reshape(6)
+    return _scattered(model.node_dofs[node], model.n_total), block, force
+
+
 def _load_rates_part(assembler, state, w: np.ndarray):
     """(rows, cols, values) of the driven point loads' part of ∂(K w)/∂v for the loads of :func:`exact_loads_by_rates`:
     a component a y + b (a = 1 for the controller's name alone) of a controller of :func:`_joint_reads` moves with
@@ -1641,7 +1664,7 @@ def _load_rates_part(assembler, state, w: np.ndarray):
     generated ``point_load_stiffness_D_q``'s ``load_stiffness_along`` at those values — and its coupling entries
     g ∂y/∂θ_j (g = ``point_load``'s ``load_force`` at a e_c, csrc/evaluate.c controller_couplings) by
     g ∂²y/∂θ_j∂θ̇_i (:func:`_output_mixed`), times w_j: both on the load's node rows, column i. 0 while saturated."""
-    control, model, loads = assembler.control, assembler.model, assembler.loads
+    control, model = assembler.control, assembler.model
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
     driven = np.flatnonzero(kinds == 1)
     exact = exact_loads_by_rates(assembler)
@@ -1660,24 +1683,12 @@ def _load_rates_part(assembler, state, w: np.ndarray):
             continue
         controller = control.controllers[k]
         indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
-        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
-        unit = np.zeros(6)
-        unit[int(control.actuator_component[a])] = gain
-        follower = loads[l].frame != "global"
-        along = full[columns[l]].copy()
-        if not follower:
-            along[3:] = 0.0   # a global load's block has no frame half (csrc/evaluate.c)
-        node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
-        rows = lambda a_: np.ascontiguousarray(np.reshape(a_, (1, -1)), dtype=float)  # noqa: E731
-        T, r, R = rows(state.T[node]), rows(assembler._load_offsets[l]), rows(state.T[frame] if follower else np.eye(3))
-        block = np.asarray(assembler.kernels.point_load_stiffness_D_q(T, r, rows(unit), R, rows(along))[0]).reshape(6)
-        force = np.asarray(assembler.kernels.point_load(T, r, rows(unit), R, rows(np.zeros(6)))[0]).reshape(6)
+        node_rows, block, force = _driven_component(assembler, state, int(a), full, columns)
         slopes = np.asarray(_output_rate_slopes(controller, rates)(at[1], *at[0]), float).reshape(len(rates))
         angle_columns = dofs[indices[list(angles)]]
         on_angles = np.where(angle_columns < n, w[np.minimum(angle_columns, n - 1)], 0.0)
         mixed = np.asarray(_output_mixed(controller, angles, rates)(at[1], *at[0]), float).reshape(len(angles),
                                                                                                     len(rates))
-        node_rows = _scattered(model.node_dofs[node], model.n_total)
         for m, i in enumerate(rates):
             out_rows.append(node_rows)
             out_cols.append(np.full(6, dofs[indices[i]], np.int64))
@@ -1882,7 +1893,7 @@ def _chain_load_rates_part(assembler, state, w: np.ndarray, moves: dict | None =
     controller of :func:`_rates_chain_controllers` not of joints alone (those are :func:`_load_rates_part`'s): as
     there, the load's block by K_l(a e_c) w times ∂y/∂v = V_k and its coupling entries g ∂y/∂q (g = ``point_load``'s
     force at a e_c) times w by g M_k (:func:`_chain_rates_moves`), on the load's node rows, in the rates' columns."""
-    control, model, loads = assembler.control, assembler.model, assembler.loads
+    control, model = assembler.control, assembler.model
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
     chain = _rates_chain_controllers(assembler)
     taken = [int(a) for a in np.flatnonzero(kinds == 1)
@@ -1902,19 +1913,7 @@ def _chain_load_rates_part(assembler, state, w: np.ndarray, moves: dict | None =
         on = np.flatnonzero((V[:n] != 0.0) | (M[:n] != 0.0))
         if not len(on):
             continue
-        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
-        unit = np.zeros(6)
-        unit[int(control.actuator_component[a])] = gain
-        follower = loads[l].frame != "global"
-        along = full[columns[l]].copy()
-        if not follower:
-            along[3:] = 0.0   # a global load's block has no frame half (csrc/evaluate.c)
-        node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
-        rows = lambda a_: np.ascontiguousarray(np.reshape(a_, (1, -1)), dtype=float)  # noqa: E731
-        T, r, R = rows(state.T[node]), rows(assembler._load_offsets[l]), rows(state.T[frame] if follower else np.eye(3))
-        block = np.asarray(assembler.kernels.point_load_stiffness_D_q(T, r, rows(unit), R, rows(along))[0]).reshape(6)
-        force = np.asarray(assembler.kernels.point_load(T, r, rows(unit), R, rows(np.zeros(6)))[0]).reshape(6)
-        node_rows = _scattered(model.node_dofs[node], model.n_total)
+        node_rows, block, force = _driven_component(assembler, state, int(a), full, columns)
         for j in on:
             out_rows.append(node_rows)
             out_cols.append(np.full(6, j, np.int64))
