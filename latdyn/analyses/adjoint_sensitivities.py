@@ -956,7 +956,9 @@ class AdjointSensitivities(TransientSensitivities):
         """The transpose of the forward method's rates' term of the weight derivative, scale ∂(K w)/∂v δv
         (:meth:`TransientSensitivities._stiffness_by_rates`), applied to ``u_bar`` (n, m): scale (∂(K w)/∂v)ᵀ ū,
         ∂(K w)/∂v the forward method's along each free rate (the identity's columns): generated for the hinges, the
-        couplings and loads of controllers of angles and rates and the damped cables, no evaluation; a difference,
+        couplings and loads of the controllers whose second derivatives are generated and the damped cables, no
+        evaluation (the same sparse matrix, :func:`latdyn.analyses.weight_derivative.rates_tangent_of_weight`); a
+        difference,
         two evaluations a free rate, of the blocks not generated alone (latdyn/analyses/weight_derivative.py, "Along
         the rates"). Where K moves with the rates
         at ``state`` (:meth:`TransientSensitivities.stiffness_moves_with_rates`, the forward method's one predicate:

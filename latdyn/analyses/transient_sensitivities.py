@@ -863,9 +863,12 @@ class TransientSensitivities(ParameterDerivatives):
         cable's geometric terms c ℓ̇, a hinge law whose ∂τ/∂θ holds θ̇, a compliant stop's damping in contact, a
         controller's couplings), and the impulse's weight M + dt² K moves with them. Generated
         (latdyn/analyses/weight_derivative.py, "Along the rates"): the hinges' ∂²f/∂θ∂θ̇, the couplings and driven
-        loads of a controller of angles and rates by its mixed second derivatives (:func:`rates_tangent_of_weight`),
-        the damped taut cables' (:func:`cable_stiffness_by_rates`, K_c affine in the rates); the blocks not generated
-        (:func:`rates_rest_needed`: a hinge law naming an input, other controllers' couplings and loads) a
+        loads of a controller of angles and rates by its mixed second derivatives, and of the other controllers whose
+        second derivatives are generated (points' velocities, tensions, section forces, joints' forces, inputs,
+        states, chains) through their sensors' rate derivatives (:func:`rates_tangent_of_weight`), the damped taut
+        cables' (:func:`cable_stiffness_by_rates`, K_c affine in the rates); the blocks not generated
+        (:func:`rates_rest_needed`: a hinge law whose slope does not parse back, the remaining controllers' couplings
+        and loads) a
         central difference of their K w along each column's δv (:func:`rates_rest_product`; the step relative: the
         rates' own size, or 1), no evaluation where there is none."""
         model, assembler = self.model, self.assembler

@@ -174,16 +174,30 @@ one, an undamped cable or a controller linear in its sensors. Generated and exac
   ``point_load_stiffness_D_q``, and its couplings g ∂y/∂θ_j (g: ``point_load``'s force at a e_c) by g ∂²y/∂θ_j∂θ̇_i
   (:func:`_load_rates_part`); with the hinges' and couplings' parts one sparse n × n matrix,
   :func:`rates_tangent_of_weight`;
+* the couplings (on a hinge's force) and driven loads of the other controllers of :func:`_exact_controllers`
+  (:func:`_rates_chain_controllers`, a model without rigid links or guides): those reading points' velocities at an
+  offset or relative to a body, cables' tensions, elements' section forces, free joints' forces (whose laws are
+  generated along the rates), inputs, their states and other such controllers. Each read a_p carries
+  G_p = ∂a_p/∂q · w, V_p = ∂a_p/∂v and M_p = ∂(∂a_p/∂q · w)/∂v (:func:`_read_moves`: a point's velocity at an
+  offset, v + ω × T r, and relative to a body, ``point_velocity_in_body``, linear and homogeneous in the rates, value
+  and gradient along q alike, so V is its rate gradient and M its gradient's product at the unit rates; a cable's
+  tension N_el + c ℓ̇ affine in them, ``cable_tension``'s gradient at the unit rates less at none; a free joint's
+  force −f by −∂f/∂θ̇ (``hinge_force``) and −∂K_jj/∂θ̇ w_j (``hinge_stiffness_by_rate``); an angle, a position, a
+  cable's length and a section force no rate; a rate a unit V), a controller's output through the chain rule,
+  M_k = Σ_pr ∂²f/∂a_p∂a_r G_p V_r + Σ_p ∂f/∂a_p M_p with SymPy's second derivatives by all its moving reads
+  (:func:`_chain_rates_moves`, 0 while saturated); a hinge's row moves by −a M_k
+  (:func:`_chain_coupling_rates_part`), a driven load's node rows by K_l(a e_c) w V_k + g M_k
+  (:func:`_chain_load_rates_part`, ``point_load_stiffness_D_q`` and ``point_load`` as :func:`_load_rates_part`);
 * the damped taut cables' blocks: K_c is affine in the rates, so ``cable_stiffness_D_q`` at δv less at 0
   (:func:`cable_stiffness_by_rates`).
 
 Still a central difference (:func:`rates_rest_needed`; two evaluations a parameter, the adjoint's two a free rate),
 of the blocks not generated alone (:func:`rates_rest_product`: K w of those blocks, the others out): a hinge law of
-θ whose slope does not parse back as a law (:func:`exact_hinges_by_rates`), the loads driven by controllers other
-than of joints alone, and the couplings of the other controllers (a point's velocity at an offset or relative to a
-body, a cable's tension, an element's section force, a joint's force, an input, a state or another controller
-read; :func:`exact_couplings_by_rates`, :func:`exact_loads_by_rates`). Rigid links and guides: the rates' move is
-in ``TransientSensitivities._linked_weight_derivative`` (above), not here.
+θ whose slope does not parse back as a law (:func:`exact_hinges_by_rates`), and the couplings and driven loads of a
+controller outside :func:`_exact_controllers` or whose second derivatives by its rate reads are not functions, or
+which reads a free joint's force whose laws are not generated along the rates (:func:`exact_couplings_by_rates`,
+:func:`exact_loads_by_rates`). Rigid links and guides: the rates' move is in
+``TransientSensitivities._linked_weight_derivative`` (above), not here.
 """
 from __future__ import annotations
 
@@ -1529,7 +1543,9 @@ def exact_couplings_by_rates(assembler) -> np.ndarray:
     """(couplings,) bool: whether a continuous controller's coupling entry of K has its part of ∂(K w)/∂v generated
     (:func:`_coupling_rates_part`): its actuator is a hinge's force, and its controller reads joints' angles and
     rates alone (:func:`_joint_reads`), or positions and plain rates (:func:`_position_and_rate_reads`,
-    :func:`_general_coupling_rates_part`; a model without rigid links or guides). A joints' controller's entry
+    :func:`_general_coupling_rates_part`; a model without rigid links or guides), or its controller is one of
+    :func:`_rates_chain_controllers` (on a hinge's force or a load's component: :func:`_chain_coupling_rates_part`,
+    :func:`_chain_load_rates_part`). A joints' controller's entry
     −a ∂y/∂θ_j then moves with the rates by −a ∂²y/∂θ_j∂θ̇_i alone (an angle sensor does not read a rate); the same
     for a load's component such a controller drives (its entries g ∂y/∂θ_j, g the load's generalized force per unit
     output: :func:`_load_rates_part`); the others keep
@@ -1542,7 +1558,8 @@ def exact_couplings_by_rates(assembler) -> np.ndarray:
     on_hinges = np.asarray(control.actuator_kind, np.int64)[actuators] == 0
     general = np.array([_position_and_rate_reads(assembler, k) is not None for k in range(len(control.controllers))],
                        bool)
-    return out | (on_hinges & general[np.asarray(control.actuator_controller, np.int64)[actuators]])
+    chain = _rates_chain_controllers(assembler)[np.asarray(control.actuator_controller, np.int64)[actuators]]
+    return out | (on_hinges & general[np.asarray(control.actuator_controller, np.int64)[actuators]]) | chain
 
 
 def _plain_controllers(control) -> np.ndarray:
@@ -1553,14 +1570,15 @@ def _plain_controllers(control) -> np.ndarray:
 def exact_loads_by_rates(assembler) -> np.ndarray:
     """(loads,) bool: whether the point load's part of ∂(K w)/∂v is generated (:func:`_load_rates_part`): a load no
     continuous controller drives (its block does not move with the rates), or one whose driven components' controllers
-    read joints' angles and rates alone (:func:`_joint_reads`); otherwise its block stays in
+    read joints' angles and rates alone (:func:`_joint_reads`) or are of :func:`_rates_chain_controllers`
+    (:func:`_chain_load_rates_part`); otherwise its block stays in
     :func:`rates_rest_product`'s difference."""
     control = assembler.control
     out = np.ones(len(assembler.loads), bool)
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
     if not np.any(kinds == 1):
         return out
-    plain = _plain_controllers(control)
+    plain = _plain_controllers(control) | _rates_chain_controllers(assembler)
     for a in np.flatnonzero(kinds == 1):
         if not plain[control.actuator_controller[a]]:
             out[control.actuator_index[a]] = False
@@ -1616,6 +1634,29 @@ def _coupling_rates_part(assembler, state, w: np.ndarray, exact: np.ndarray | No
     return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
 
 
+def _driven_component(assembler, state, a: int, full: np.ndarray, columns: np.ndarray) -> tuple:
+    """(the load's node rows (6,), K_l(a e_c) w (6,), g = ``point_load``'s force at a e_c (6,)) of driven load
+    component ``a`` (an actuator of kind 1; a the gain of its law a y + b, 1 for the controller's name alone) at
+    ``state``, w on the load's columns ``columns`` of ``full`` (a global load's block without its frame half,
+    csrc/evaluate.c): the generated ``point_load_stiffness_D_q`` and ``point_load`` (:func:`_load_rates_part`,
+    :func:`_chain_load_rates_part`)."""
+    control, model, loads = assembler.control, assembler.model, assembler.loads
+    l = int(control.actuator_index[a])
+    gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+    unit = np.zeros(6)
+    unit[int(control.actuator_component[a])] = gain
+    follower = loads[l].frame != "global"
+    along = full[columns[l]].copy()
+    if not follower:
+        along[3:] = 0.0   # a global load's block has no frame half (csrc/evaluate.c)
+    node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
+    rows = lambda a_: np.ascontiguousarray(np.reshape(a_, (1, -1)), dtype=float)  # noqa: E731
+    T, r, R = rows(state.T[node]), rows(assembler._load_offsets[l]), rows(state.T[frame] if follower else np.eye(3))
+    block = np.asarray(assembler.kernels.point_load_stiffness_D_q(T, r, rows(unit), R, rows(along))[0]).reshape(6)
+    force = np.asarray(assembler.kernels.point_load(T, r, rows(unit), R, rows(np.zeros(6)))[0]).reshape(6)
+    return _scattered(model.node_dofs[node], model.n_total), block, force
+
+
 def _load_rates_part(assembler, state, w: np.ndarray):
     """(rows, cols, values) of the driven point loads' part of ∂(K w)/∂v for the loads of :func:`exact_loads_by_rates`:
     a component a y + b (a = 1 for the controller's name alone) of a controller of :func:`_joint_reads` moves with
@@ -1623,7 +1664,7 @@ def _load_rates_part(assembler, state, w: np.ndarray):
     generated ``point_load_stiffness_D_q``'s ``load_stiffness_along`` at those values — and its coupling entries
     g ∂y/∂θ_j (g = ``point_load``'s ``load_force`` at a e_c, csrc/evaluate.c controller_couplings) by
     g ∂²y/∂θ_j∂θ̇_i (:func:`_output_mixed`), times w_j: both on the load's node rows, column i. 0 while saturated."""
-    control, model, loads = assembler.control, assembler.model, assembler.loads
+    control, model = assembler.control, assembler.model
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
     driven = np.flatnonzero(kinds == 1)
     exact = exact_loads_by_rates(assembler)
@@ -1635,30 +1676,19 @@ def _load_rates_part(assembler, state, w: np.ndarray):
     out_rows, out_cols, out_values = [], [], []
     for a in driven:
         l, k = int(control.actuator_index[a]), int(control.actuator_controller[a])
-        first, angles, rates = _joint_reads(control, k) if exact[l] else (0, (), ())
+        plain = exact[l] and _joint_reads(control, k) is not None   # else :func:`_chain_load_rates_part`'s
+        first, angles, rates = _joint_reads(control, k) if plain else (0, (), ())
         at = _controller_at(control, k, state) if len(rates) else None
         if at is None:   # not generated here (the rest), no rate read, or saturated
             continue
         controller = control.controllers[k]
         indices = np.asarray(control.sensor_index[first:first + len(angles) + len(rates)])
-        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
-        unit = np.zeros(6)
-        unit[int(control.actuator_component[a])] = gain
-        follower = loads[l].frame != "global"
-        along = full[columns[l]].copy()
-        if not follower:
-            along[3:] = 0.0   # a global load's block has no frame half (csrc/evaluate.c)
-        node, frame = int(assembler._load_nodes[l]), int(assembler._load_frames[l])
-        rows = lambda a_: np.ascontiguousarray(np.reshape(a_, (1, -1)), dtype=float)  # noqa: E731
-        T, r, R = rows(state.T[node]), rows(assembler._load_offsets[l]), rows(state.T[frame] if follower else np.eye(3))
-        block = np.asarray(assembler.kernels.point_load_stiffness_D_q(T, r, rows(unit), R, rows(along))[0]).reshape(6)
-        force = np.asarray(assembler.kernels.point_load(T, r, rows(unit), R, rows(np.zeros(6)))[0]).reshape(6)
+        node_rows, block, force = _driven_component(assembler, state, int(a), full, columns)
         slopes = np.asarray(_output_rate_slopes(controller, rates)(at[1], *at[0]), float).reshape(len(rates))
         angle_columns = dofs[indices[list(angles)]]
         on_angles = np.where(angle_columns < n, w[np.minimum(angle_columns, n - 1)], 0.0)
         mixed = np.asarray(_output_mixed(controller, angles, rates)(at[1], *at[0]), float).reshape(len(angles),
                                                                                                     len(rates))
-        node_rows = _scattered(model.node_dofs[node], model.n_total)
         for m, i in enumerate(rates):
             out_rows.append(node_rows)
             out_cols.append(np.full(6, dofs[indices[i]], np.int64))
@@ -1668,10 +1698,237 @@ def _load_rates_part(assembler, state, w: np.ndarray):
     return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
 
 
+#: the sensor kinds whose moves along the rates :func:`_read_moves` gives: a joint's angle and rate, a node's position
+#: and velocity component, a point's position at an offset and in a body's axes, a cable's length and an element's
+#: section force (their gradient along q holds no rate), a point's velocity at an offset (v + ω × T r: its value and
+#: its gradient by the node's turn linear in the node's rates) and relative to a body (``point_velocity_in_body``,
+#: linear in both nodes' rates), a cable's tension (affine in its ends' rates) and a free joint's force (its laws'
+#: rates, where :func:`exact_hinges_by_rates` has the hinge)
+_RATE_MOVED_SENSORS = (0, 1, 2, 3, 5, 6, 7, 8, 11, 12, 13, 14)
+
+
+def _rates_chain_controllers(assembler) -> np.ndarray:
+    """(controllers,) bool: the continuous controllers whose coupling entries' and driven loads' move along the rates
+    :func:`_chain_rates_moves` generates, on a model without rigid links or guides: those of
+    :func:`_exact_controllers` reading sensors of :data:`_RATE_MOVED_SENSORS`, inputs, sampled controllers' held
+    outputs, their own states and earlier controllers of this kind alone, with every second derivative of the output
+    by the sensors and controllers it reads a function (:func:`_output_curvature` over them all, the rates'
+    included)."""
+    from latdyn.assembly.control import CONTROLLER
+
+    control = assembler.control
+    out = np.zeros(len(control.controllers), bool)
+    if assembler.model.links is not None:
+        return out
+    exact = _exact_controllers(assembler)
+    model = assembler.model
+    by_rates = dict(zip((int(j) for j in model.free_hinges), exact_hinges_by_rates(assembler)))
+    for k, controller in enumerate(control.controllers):
+        reads = _controller_reads(control, k)
+        if not exact[k] or not all(kind is None or (kind in _RATE_MOVED_SENSORS and (kind != 14 or by_rates.get(index)))
+                                   or (kind == CONTROLLER and out[index]) for kind, index, _ in reads):
+            continue
+        moving = tuple(p for p, (kind, _, _) in enumerate(reads) if kind is not None)
+        out[k] = _output_curvature(controller, moving) is not None
+    return out
+
+
+def _read_moves(assembler, state, kind: int, index: int, sensor: int, full: np.ndarray):
+    """(G, V, M) of a sensor of :data:`_RATE_MOVED_SENSORS` at ``state`` along ``full`` (w on the assembled
+    coordinates, 0 on the slot n_total): G = ∂s/∂q · w (the gradient csrc/evaluate.c couples, :func:`_sensor_kinematics`,
+    at the state's rates), V = ∂s/∂v (n_total + 1,) and M = ∂(∂s/∂q · w)/∂v (n_total + 1,) over the rates (numbered as
+    the coordinates). A point's velocity is linear and homogeneous in the rates it reads, value and gradient along q
+    alike, so V is its value and M its gradient's product at each unit rate: at an offset, s = e_cᵀ(v + ω × T r), V on
+    the node's [v; ω] is [e_c; T r × e_c] and the gradient by the node's turn at ω = e_i is ``point_load``'s moment
+    rows at the values −(e_c × e_i) (as :func:`_sensor_kinematics`); relative to a body, V is ``point_velocity_in_body``'s
+    ∂s/∂[v_n, ω_n, v_b, ω_b] and M its ∂s/∂q · w at the twelve unit rates."""
+    model = assembler.model
+    V, M = np.zeros(model.n_total + 1), np.zeros(model.n_total + 1)
+    if kind == 1:
+        V[model.hinge_dofs[index]] = 1.0
+        return 0.0, V, M
+    if kind == 3:
+        V[model.node_dofs[index // 3, index % 3]] = 1.0
+        return 0.0, V, M
+    dofs = _sensor_dofs(assembler, kind, index, sensor)
+    if kind == 0:
+        return float(full[dofs[0]]), V, M
+    if kind == 13:
+        control = assembler.control
+        node, c, body = index // 3, index % 3, int(control.sensor_frame_node[sensor])
+        geometry = np.concatenate([state.x[node], state.x[body], np.reshape(state.T[node], 9),
+                                   control.sensor_offset[sensor], np.reshape(state.T[body], 9)])
+        velocity = np.concatenate([state.v[node], state.w[node], state.v[body], state.w[body]])
+        at = assembler.kernels.point_velocity_in_body(np.ascontiguousarray(geometry[None], dtype=float),
+                                                      np.ascontiguousarray(velocity[None], dtype=float))
+        units = assembler.kernels.point_velocity_in_body(np.ascontiguousarray(np.tile(geometry, (12, 1)), dtype=float),
+                                                         np.eye(12))[1]
+        gradient = np.asarray(at[1], float).reshape(3, 12)[c]
+        np.add.at(V, dofs, np.asarray(at[2], float).reshape(3, 12)[c])
+        np.add.at(M, dofs, np.asarray(units, float).reshape(12, 3, 12)[:, c] @ full[dofs])
+        return float(gradient @ full[dofs]), V, M
+    if kind == 11:   # N = N_el + c ℓ̇, affine in the ends' rates: ∂N/∂q at the unit rates less at none
+        geometry, velocity, section, taut = _cable_inputs(assembler, state, np.array([index]))
+        if not taut[0]:
+            return 0.0, V, M   # slack: 0, its gradients too (csrc/evaluate.c)
+        at = assembler.kernels.cable_tension(geometry, velocity, section)
+        rows = lambda a: np.ascontiguousarray(np.repeat(a, 13, axis=0))  # noqa: E731
+        units = np.asarray(assembler.kernels.cable_tension(rows(geometry), np.vstack([np.eye(12), np.zeros(12)]),
+                                                           rows(section))[1], float).reshape(13, 12)
+        np.add.at(V, dofs, np.asarray(at[2], float).reshape(12))
+        np.add.at(M, dofs, (units[:12] - units[12]) @ full[dofs])
+        return float(np.asarray(at[1], float).reshape(12) @ full[dofs]), V, M
+    if kind == 14:   # s = −f of the joint's laws: ∂s/∂θ̇ = −C_jj, and −K_jj moves with θ̇ by −∂K_jj/∂θ̇
+        states, laws, curvatures, contacts = _hinge_rows(assembler, state, [index], "d_rate")
+        kernels = assembler.kernels
+        force = kernels.hinge_force(states, laws, contacts)
+        by_rate = np.asarray(kernels.hinge_stiffness_by_rate(states, laws, curvatures, contacts)[0]).reshape(1)
+        V[dofs[0]] = -float(np.asarray(force[2]).reshape(1)[0])
+        M[dofs[0]] = -float(by_rate[0]) * full[dofs[0]]
+        return -float(np.asarray(force[1]).reshape(1)[0]) * full[dofs[0]], V, M
+    gradient = _sensor_kinematics(assembler, state, kind, index, sensor)[0]
+    if kind == 6:
+        node, c = index // 3, index % 3
+        unit = np.eye(3)[c]
+        rates = _scattered(np.asarray(model.node_dofs[node], np.int64), model.n_total)
+        np.add.at(V, rates, np.concatenate([unit, np.cross(state.T[node] @ assembler.control.sensor_offset[sensor],
+                                                           unit)]))
+        values = np.concatenate([-np.cross(unit, np.eye(3)), np.zeros((3, 3))], axis=1)
+        lever = _point_load(assembler, state.T[node], assembler.control.sensor_offset[sensor], values, np.eye(3))[0]
+        np.add.at(M, rates[3:], lever[:, 3:] @ full[dofs])
+    return float(gradient @ full[dofs]), V, M
+
+
+def _chain_rates_moves(assembler, state, w: np.ndarray) -> dict:
+    """{k: (G_k, V_k, M_k, y_k)} for the controllers of :func:`_rates_chain_controllers` at ``state`` along ``w``
+    (n,), in their order: with a_p the arguments of f_k that are sensors (:func:`_read_moves`) or earlier such
+    controllers' outputs (their own G, V, M), inputs and states held,
+
+        G_k = Σ_p ∂f/∂a_p G_p                 (∂y_k/∂q · w, the coupling's product K w up to −a),
+        V_k = Σ_p ∂f/∂a_p V_p                 (∂y_k/∂v),
+        M_k = Σ_pr ∂²f/∂a_p∂a_r G_p V_r + Σ_p ∂f/∂a_p M_p    (∂(∂y_k/∂q · w)/∂v),
+
+    SymPy's first and second derivatives of the output by all its moving reads (:func:`_output_curvature`) at the
+    arguments the evaluation reads (as :func:`_controller_curvatures`); all three 0 while the output is saturated
+    (csrc/evaluate.c controller_outputs), y_k after saturation."""
+    from latdyn.assembly.control import CONTROLLER
+
+    control, model, scene = assembler.control, assembler.model, assembler.model.scene
+    chain = _rates_chain_controllers(assembler)
+    if not np.any(chain):
+        return {}
+    n = model.n_dofs
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    native = assembler.native()
+    held = scene.controller_outputs
+    kept = held.values.copy()
+    native.controller_outputs_at(state)
+    held.values[:] = kept
+    sensed = np.array(native.buffers["sensor_values"], float)
+    inputs = getattr(scene, "inputs", None)
+    states = control.states.values if control.states is not None else np.zeros(0)
+    t = float(state.t)
+    out = {}
+    for k in np.flatnonzero(chain):
+        values, moves = [], []
+        for kind, index, sensor in _controller_reads(control, int(k)):
+            if kind is None:
+                values.append(float(inputs[index] if inputs is not None and index in inputs else held[index]))
+            elif kind == CONTROLLER:
+                values.append(out[index][3])
+                moves.append(out[index][:3])
+            else:
+                values.append(float(state.theta[index] - control.sensor_origin[sensor]) if kind == 0 else
+                              float(state.theta_dot[index] - control.sensor_origin[sensor]) if kind == 1 else
+                              float(sensed[sensor]))
+                moves.append(_read_moves(assembler, state, kind, index, sensor, full))
+        arguments = (t, *values, *states[control.state_slot[control.state_start[k]:control.state_start[k + 1]]])
+        m = len(moves)
+        derivatives = np.asarray(_output_curvature(control.controllers[k], tuple(
+            p for p, (kind, _, _) in enumerate(_controller_reads(control, int(k))) if kind is not None))(*arguments),
+            float).reshape(-1)
+        y = float(derivatives[0])
+        lo, hi = control.limits[k]
+        zero = np.zeros(model.n_total + 1)
+        if y < lo or y > hi or not m:
+            out[int(k)] = (0.0, zero, zero, float(min(max(y, lo), hi)))
+            continue
+        slope, second = derivatives[1:1 + m], derivatives[1 + m:].reshape(m, m)
+        G = np.array([g for g, _, _ in moves])
+        V = np.array([v for _, v, _ in moves])
+        M = np.array([mm for _, _, mm in moves])
+        out[int(k)] = (float(slope @ G), slope @ V, (second @ V).T @ G + slope @ M, y)
+    return out
+
+
+def _chain_coupling_rates_part(assembler, state, w: np.ndarray, moves: dict | None = None):
+    """(rows, cols, values) of the couplings' part of ∂(K w)/∂v for a hinge's force driven by a controller of
+    :func:`_rates_chain_controllers` that neither :func:`_coupling_rates_part` (joints alone) nor
+    :func:`_general_coupling_rates_part` (positions and plain rates) takes: K's row of the hinge, −a ∂y/∂q, times w
+    moves with the rates by −a M_k (:func:`_chain_rates_moves`) in the rates' columns."""
+    control, model = assembler.control, assembler.model
+    n = model.n_dofs
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    chain = _rates_chain_controllers(assembler)
+    taken = [(int(a), int(control.actuator_controller[a])) for a in np.flatnonzero(kinds == 0)
+             if chain[control.actuator_controller[a]] and _joint_reads(control, int(control.actuator_controller[a]))
+             is None and _position_and_rate_reads(assembler, int(control.actuator_controller[a])) is None
+             and model.hinge_dofs[control.actuator_index[a]] < n]
+    if not taken:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    moves = _chain_rates_moves(assembler, state, w) if moves is None else moves
+    out_rows, out_cols, out_values = [], [], []
+    for a, k in taken:
+        columns = np.flatnonzero(moves[k][2][:n])
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        out_rows.append(np.full(len(columns), int(model.hinge_dofs[control.actuator_index[a]]), np.int64))
+        out_cols.append(columns.astype(np.int64))
+        out_values.append(-gain * moves[k][2][columns])
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
+
+
+def _chain_load_rates_part(assembler, state, w: np.ndarray, moves: dict | None = None):
+    """(rows, cols, values) of the driven point loads' part of ∂(K w)/∂v for a component a y + b driven by a
+    controller of :func:`_rates_chain_controllers` not of joints alone (those are :func:`_load_rates_part`'s): as
+    there, the load's block by K_l(a e_c) w times ∂y/∂v = V_k and its coupling entries g ∂y/∂q (g = ``point_load``'s
+    force at a e_c) times w by g M_k (:func:`_chain_rates_moves`), on the load's node rows, in the rates' columns."""
+    control, model = assembler.control, assembler.model
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    chain = _rates_chain_controllers(assembler)
+    taken = [int(a) for a in np.flatnonzero(kinds == 1)
+             if chain[control.actuator_controller[a]] and _joint_reads(control, int(control.actuator_controller[a]))
+             is None]
+    if not taken:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    moves = _chain_rates_moves(assembler, state, w) if moves is None else moves
+    n = model.n_dofs
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    columns = _scattered(assembler._load_columns(), model.n_total)
+    out_rows, out_cols, out_values = [], [], []
+    for a in taken:
+        l, k = int(control.actuator_index[a]), int(control.actuator_controller[a])
+        _, V, M, _ = moves[k]
+        on = np.flatnonzero((V[:n] != 0.0) | (M[:n] != 0.0))
+        if not len(on):
+            continue
+        node_rows, block, force = _driven_component(assembler, state, int(a), full, columns)
+        for j in on:
+            out_rows.append(node_rows)
+            out_cols.append(np.full(6, j, np.int64))
+            out_values.append(V[j] * block + force * M[j])
+    if not out_rows:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return np.concatenate(out_rows), np.concatenate(out_cols), np.concatenate(out_values)
+
+
 def rates_tangent_of_weight(assembler, state, w: np.ndarray):
     """∂(K w)/∂v (n × n, sparse as :func:`configuration_tangent_of_weight`'s H; applied by :func:`times`,
     :func:`transposed_times`) of the hinges', the couplings' and the driven loads' parts generated
-    (:func:`_hinge_rates_part`, :func:`_coupling_rates_part`, :func:`_load_rates_part`) at ``state``, a model
+    (:func:`_hinge_rates_part`, :func:`_coupling_rates_part`, :func:`_load_rates_part`,
+    :func:`_general_coupling_rates_part`, :func:`_chain_coupling_rates_part`, :func:`_chain_load_rates_part`) at
+    ``state``, a model
     without rigid links or guides (module docstring, "Along the rates"); the taut cables' part is
     :func:`cable_stiffness_by_rates`'s, the rest :func:`rates_rest_product`'s."""
     n = assembler.model.n_dofs
@@ -1679,9 +1936,13 @@ def rates_tangent_of_weight(assembler, state, w: np.ndarray):
     coupling_rows, coupling_cols, coupling_values = _coupling_rates_part(assembler, state, w)
     load_rows, load_cols, load_values = _load_rates_part(assembler, state, w)
     general_rows, general_cols, general_values = _general_coupling_rates_part(assembler, state, w)
-    return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows, general_rows]),
-                   np.concatenate([hinge_rows, coupling_cols, load_cols, general_cols]),
-                   np.concatenate([hinge_values, coupling_values, load_values, general_values]), n)
+    moves = _chain_rates_moves(assembler, state, w) if np.any(_rates_chain_controllers(assembler)) else {}
+    chain_rows, chain_cols, chain_values = _chain_coupling_rates_part(assembler, state, w, moves)
+    driven_rows, driven_cols, driven_values = _chain_load_rates_part(assembler, state, w, moves)
+    return _sparse(np.concatenate([hinge_rows, coupling_rows, load_rows, general_rows, chain_rows, driven_rows]),
+                   np.concatenate([hinge_rows, coupling_cols, load_cols, general_cols, chain_cols, driven_cols]),
+                   np.concatenate([hinge_values, coupling_values, load_values, general_values, chain_values,
+                                   driven_values]), n)
 
 
 def linked_rates_tangent(assembler, state, w: np.ndarray):
