@@ -131,7 +131,8 @@ from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.parameter_stiffness import (exact_parameters, stiffness_along as parameter_stiffness_along,
+from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters,
+                                                 stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
@@ -1024,11 +1025,17 @@ class TransientSensitivities(ParameterDerivatives):
         terms beside them are generated (latdyn/analyses/parameter_stiffness.py); before, the whole static ∂r/∂p
         was differenced with them."""
         model, assembler = self.model, self.assembler
+        exact = controller_parameter_along(self, state, w) if self.controllers is not None else None
+        out = (self._on_free_coordinates(state, exact) if exact is not None
+               else np.zeros((model.n_dofs, len(self.names))))
+        differenced = self.controllers is not None and exact is None
+        if not differenced and (self.held is None or not np.any(self.held)):
+            return out
         eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
 
         def beside(moved):
             total = np.zeros((model.n_total + 1, len(self.names)))
-            if self.controllers is not None:
+            if differenced:
                 with self._controller_outputs_at(moved):   # a chained output the compiled partials read moves
                     self.controllers.add(moved, total)
             held = self._held_forces(moved, False)
@@ -1036,7 +1043,8 @@ class TransientSensitivities(ParameterDerivatives):
                 total += held
             return self._on_free_coordinates(moved, total)
 
-        return (beside(assembler.advance(state, eta * w)) - beside(assembler.advance(state, -eta * w))) / (2 * eta)
+        ahead, behind = beside(assembler.advance(state, eta * w)), beside(assembler.advance(state, -eta * w))
+        return out + (ahead - behind) / (2 * eta)
 
     def coordinate_step(self) -> float:
         """The configuration step of the central differences along one coordinate (H_rest's columns,
