@@ -37,9 +37,17 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
-parameters' own parts are generated as above and the caller differences those terms along w apart
+parameters' own parts are generated as above, and those terms' derivative along w is taken apart
 (``TransientSensitivities._terms_beside_stiffness_along``; a parameter a controller's output alone uses has that part
-only). With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
+only). The continuous controllers' is exact (:func:`controller_parameter_along`): SymPy's mixed second derivatives of
+each output and of its parameters' partials by the reads that move along q (lambdified once per expression in a
+process), times the sensors' generated gradients, through the chain of controllers reading controllers and the held
+δS of their states; a hinge actuator's row −a δ(dy/dp), a load's ``point_load`` at a δ(dy/dp) and
+``point_load_stiffness_D_q`` at a dy/dp. Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞)
+where that function does not form them: sampled controllers (their held outputs' terms), a controller reading a force
+whose laws a parameter moves (∂F/∂p's own move along q has no kernel), a controller whose output's second derivatives
+along q are not generated (``weight_derivative._exact_controllers``), and every held angle's K column times its δθ
+(its move along w is K's second derivative along that angle, which no kernel gives as a product yet). With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
 stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
 added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
@@ -61,7 +69,7 @@ from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
+__all__ = ["controller_parameter_along", "exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:

@@ -922,7 +922,8 @@ class TransientSensitivities(ParameterDerivatives):
         the hinges', loads', joint bodies', cables' (EA, damping, rest length, ρA), compliant stops' and friction's
         parts (and the event's time shift's through loads' and hinges' laws in t) generated for the parameters whose
         every use has one (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), beside controllers and held
-        angles with their terms of ∂r/∂p differenced apart (:meth:`_terms_beside_stiffness_along`), and for the others
+        angles with their terms of ∂r/∂p taken apart (:meth:`_terms_beside_stiffness_along`: the continuous
+        controllers' exact, the held angles' and the rest differenced), and for the others
         a central difference along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section
         values' element forces and without the elements' gravity load (``sections``, ``element_gravity`` of
         :meth:`residual_derivatives`): geometry parameters' internal forces, a hinge law naming an input, and all of
@@ -1019,11 +1020,13 @@ class TransientSensitivities(ParameterDerivatives):
         """(n, k): the derivative along w of the static ∂r/∂p's terms beside the parameters' own, alone — the
         continuous and sampled controllers' (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`: their
         outputs' explicit ∂y/∂p, the chained and held outputs' and the states' terms on the actuators' rows) and the
-        angles friction holds (:meth:`_held_forces`: K's columns of them times their δθ) —, a central difference
-        (step :data:`WEIGHT_STEP` ℓ/|w|_∞, two evaluations of those terms): the part of (∂K/∂p) w whose second
-        derivatives (the couplings' through the sensors, K's along a held angle) no kernel holds. The parameters' own
-        terms beside them are generated (latdyn/analyses/parameter_stiffness.py); before, the whole static ∂r/∂p
-        was differenced with them."""
+        angles friction holds (:meth:`_held_forces`: K's columns of them times their δθ). The continuous
+        controllers' exact (latdyn/analyses/parameter_stiffness.py ``controller_parameter_along``: SymPy's mixed
+        second derivatives times the sensors' generated gradients, chained); a central difference (step
+        :data:`WEIGHT_STEP` ℓ/|w|_∞, two evaluations) of what that does not form — the held angles' columns, and the
+        controllers' terms where it returns None (sampled controllers, a controller reading a force a parameter
+        moves, a controller whose second derivatives along q are not generated). The parameters' own terms beside
+        them are generated (latdyn/analyses/parameter_stiffness.py)."""
         model, assembler = self.model, self.assembler
         exact = controller_parameter_along(self, state, w) if self.controllers is not None else None
         out = (self._on_free_coordinates(state, exact) if exact is not None
