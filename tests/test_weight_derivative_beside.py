@@ -1,5 +1,5 @@
-"""The controllers' terms of ∂r/∂p at an event's impulse weight, (∂K/∂p) w, exact (latdyn/analyses/parameter_stiffness.py
-``controller_parameter_along``, docs/parameters.md "The impulse weight's derivative"): SymPy's mixed second
+"""The controllers' terms of ∂r/∂p at an event's impulse weight, (∂K/∂p) w, exact
+(latdyn/analyses/parameter_stiffness.py ``controller_parameter_along``, docs/parameters.md "The impulse weight's derivative"): SymPy's mixed second
 derivatives of each continuous controller's output and of its parameters' partials by the reads that move along q,
 times the sensors' generated gradients, through the chain of controllers reading controllers, a load actuator's
 ``point_load_stiffness_D_q``. Before, ``TransientSensitivities._terms_beside_stiffness_along`` took a central
@@ -93,7 +93,8 @@ def test_the_wheels_hinge_row_is_the_closed_form_at_each_stop(monkeypatch, text,
 def test_the_block_is_exact_and_takes_no_difference(monkeypatch, text, tolerance):
     """No configuration move (two an event before) and the block against Richardson differences of it (every column,
     relative to its largest): the wheel's stops 1.4e-13 (the difference 3.5e-12, its load rows in the wheel's axes
-    too), the spar's latch 1.6e-14 (6.2e-11; the block 0 after the latch), the PI's stop with its held δS 9.9e-16 (3.1e-13). Fails before."""
+    too), the spar's latch 1.6e-14 (6.2e-11; the block 0 after the latch), the PI's stop with its held δS 9.9e-16
+    (3.1e-13). Fails before."""
     seen = _events_block(monkeypatch, text, reference=True)
     scales = []
     for _, _, _, block, moves, reference in seen:

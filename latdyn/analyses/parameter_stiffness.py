@@ -47,7 +47,9 @@ process), times the sensors' generated gradients, through the chain of controlle
 where that function does not form them: sampled controllers (their held outputs' terms), a controller reading a force
 whose laws a parameter moves (∂F/∂p's own move along q has no kernel), a controller whose output's second derivatives
 along q are not generated (``weight_derivative._exact_controllers``), and every held angle's K column times its δθ
-(its move along w is K's second derivative along that angle, which no kernel gives as a product yet). With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
+(its move along w is K's second derivative along that angle, which no kernel gives as a product yet).
+
+With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
 stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
 added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
@@ -69,7 +71,8 @@ from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["controller_parameter_along", "exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
+__all__ = ["controller_parameter_along", "exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated",
+           "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -393,8 +396,8 @@ _MIXED: dict = {}
 
 
 def _mixed_laws(controller, partials: dict, moving: tuple):
-    """(a function of ``(t, *reads, *states)`` giving, flat, ∂²f/∂x∂a_p for x over the reads and states (rows) and p over
-    ``moving`` (columns), then ∂(∂f/∂p_col)/∂a_p for each column of ``partials`` in its order; the columns) of
+    """(a function of ``(t, *reads, *states)`` giving, flat, ∂²f/∂x∂a_p for x over the reads and states (rows) and p
+    over ``moving`` (columns), then ∂(∂f/∂p_col)/∂a_p for each column of ``partials`` in its order; the columns) of
     ``controller``'s output f (before its limits) and its parameters' partials ``partials`` (column → SymPy
     expression, ``ControllerTerms.partial_expressions``), Dirac deltas dropped as the compiled laws' (a kink's
     second derivative is 0 away from it); None where one is not a function (an unevaluated derivative)."""
