@@ -21,6 +21,11 @@ from tests.test_controller_stop_sensitivities import BY_RATE, CHAINED, NONLINEAR
 from tests.test_sensitivities_controller_states import PI_STOP
 from tests.test_weight_derivative_controllers_rest import SPAR
 
+#: the PI hub's stop with the state's weight moving with the angle: ∂²y/∂S∂θ = −2 Ki, so its held δS's term of ∂r/∂p
+#: moves along w
+PI_MIXED = PI_STOP.replace("-Kp*th - Ki*S", "-Kp*th - Ki*S*(1 + 2*th)")
+assert "Ki*S*(1 + 2*th)" in PI_MIXED
+
 
 def _events_block(monkeypatch, text: str, reference: bool = False) -> list:
     """``text`` through the API (Newton's tolerance 1e-12), recording at each event (the owner, the state, w, the block
@@ -88,13 +93,13 @@ def test_the_wheels_hinge_row_is_the_closed_form_at_each_stop(monkeypatch, text,
         assert abs(block[d, column] - expected) <= 1e-13 * abs(expected)
 
 
-@pytest.mark.parametrize("text, tolerance", [(CHAINED, 1e-12), (SPAR, 1e-12), (PI_STOP, 3e-14)],
-                         ids=["wheel-stops", "spar-latch", "pi-stop"])
+@pytest.mark.parametrize("text, tolerance", [(CHAINED, 1e-12), (SPAR, 1e-12), (PI_STOP, 3e-14), (PI_MIXED, 2e-13)],
+                         ids=["wheel-stops", "spar-latch", "pi-stop", "pi-stop-mixed"])
 def test_the_block_is_exact_and_takes_no_difference(monkeypatch, text, tolerance):
     """No configuration move (two an event before) and the block against Richardson differences of it (every column,
     relative to its largest): the wheel's stops 1.4e-13 (the difference 3.5e-12, its load rows in the wheel's axes
     too), the spar's latch 1.6e-14 (6.2e-11; the block 0 after the latch), the PI's stop with its held δS 9.9e-16
-    (3.1e-13). Fails before."""
+    (3.1e-13), with the state's weight moving with the angle 9.1e-15 (5.5e-12). Fails before."""
     seen = _events_block(monkeypatch, text, reference=True)
     scales = []
     for _, _, _, block, moves, reference in seen:
@@ -111,3 +116,45 @@ def test_a_scene_the_block_does_not_cover_keeps_the_difference(monkeypatch):
     seen = _events_block(monkeypatch, PD_STOP)
     assert seen and all(moves == 2 for *_, moves, _ in seen)
     assert transient_sensitivities.controller_parameter_along(seen[0][0], seen[0][1], seen[0][2]) is None
+
+
+def test_the_adjoints_held_states_block_is_exact_and_the_adjoint_gives_the_forward_methods(monkeypatch):
+    """The adjoint's ∂(B δS)/∂q w at the PI hub's stop whose state's weight moves with the angle (B the held δS's use
+    in ∂r/∂p, latdyn/analyses/adjoint_controller_states.py ``held_stiffness_along``) takes no configuration move (two
+    before) and agrees with Richardson differences of B along w to 2e-13 of its largest (measured 3.8e-14 at both
+    weighings; the difference it replaces 8.9e-13); the adjoint's sensitivities are the forward method's (measured
+    4.0e-12, the same before). Fails before."""
+    from latdyn.analyses.adjoint_controller_states import StatesTransposed
+    from tests.test_sensitivities_refusals_lifted import _adjoint_error, _both
+
+    seen, original = [], StatesTransposed.held_stiffness_along
+
+    def spy(self, state, w):
+        moves, advance = [], self.owner.assembler.advance
+
+        def counted(at, increment):
+            moves.append(1)
+            return advance(at, increment)
+
+        self.owner.assembler.advance = counted
+        try:
+            block = original(self, state, w)
+        finally:
+            del self.owner.assembler.advance
+        eta = 1e-3 * (self.owner.length or 1.0) / float(np.max(np.abs(w)))
+        assembler = self.owner.assembler
+
+        def central(h):
+            return (self.held_map(assembler.advance(state, h * w)) - self.held_map(assembler.advance(state, -h * w))) \
+                / (2 * h)
+
+        seen.append((block, (4 * central(eta / 2) - central(eta)) / 3, len(moves)))
+        return block
+
+    monkeypatch.setattr(StatesTransposed, "held_stiffness_along", spy)
+    forward, adjoint = _both(PI_MIXED)
+    assert seen
+    for block, reference, moves in seen:
+        assert moves == 0
+        assert np.abs(block - reference).max() <= 2e-13 * np.abs(reference).max()
+    assert _adjoint_error(forward, adjoint) <= 1e-10

@@ -420,7 +420,7 @@ def _mixed_laws(controller, partials: dict, moving: tuple):
     return _MIXED[key]
 
 
-def controller_parameter_along(owner, state, w: np.ndarray):
+def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
     """(n_total + 1, k): the derivative along w of the continuous controllers' terms of ∂r/∂p
     (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`) at ``state``, exact, or None where it is not formed
     here (the caller differences those terms then): sampled controllers, a controller reading a force whose laws a
@@ -437,33 +437,35 @@ def controller_parameter_along(owner, state, w: np.ndarray):
     (0 while y_k is clipped at a limit), SymPy's mixed second derivatives (:func:`_mixed_laws`); a hinge actuator's
     row takes −a δ(dy/dp), a load component's the ``point_load`` kernel at a δ(dy/dp) plus
     ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame). Before, a central
-    difference of :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there)."""
+    difference of :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there).
+    ``terms``: a ControllerTerms other than ``owner.controllers`` (its ``k`` columns: the adjoint's held δS map,
+    latdyn/analyses/adjoint_controller_states.py ``held_stiffness_along``)."""
     from latdyn.analyses.weight_derivative import _exact_controllers
 
-    terms, model, assembler = owner.controllers, owner.model, owner.assembler
+    terms = owner.controllers if terms is None else terms
+    model, assembler = owner.model, owner.assembler
     if terms is None or terms.sampled is not None or any(terms.forces_read.values()):
         return None
     control = assembler.control
-    k_cols = len(owner.names)
-    total = np.zeros((model.n_total + 1, k_cols))
+    total = np.zeros((model.n_total + 1, terms.k))
     if not (terms.partials or terms.held) or not len(control.actuator_kind):
         return total
     exact = _exact_controllers(assembler)
     if not all(exact):
         return None
     with owner._controller_outputs_at(state):   # the compiled partials read chained outputs from the scene's array
-        return _controller_parameter_along(owner, state, w, exact, total)
+        return _controller_parameter_along(owner, terms, state, w, exact, total)
 
 
-def _controller_parameter_along(owner, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
+def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
     """:func:`controller_parameter_along`'s chain and actuators, the scene's controller outputs those at ``state``."""
     from latdyn.analyses.weight_derivative import (_controller_curvatures, _controller_reads, _MOVING_SENSORS,
                                                    _sensor_dofs, _sensor_kinematics)
     from latdyn.assembly.control import CONTROLLER
 
-    terms, model, assembler = owner.controllers, owner.model, owner.assembler
+    model, assembler = owner.model, owner.assembler
     control = assembler.control
-    k_cols = len(owner.names)
+    k_cols = terms.k
     n = model.n_dofs
     columns, _, _, gradients = _controller_curvatures(assembler, state, exact, with_outputs=True)
     along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
@@ -493,7 +495,8 @@ def _controller_parameter_along(owner, state, w: np.ndarray, exact: list, total:
                 moved = np.where(dofs < n, w[np.minimum(dofs, n - 1)], 0.0)
                 moving.append(p)
                 delta.append(float(np.asarray(gradient, float) @ moved))
-        partials = terms.partial_expressions.get(c.name, {})
+        partials = {column: expression for column, expression in terms.partial_expressions.get(c.name, {}).items()
+                    if column in terms.partials.get(c.name, {})}
         laws = _mixed_laws(c, partials, tuple(moving))
         if laws is None:
             return None
