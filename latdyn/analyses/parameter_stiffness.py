@@ -47,7 +47,8 @@ process), times the sensors' generated gradients, through the chain of controlle
 where that function does not form them: sampled controllers (their held outputs' terms), a controller reading a force
 whose laws a parameter moves (∂F/∂p's own move along q has no kernel), a controller whose output's second derivatives
 along q are not generated (``weight_derivative._exact_controllers``), and every held angle's K column times its δθ
-(its move along w is K's second derivative along that angle, which no kernel gives as a product yet).
+(its move along w is ∂(K w)/∂θ_j, but a stuck angle is no free coordinate and the generated H, latdyn/analyses/
+weight_derivative.py, is assembled on the free coordinates alone).
 
 With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
