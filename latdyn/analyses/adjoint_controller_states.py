@@ -134,6 +134,12 @@ class StatesTransposed:
     def held_map(self, state) -> np.ndarray:
         """B (n, P): the forward method's ∂r/∂p of a held δS (``ControllerTerms.add`` with ``held`` the unit
         columns, no parameter's partials: as ``ControllerStates.by_step_size`` applies it) on the free coordinates."""
+        total = np.zeros((self.owner.model.n_total + 1, self.P))
+        self._unit_terms().add(state, total)
+        return self.owner._on_free_coordinates(state, total)
+
+    def _unit_terms(self):
+        """The forward method's ControllerTerms with ``held`` the P unit columns of δS and no parameter's partials."""
         import copy
 
         one = copy.copy(self.terms)
@@ -141,14 +147,20 @@ class StatesTransposed:
         eye = np.eye(self.P)
         one.held = {c.name: eye[self.states.first[c.name]:self.states.first[c.name] + len(c.states)]
                     for c in self.states.controllers}
-        total = np.zeros((self.owner.model.n_total + 1, self.P))
-        one.add(state, total)
-        return self.owner._on_free_coordinates(state, total)
+        return one
 
     def held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
         """(n, P): ∂(B δS)/∂q along ``w`` for the P unit columns of δS, the held part of the forward method's
-        ``_terms_beside_stiffness_along`` (an event's weight derivative with δS held, ``ControllerStates.hold``): the
-        same central difference (step WEIGHT_STEP ℓ/|w|_∞) of ``ControllerTerms.add`` with the unit columns held."""
+        ``_terms_beside_stiffness_along`` (an event's weight derivative with δS held, ``ControllerStates.hold``):
+        exact as the forward method's (latdyn/analyses/parameter_stiffness.py ``controller_parameter_along`` of the
+        unit columns), else (a controller whose second derivatives along q are not generated) the same central
+        difference (step WEIGHT_STEP ℓ/|w|_∞) of ``ControllerTerms.add`` with the unit columns held."""
+        from latdyn.analyses.parameter_stiffness import controller_parameter_along
+
+        if float(np.max(np.abs(w), initial=0.0)) > 0.0:
+            exact = controller_parameter_along(self.owner, state, w, self._unit_terms())
+            if exact is not None:
+                return self.owner._on_free_coordinates(state, exact)
         return _held_map_along(self.owner, self.held_map, self.P, state, w)
 
     def held_transposed(self, state, w: np.ndarray, held_bar: np.ndarray) -> np.ndarray:

@@ -37,9 +37,20 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
-parameters' own parts are generated as above and the caller differences those terms along w apart
+parameters' own parts are generated as above, and those terms' derivative along w is taken apart
 (``TransientSensitivities._terms_beside_stiffness_along``; a parameter a controller's output alone uses has that part
-only). With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
+only). The continuous controllers' is exact (:func:`controller_parameter_along`): SymPy's mixed second derivatives of
+each output and of its parameters' partials by the reads that move along q (lambdified once per expression in a
+process), times the sensors' generated gradients, through the chain of controllers reading controllers and the held
+δS of their states; a hinge actuator's row −a δ(dy/dp), a load's ``point_load`` at a δ(dy/dp) and
+``point_load_stiffness_D_q`` at a dy/dp. Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞)
+where that function does not form them: sampled controllers (their held outputs' terms), a controller reading a force
+whose laws a parameter moves (∂F/∂p's own move along q has no kernel), a controller whose output's second derivatives
+along q are not generated (``weight_derivative._exact_controllers``), and every held angle's K column times its δθ
+(its move along w is ∂(K w)/∂θ_j, but a stuck angle is no free coordinate and the generated H, latdyn/analyses/
+weight_derivative.py, is assembled on the free coordinates alone).
+
+With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
 stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
 added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
@@ -61,7 +72,8 @@ from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
+__all__ = ["controller_parameter_along", "exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated",
+           "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -376,3 +388,187 @@ def _stops(owner, state, full: np.ndarray, total: np.ndarray) -> None:
         slope = float(np.asarray(owner.kernels.contact_stiffness_D_law(at, owner.contact_row(j))[0]).reshape(-1)[slot])
         for column, derivative in laws.items():
             total[d, column] += derivative.value(0.0, 0.0, t) * slope * along
+
+
+#: SymPy's mixed second derivatives of a continuous controller's output and of its parameters' partials by the reads
+#: that move along q, lambdified once per (output, partials, symbols, moving reads) in a process
+#: (:func:`_mixed_laws`)
+_MIXED: dict = {}
+
+
+def _mixed_laws(controller, partials: dict, moving: tuple):
+    """(a function of ``(t, *reads, *states)`` giving, flat, ∂²f/∂x∂a_p for x over the reads and states (rows) and p
+    over ``moving`` (columns), then ∂(∂f/∂p_col)/∂a_p for each column of ``partials`` in its order; the columns) of
+    ``controller``'s output f (before its limits) and its parameters' partials ``partials`` (column → SymPy
+    expression, ``ControllerTerms.partial_expressions``), Dirac deltas dropped as the compiled laws' (a kink's
+    second derivative is 0 away from it); None where one is not a function (an unevaluated derivative)."""
+    import sympy as sp
+
+    from latdyn.scene.expressions import _drop_deltas
+
+    columns = sorted(partials)
+    key = (controller.output_expr, tuple(controller.symbols), tuple(moving),
+           tuple((c, partials[c]) for c in columns))
+    if key not in _MIXED:
+        symbols = controller.symbols
+        reads = symbols[1:1 + len(controller.reads)]
+        first = [sp.diff(controller.output_expr, x) for x in symbols[1:]]
+        entries = [sp.diff(f, reads[p]) for f in first for p in moving]
+        entries += [sp.diff(partials[c], reads[p]) for c in columns for p in moving]
+        entries = [_drop_deltas(e) for e in entries]
+        singular = any(e.has(sp.Derivative, sp.Subs) for e in entries)
+        _MIXED[key] = None if singular else (sp.lambdify(symbols, entries or [0], modules=["math", "numpy"]), columns)
+    return _MIXED[key]
+
+
+def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
+    """(n_total + 1, k): the derivative along w of the continuous controllers' terms of ∂r/∂p
+    (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`) at ``state``, exact, or None where it is not formed
+    here (the caller differences those terms then): sampled controllers, a controller reading a force whose laws a
+    parameter moves, or one whose output's second derivatives along q are not generated
+    (:func:`latdyn.analyses.weight_derivative._exact_controllers`). With a_p the reads of f_k that move along q (a
+    sensor: its generated gradient ∂s/∂q, :func:`latdyn.analyses.weight_derivative._sensor_kinematics`; an earlier
+    controller's output y_j: its total gradient g_j, :func:`latdyn.analyses.weight_derivative._controller_curvatures`)
+    and δa_p = ∂a_p/∂q w, the chain of :meth:`ControllerTerms.add`, dy_k/dp = ∂f_k/∂p + Σ_j ∂f_k/∂y_j dy_j/dp +
+    Σ_l ∂f_k/∂S_l δS_l (held), moves along w as
+
+        δ(dy_k/dp) = Σ_p ∂(∂f_k/∂p)/∂a_p δa_p + Σ_j (Σ_p ∂²f_k/∂y_j∂a_p δa_p) dy_j/dp + Σ_j ∂f_k/∂y_j δ(dy_j/dp)
+                     + Σ_l (Σ_p ∂²f_k/∂S_l∂a_p δa_p) δS_l
+
+    (0 while y_k is clipped at a limit), SymPy's mixed second derivatives (:func:`_mixed_laws`); a hinge actuator's
+    row takes −a δ(dy/dp), a load component's the ``point_load`` kernel at a δ(dy/dp) plus
+    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame). Before, a central
+    difference of :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there).
+    ``terms``: a ControllerTerms other than ``owner.controllers`` (its ``k`` columns: the adjoint's held δS map,
+    latdyn/analyses/adjoint_controller_states.py ``held_stiffness_along``)."""
+    from latdyn.analyses.weight_derivative import _exact_controllers
+
+    terms = owner.controllers if terms is None else terms
+    model, assembler = owner.model, owner.assembler
+    if terms is None or terms.sampled is not None or any(terms.forces_read.values()):
+        return None
+    control = assembler.control
+    total = np.zeros((model.n_total + 1, terms.k))
+    if not (terms.partials or terms.held) or not len(control.actuator_kind):
+        return total
+    exact = _exact_controllers(assembler)
+    if not all(exact):
+        return None
+    with owner._controller_outputs_at(state):   # the compiled partials read chained outputs from the scene's array
+        return _controller_parameter_along(owner, terms, state, w, exact, total)
+
+
+def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
+    """:func:`controller_parameter_along`'s chain and actuators, the scene's controller outputs those at ``state``."""
+    from latdyn.analyses.weight_derivative import (_controller_curvatures, _controller_reads, _MOVING_SENSORS,
+                                                   _sensor_dofs, _sensor_kinematics)
+    from latdyn.assembly.control import CONTROLLER
+
+    model, assembler = owner.model, owner.assembler
+    control = assembler.control
+    k_cols = terms.k
+    n = model.n_dofs
+    columns, _, _, gradients = _controller_curvatures(assembler, state, exact, with_outputs=True)
+    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
+    place = {c.name: k for k, c in enumerate(control.controllers)}
+    values = terms.signal_values(state)
+    if terms.compiled is not None:
+        values.update(terms.sensed_in_c(state))
+    outputs, slopes, moves = {}, {}, {}
+    for c in terms.continuous:
+        k = place[c.name]
+        reads = _controller_reads(control, k)
+        arguments = [state.t, *[values[r] if r in values else outputs[r] for r in c.reads], *terms.state_values(c)]
+        raw = float(c.functions()[0](*arguments)) if terms.compiled is None else terms.compiled.output(c, arguments)
+        outputs[c.name] = c.clip(raw)
+        slope, move = np.zeros(k_cols), np.zeros(k_cols)
+        slopes[c.name], moves[c.name] = slope, move
+        if c.limits is not None and not c.limits[0] < raw < c.limits[1]:
+            continue
+        moving, delta = [], []
+        for p, (kind, index, sensor) in enumerate(reads):
+            if kind == CONTROLLER:
+                moving.append(p)
+                delta.append(float(gradients[index] @ along) if len(along) else 0.0)
+            elif kind in _MOVING_SENSORS:
+                gradient, _ = _sensor_kinematics(assembler, state, kind, index, sensor)
+                dofs = np.asarray(_sensor_dofs(assembler, kind, index, sensor), np.int64)
+                moved = np.where(dofs < n, w[np.minimum(dofs, n - 1)], 0.0)
+                moving.append(p)
+                delta.append(float(np.asarray(gradient, float) @ moved))
+        partials = {column: expression for column, expression in terms.partial_expressions.get(c.name, {}).items()
+                    if column in terms.partials.get(c.name, {})}
+        laws = _mixed_laws(c, partials, tuple(moving))
+        if laws is None:
+            return None
+        law, order = laws
+        flat = np.asarray(law(*arguments), float).reshape(-1)
+        m, width = len(moving), len(c.symbols) - 1
+        delta = np.asarray(delta, float)
+        mixed = flat[:width * m].reshape(width, m) @ delta if m else np.zeros(width)   # Σ_p ∂²f/∂x∂a_p δa_p
+        by_partials = flat[width * m:].reshape(len(order), m) @ delta if m else np.zeros(len(order))
+        for i, column in enumerate(order):
+            slope[column] += (float(terms.partials[c.name][column](*arguments)) if terms.compiled is None else
+                              terms.compiled.value(terms.partials[c.name][column], arguments))
+            move[column] += by_partials[i]
+        if terms.chained[c.name] or c.name in terms.held:
+            gradient = (c.output_gradient(*arguments) if terms.compiled is None else
+                        terms.compiled.gradient(c, arguments))
+            for read, i in terms.chained[c.name].items():
+                slope += gradient[i] * slopes[read]
+                move += mixed[i] * slopes[read] + gradient[i] * moves[read]
+            if c.name in terms.held:
+                by_states = terms.states.output_by_states(c, arguments)
+                if by_states is None:
+                    by_states = gradient[len(c.reads):]
+                for l, row in enumerate(terms.held[c.name]):
+                    slope += by_states[l] * row
+                    move += mixed[len(c.reads) + l] * row
+    loads: dict[int, list] = {}
+    for kind, index, component, controller, gain in zip(control.actuator_kind, control.actuator_index,
+                                                        control.actuator_component, control.actuator_controller,
+                                                        control.actuator_gain):
+        name = control.controllers[controller].name
+        a = gain if gain else 1.0
+        if kind == 0:
+            total[model.hinge_dofs[index]] -= a * moves[name]
+        else:
+            pair = loads.setdefault(int(index), [np.zeros((6, k_cols)), np.zeros((6, k_cols))])
+            pair[0][component] += a * moves[name]
+            pair[1][component] += a * slopes[name]
+    for index, (moved_values, held_values) in loads.items():
+        _load_actuator_along(owner, state, w, index, moved_values, held_values, total)
+    return total
+
+
+def _load_actuator_along(owner, state, w: np.ndarray, index: int, moved_values: np.ndarray, held_values: np.ndarray,
+                         total: np.ndarray) -> None:
+    """Load ``index``'s part of :func:`controller_parameter_along`: ``point_load`` (linear in its values) at the
+    values' move along w, and ``point_load_stiffness_D_q``'s K_l w at the values, on the load's node rows."""
+    model = owner.model
+    columns = [c for c in range(total.shape[1]) if np.any(moved_values[:, c])]
+    if columns:
+        nodes, forces = owner._load_forces(state, [index] * len(columns), moved_values[:, columns].T)
+        total[model.node_dofs[nodes[0]][:, None], np.array(columns)[None, :]] += forces.T
+    columns = [c for c in range(total.shape[1]) if np.any(held_values[:, c])]
+    if not columns:
+        return
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    node, offset, frame = owner._load_points()
+    direction = np.zeros(6)
+    direction[0:3] = full[_scattered(model.node_dofs[node[index], 3:6], model.n_total)]
+    if frame[index] >= 0:
+        direction[3:6] = full[_scattered(model.node_dofs[frame[index], 3:6], model.n_total)]
+    if not np.any(direction):
+        return
+    turn = state.T[frame[index]] if frame[index] >= 0 else np.eye(3)
+    m = len(columns)
+    rows = lambda a: np.ascontiguousarray(np.reshape(a, (m, -1)), dtype=float)  # noqa: E731
+    along = np.asarray(owner.kernels.point_load_stiffness_D_q(
+        rows(np.repeat(state.T[node[index]][None], m, 0)), rows(np.repeat(offset[index][None], m, 0)),
+        rows(held_values[:, columns].T), rows(np.repeat(turn[None], m, 0)), rows(np.repeat(direction[None], m, 0)))[0])
+    along = along.reshape(m, 6)
+    rows_at = _scattered(model.node_dofs[node[index]], model.n_total)
+    for i, c in enumerate(columns):
+        np.add.at(total[:, c], rows_at, along[i])

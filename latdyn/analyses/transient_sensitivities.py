@@ -131,7 +131,8 @@ from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.parameter_stiffness import (exact_parameters, stiffness_along as parameter_stiffness_along,
+from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters,
+                                                 stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
@@ -930,7 +931,8 @@ class TransientSensitivities(ParameterDerivatives):
         the hinges', loads', joint bodies', cables' (EA, damping, rest length, ρA), compliant stops' and friction's
         parts (and the event's time shift's through loads' and hinges' laws in t) generated for the parameters whose
         every use has one (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), beside controllers and held
-        angles with their terms of ∂r/∂p differenced apart (:meth:`_terms_beside_stiffness_along`), and for the others
+        angles with their terms of ∂r/∂p taken apart (:meth:`_terms_beside_stiffness_along`: the continuous
+        controllers' exact, the held angles' and the rest differenced), and for the others
         a central difference along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section
         values' element forces and without the elements' gravity load (``sections``, ``element_gravity`` of
         :meth:`residual_derivatives`): geometry parameters' internal forces, a hinge law naming an input, and all of
@@ -1027,17 +1029,25 @@ class TransientSensitivities(ParameterDerivatives):
         """(n, k): the derivative along w of the static ∂r/∂p's terms beside the parameters' own, alone — the
         continuous and sampled controllers' (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`: their
         outputs' explicit ∂y/∂p, the chained and held outputs' and the states' terms on the actuators' rows) and the
-        angles friction holds (:meth:`_held_forces`: K's columns of them times their δθ) —, a central difference
-        (step :data:`WEIGHT_STEP` ℓ/|w|_∞, two evaluations of those terms): the part of (∂K/∂p) w whose second
-        derivatives (the couplings' through the sensors, K's along a held angle) no kernel holds. The parameters' own
-        terms beside them are generated (latdyn/analyses/parameter_stiffness.py); before, the whole static ∂r/∂p
-        was differenced with them."""
+        angles friction holds (:meth:`_held_forces`: K's columns of them times their δθ). The continuous
+        controllers' exact (latdyn/analyses/parameter_stiffness.py ``controller_parameter_along``: SymPy's mixed
+        second derivatives times the sensors' generated gradients, chained); a central difference (step
+        :data:`WEIGHT_STEP` ℓ/|w|_∞, two evaluations) of what that does not form — the held angles' columns, and the
+        controllers' terms where it returns None (sampled controllers, a controller reading a force a parameter
+        moves, a controller whose second derivatives along q are not generated). The parameters' own terms beside
+        them are generated (latdyn/analyses/parameter_stiffness.py)."""
         model, assembler = self.model, self.assembler
+        exact = controller_parameter_along(self, state, w) if self.controllers is not None else None
+        out = (self._on_free_coordinates(state, exact) if exact is not None
+               else np.zeros((model.n_dofs, len(self.names))))
+        differenced = self.controllers is not None and exact is None
+        if not differenced and (self.held is None or not np.any(self.held)):
+            return out
         eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
 
         def beside(moved):
             total = np.zeros((model.n_total + 1, len(self.names)))
-            if self.controllers is not None:
+            if differenced:
                 with self._controller_outputs_at(moved):   # a chained output the compiled partials read moves
                     self.controllers.add(moved, total)
             held = self._held_forces(moved, False)
@@ -1045,7 +1055,8 @@ class TransientSensitivities(ParameterDerivatives):
                 total += held
             return self._on_free_coordinates(moved, total)
 
-        return (beside(assembler.advance(state, eta * w)) - beside(assembler.advance(state, -eta * w))) / (2 * eta)
+        ahead, behind = beside(assembler.advance(state, eta * w)), beside(assembler.advance(state, -eta * w))
+        return out + (ahead - behind) / (2 * eta)
 
     def coordinate_step(self) -> float:
         """The configuration step of the central differences along one coordinate (H_rest's columns,

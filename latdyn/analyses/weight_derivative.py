@@ -5,8 +5,10 @@ A latch, a rigid stop with restitution and a stick weigh the velocity jump with 
 before the jump, and a stop's restart with s K (latdyn/timeloop/impulse.py, latdyn/timeloop/events.py). The forward
 sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp), the adjoint Hᵀū
 (latdyn/analyses/transient_sensitivities.py ``_weight_derivative``, latdyn/analyses/adjoint_sensitivities.py
-``_weight_derivative_transposed``). H is assembled once per event as an n × n sparse matrix on the free coordinates,
-so one matrix serves both:
+``_weight_derivative_transposed``); (∂W/∂p) w is latdyn/analyses/parameter_stiffness.py's (the parameters' own
+uses, and beside them the continuous controllers' terms of ∂r/∂p exact, ``controller_parameter_along``; the held
+angles' and sampled or force-reading controllers' terms a central difference). H is assembled once per event as an
+n × n sparse matrix on the free coordinates, so one matrix serves both:
 
     H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
         + Σ_j s (∂K_jj/∂θ_j) w_j e_j e_jᵀ + Σ_l s A_l ∂(K_l w_l)/∂q_l A_lᵀ + Σ_c s A_c ∂(K_c w_c)/∂q_c A_cᵀ
