@@ -101,7 +101,7 @@ def test_the_hinges_and_couplings_moving_with_the_rates_are_generated_through_th
     hinges = wd.linked_exact_hinges(assembler)
     moving = wd.linked_rates_tangent(assembler, state, np.ones(n))
     if positions:   # positions alone (no velocity sensor among the kinds taken): nothing moves with the rates
-        assert wd._LINKED_POSITION_SENSORS == (ANGLE, POSITION, BODY_FRAME)   # the kinds measured here
+        assert {ANGLE, POSITION, BODY_FRAME} <= set(wd._LINKED_POSITION_SENSORS)   # the kinds measured here
         assert moving is None and any(wd._linked_position_controllers(assembler))
     else:
         assert moving is not None and np.any(wd.times(moving, np.ones((n, 1))))

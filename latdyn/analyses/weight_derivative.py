@@ -89,9 +89,10 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
 
 * exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point
   loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings` — of
-  controllers of joints' angles and rates, and of controllers reading nodes' positions and points' positions in a
-  body's axes (a dependent node's by the assembled coordinates), joints' angles, inputs, their states and earlier
-  such controllers (:func:`_linked_position_controllers`, :func:`_coupling_part` at
+  controllers of joints' angles and rates, and of controllers reading nodes' positions, points' positions at an
+  offset from their node and in a body's axes and cables' lengths (a dependent node's by the assembled coordinates;
+  the offset and the length since linkedctrl, ea72688 differenced them), joints' angles, inputs, their states and
+  earlier such controllers (:func:`_linked_position_controllers`, :func:`_coupling_part` at
   u = P w on the assembled coordinates):
   :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
@@ -129,8 +130,7 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
 * differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
   not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings of controllers reading a
   rate beside anything but joints (a node's or a point's velocity, a free joint's force: their values move with the
-  rates the move carries), a point at an offset or a cable's length (not measured on linked models), or a controller
-  of those, a load's coupling entries, and the hinges whose K_jj moves with
+  rates the move carries), or a controller of those, a load's coupling entries, and the hinges whose K_jj moves with
   their rate where ∂K_jj/∂θ̇ is not generated (:func:`linked_exact_hinges`, :func:`exact_hinges_by_rates`: a law
   whose slope in θ does not parse back as a law),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
@@ -1321,17 +1321,19 @@ def linked_exact_couplings(assembler) -> np.ndarray:
 
 #: the sensor kinds whose values a model with rigid links or guides takes through its exact part (the reduction's move
 #: carries the rates: no kind whose value or gradient moves with them; latdyn.assembly.control ANGLE, POSITION,
-#: BODY_FRAME): a joint's angle, a node's global position component, a point's position or displacement in a body's
-#: axes — those measured on linked models (tests/test_weight_derivative_linked_rates.py); a point at an offset and a
-#: cable's length, whose kinematics are composed alike, keep the difference until measured there
-_LINKED_POSITION_SENSORS = (0, 2, 7)
+#: OFFSET_POSITION, BODY_FRAME, CABLE_LENGTH): a joint's angle, a node's global position component, a point's position
+#: at an offset from its node (x + T r), a point's position or displacement in a body's axes
+#: (tests/test_weight_derivative_linked_rates.py), a cable's length (Σ |p_b − p_a| of its elements' end points at their
+#: offsets; tests/test_weight_derivative_linked_controllers.py) — on a dependent node by the assembled coordinates,
+#: :func:`_sensor_kinematics` composed of the generated ``point_load`` as unlinked
+_LINKED_POSITION_SENSORS = (0, 2, 5, 7, 8)
 
 
 def _linked_position_controllers(assembler) -> list:
     """(controllers,) bool: the continuous controllers of :func:`_exact_controllers` whose couplings a model with rigid
     links or guides takes generated beside those of joints' angles and rates (:func:`linked_exact_couplings`): they
-    read joints' angles, nodes' positions and points' positions in a body's axes (:data:`_LINKED_POSITION_SENSORS`: on
-    a dependent node too, its second derivative by the assembled coordinates), inputs, their own states and earlier such
+    read joints' angles, nodes' positions, points' positions at an offset and in a body's axes and cables' lengths
+    (:data:`_LINKED_POSITION_SENSORS`: on a dependent node too, its second derivative by the assembled coordinates), inputs, their own states and earlier such
     controllers alone — nothing whose value moves
     with the rates the reduction's move carries, so their entries −a ∂y/∂q_all move along P δq alone
     (:func:`_coupling_part` on the assembled coordinates, ``full`` = P w)."""
