@@ -27,7 +27,8 @@ from tests.test_adjoint_in_loop_links import _adjoint, _largest_gap
 from tests.test_sensitivities_in_loop_links import CHAIN
 from tests.test_sensitivities_events import _agree
 from tests.test_weight_derivative_linked import turned_state
-from tests.test_weight_derivative_linked_rest import CRANK_CABLES, GIMBAL_LOADS, _at_events, _moved
+from tests.test_weight_derivative_linked_rates import richardson_of_the_generated_product
+from tests.test_weight_derivative_linked_rest import CRANK_CABLES, GIMBAL_LOADS, _at_events
 
 #: the gimbal latching with loads, its boom starting at an offset from the inner ring (a dependent node), a PD of that
 #: point's global y and z (OFFSET_POSITION sensors, nonlinear in them) driving the outer hinge (free through the latch)
@@ -100,15 +101,7 @@ def test_the_couplings_are_generated_through_the_reduction(name):
         assert (by_rates is not None) == velocities
         if velocities:   # the entries' move with the sensed rates, the dependent ones following the links
             exact = exact + by_rates
-
-        def product(h):
-            moved = _moved(assembler, state, h, dq[:, 0], dv[:, 0], dvdot[:, 0])
-            ev = assembler.evaluate(moved, matrices=True)
-            W_gen = wd._linked_weight(assembler, ev, scale, mass, hinges, generated=True)
-            return np.asarray(ev.projection.T @ (W_gen @ np.asarray(ev.projection @ w))).reshape(-1)
-
-        d1, d2, d3 = ((product(h) - product(-h)) / (2 * h) for h in (4e-5, 2e-5, 1e-5))
-        reference = (16 * (4 * d3 - d2) / 3 - (4 * d2 - d1) / 3) / 15
+        reference = richardson_of_the_generated_product(assembler, state, hinges, w, dq, dv, dvdot, scale, mass)
         errors.append(float(np.max(np.abs(exact[:, 0] - reference)) / np.max(np.abs(reference))))
     assert max(errors) <= 1e-10, errors
 

@@ -1815,6 +1815,18 @@ def linked_cable_rates_product(assembler, state, w: np.ndarray, dq: np.ndarray, 
     taut = _taut_cables(assembler, state)
     if taut is None or not np.any(taut[3][:, 3] != 0.0):
         return None
+    n_asm, k = model.n_assembled, dq.shape[1]
+    P, u, moves = _linked_rates_moves(assembler, state, w, dq, rates)
+    grown = _cable_rates_product(assembler, taut, u, moves)
+    return scale * np.column_stack([np.asarray(P.T @ grown[:n_asm, c]).reshape(-1) for c in range(k)])
+
+
+def _linked_rates_moves(assembler, state, w: np.ndarray, dq: np.ndarray, rates):
+    """(P, u = P w on every assembled coordinate (n_total + 1,), the assembled rates' move of each column
+    δv_all = P δv + ∂(J v)/∂q δq (n_total + 1, k)) at ``state`` on a model with rigid links or guides (the compiled
+    links' buffers; one evaluation): what :func:`linked_cable_rates_product` and :func:`linked_coupling_rates_product`
+    move their blocks along."""
+    model = assembler.model
     n, n_asm, k = model.n_dofs, model.n_assembled, dq.shape[1]
     ev = assembler.evaluate(state, matrices=True, inertia_tangent=True)
     P, (by_velocity, _), dependent = ev.projection, ev.rates_tangent, ev.dependent_rows
@@ -1824,8 +1836,7 @@ def linked_cable_rates_product(assembler, state, w: np.ndarray, dq: np.ndarray, 
     for c in range(k):
         moves[:n_asm, c] = np.asarray(P @ (rates[0][:, c] if rates is not None else np.zeros(n))).reshape(-1)
         moves[dependent, c] += np.asarray(by_velocity @ dq[:, c]).reshape(-1)
-    grown = _cable_rates_product(assembler, taut, u, moves)
-    return scale * np.column_stack([np.asarray(P.T @ grown[:n_asm, c]).reshape(-1) for c in range(k)])
+    return P, u, moves
 
 
 def linked_coupling_rates_product(assembler, state, w: np.ndarray, dq: np.ndarray, scale: float, rates):
@@ -1840,17 +1851,10 @@ def linked_coupling_rates_product(assembler, state, w: np.ndarray, dq: np.ndarra
     if not any(_linked_rate_controllers(assembler)):
         return None
     n, n_asm, k = model.n_dofs, model.n_assembled, dq.shape[1]
-    ev = assembler.evaluate(state, matrices=True, inertia_tangent=True)
-    P, (by_velocity, _), dependent = ev.projection, ev.rates_tangent, ev.dependent_rows
-    u = np.zeros(model.n_total + 1)
-    u[:n_asm] = np.asarray(P @ w).reshape(-1)
+    P, u, moves = _linked_rates_moves(assembler, state, w, dq, rates)
     rows, cols, values = _general_coupling_rates_part(assembler, state, w, full=u, linked=True)
     if not len(rows):
         return None
-    moves = np.zeros((model.n_total + 1, k))
-    for c in range(k):
-        moves[:n_asm, c] = np.asarray(P @ (rates[0][:, c] if rates is not None else np.zeros(n))).reshape(-1)
-        moves[dependent, c] += np.asarray(by_velocity @ dq[:, c]).reshape(-1)
     grown = np.zeros((model.n_total + 1, k))
     np.add.at(grown, rows, values[:, None] * moves[cols])
     return scale * np.asarray(P.T @ grown[:n_asm]).reshape(n, k)
