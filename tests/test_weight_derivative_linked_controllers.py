@@ -1,12 +1,15 @@
 """The impulse weight's derivative on models with rigid links or guides: the couplings of continuous controllers reading
-a point at an offset from its node (x + T r) and a cable's length generated through the reduction
+a point at an offset from its node (x + T r), a cable's length, and positions beside nodes' velocities generated
+through the reduction
 (latdyn/analyses/weight_derivative.py, "Rigid links and guides": ``_linked_position_controllers``,
 ``_LINKED_POSITION_SENSORS``; docs/parameters.md, "The impulse weight's derivative"), where ea72688 differenced them
 (``linked_rest_product``, two evaluations a parameter at each event).
 
 On 3D YAML scenes: the gimbal of rigid links on skew hinges latching (loads in the rings' frames), its boom starting at
 an offset from the inner ring (a dependent node) and its outer hinge driven by a PD of that point's y and z, nonlinear
-in them; the guided slider-crank between its stops with damped cables, its crank's torque tau + y of a controller of
+in them; the deploying chain of rigid bays latching twice, a PD of two points' positions and velocities (dependent
+nodes: their rates follow the links; ``_linked_rate_controllers``, ``linked_coupling_rates_product``); the guided
+slider-crank between its stops with damped cables, its crank's torque tau + y of a controller of
 two cables' lengths (the tether to the crank's pin and the cable between the pin and the slider, dependent nodes),
 nonlinear in them — the exact part against Richardson-extrapolated differences of Pᵀ W_gen P w at a turned state with
 random rates, at every event through the API no difference taken and ∂(W w)/∂q δq against the Richardson reference of
@@ -108,11 +111,11 @@ def test_the_couplings_are_generated_through_the_reduction(name):
 
 @pytest.mark.parametrize("name", list(SCENES))
 def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name, monkeypatch):
-    """At the event (through the API) no difference of W_rest is taken (ea72688 took 6 on the gimbal, 16 on the
-    slider-crank), ∂(W w)/∂q δq agrees with tests/test_weight_derivative_linked's Richardson reference (measured
-    6.1e-12, 1.5e-9: the reference's own error), the whole run's sensitivities by the controller's gain agree with
-    Richardson central differences of whole runs (measured 3.2e-8, 7.4e-9, as on ea72688) and the adjoint's with the
-    forward method's (1.7e-12, 5.7e-12)."""
+    """At the events (through the API) no difference of W_rest is taken (ea72688 took 6 on the gimbal, 16 on the
+    slider-crank, 16 on the chain), ∂(W w)/∂q δq agrees with tests/test_weight_derivative_linked's Richardson reference
+    (measured 6.1e-12, 1.5e-9, 1.2e-12: the reference's own error), the whole run's sensitivities by the controller's
+    gain agree with Richardson central differences of whole runs (measured 3.2e-8, 7.4e-9, 3.7e-8, as on ea72688) and
+    the adjoint's with the forward method's (1.7e-12, 5.7e-12, 1.4e-11)."""
     text, events, gain = SCENES[name]
     result, errors, differences = _at_events(text, monkeypatch)
     assert [e["kind"] for e in result.summary["events"]] == events
