@@ -91,9 +91,13 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
 
 * exact, the generated blocks W_gen (elements, joint bodies, the hinges of :func:`linked_exact_hinges`, the point
   loads of :func:`linked_generated_loads`, the cable elements, the couplings of :func:`linked_exact_couplings` — of
-  controllers of joints' angles and rates, and of controllers reading nodes' positions and points' positions in a
-  body's axes (a dependent node's by the assembled coordinates), joints' angles, inputs, their states and earlier
-  such controllers (:func:`_linked_position_controllers`, :func:`_coupling_part` at
+  controllers of joints' angles and rates, and of controllers reading nodes' positions, points' positions at an
+  offset from their node and in a body's axes and cables' lengths (a dependent node's by the assembled coordinates;
+  the offset and the length since linkedctrl, ea72688 differenced them), joints' angles, inputs, their states and
+  earlier such controllers, and of controllers reading such positions beside joints' rates and nodes' velocities (a
+  dependent node's too: :func:`_linked_rate_controllers`, since linkedctrl), whose entries move with the rates the
+  reduction's move carries by −a Σ_p ∂²f/∂s_p∂s_r ∂s_p/∂q_c δs_r, δv_all = P δv + ∂(J v)/∂q δq
+  (:func:`linked_coupling_rates_product`, exact, one evaluation) (:func:`_linked_position_controllers`, :func:`_coupling_part` at
   u = P w on the assembled coordinates):
   :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
@@ -130,9 +134,8 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
 * differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
   not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings of controllers reading a
-  rate beside anything but joints (a node's or a point's velocity, a free joint's force: their values move with the
-  rates the move carries), a point at an offset or a cable's length (not measured on linked models), or a controller
-  of those, a load's coupling entries, and the hinges whose K_jj moves with
+  point's velocity at an offset or relative to a body or a free joint's force (their values or gradients move with
+  the rates the move carries), a rate beside an input, a state or another controller, or a controller of those, a load's coupling entries, and the hinges whose K_jj moves with
   their rate where ∂K_jj/∂θ̇ is not generated (:func:`linked_exact_hinges`, :func:`exact_hinges_by_rates`: a law
   whose slope in θ does not parse back as a law),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
@@ -214,7 +217,8 @@ from latdyn.numerics.linalg import RCM_IN_PYTHON
 __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_couplings_by_rates",
            "exact_hinges", "exact_hinges_by_rates", "exact_loads", "exact_loads_by_rates",
            "geometric_product", "geometric_second_product", "linked_configuration_tangent", "linked_geometric_derivative",
-           "linked_cable_rates_product", "linked_exact_couplings", "linked_exact_hinges", "linked_generated_loads",
+           "linked_cable_rates_product", "linked_coupling_rates_product", "linked_exact_couplings", "linked_exact_hinges",
+           "linked_generated_loads",
            "linked_geometric_rate_in_time", "linked_has_rest", "linked_rate_moving_hinges", "linked_rates_tangent",
            "linked_rest_product",
            "needs_the_kernel", "rates_rest_needed", "rates_rest_product", "rates_tangent_of_weight",
@@ -1020,7 +1024,8 @@ def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndar
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     controllers = _exact_controllers(assembler)
     driving = {int(control.actuator_controller[a]) for a in actuators}
-    if subset and not any(_linked_position_controllers(assembler)[k] for k in driving):
+    chained = [p or r for p, r in zip(_linked_position_controllers(assembler), _linked_rate_controllers(assembler))]
+    if subset and not any(chained[k] for k in driving):
         # linked_exact_couplings of joints alone: no chain; the actuators' own
         controllers = [bool(on) and k in driving for k, on in enumerate(controllers)]
     columns, curvatures = _controller_curvatures(assembler, state, controllers)
@@ -1328,26 +1333,29 @@ def linked_exact_couplings(assembler) -> np.ndarray:
                                                            tuple(np.flatnonzero(kinds == RATE)))
                                  or _joint_reads(control, k) is not None))
     positions = _linked_position_controllers(assembler)
+    rates = _linked_rate_controllers(assembler)
     kinds = np.asarray(control.actuator_kind)
     for e, a in enumerate(np.asarray(control.coupling_actuator)):   # a load's entries: its block's difference
-        out[e] &= bool(kinds[a] == 0) and (plain[control.actuator_controller[a]]
-                                           or positions[control.actuator_controller[a]])
+        k = control.actuator_controller[a]
+        out[e] &= bool(kinds[a] == 0) and (plain[k] or positions[k] or rates[k])
     return out
 
 
 #: the sensor kinds whose values a model with rigid links or guides takes through its exact part (the reduction's move
 #: carries the rates: no kind whose value or gradient moves with them; latdyn.assembly.control ANGLE, POSITION,
-#: BODY_FRAME): a joint's angle, a node's global position component, a point's position or displacement in a body's
-#: axes — those measured on linked models (tests/test_weight_derivative_linked_rates.py); a point at an offset and a
-#: cable's length, whose kinematics are composed alike, keep the difference until measured there
-_LINKED_POSITION_SENSORS = (0, 2, 7)
+#: OFFSET_POSITION, BODY_FRAME, CABLE_LENGTH): a joint's angle, a node's global position component, a point's position
+#: at an offset from its node (x + T r), a point's position or displacement in a body's axes
+#: (tests/test_weight_derivative_linked_rates.py), a cable's length (Σ |p_b − p_a| of its elements' end points at their
+#: offsets; tests/test_weight_derivative_linked_controllers.py) — on a dependent node by the assembled coordinates,
+#: :func:`_sensor_kinematics` composed of the generated ``point_load`` as unlinked
+_LINKED_POSITION_SENSORS = (0, 2, 5, 7, 8)
 
 
 def _linked_position_controllers(assembler) -> list:
     """(controllers,) bool: the continuous controllers of :func:`_exact_controllers` whose couplings a model with rigid
     links or guides takes generated beside those of joints' angles and rates (:func:`linked_exact_couplings`): they
-    read joints' angles, nodes' positions and points' positions in a body's axes (:data:`_LINKED_POSITION_SENSORS`: on
-    a dependent node too, its second derivative by the assembled coordinates), inputs, their own states and earlier such
+    read joints' angles, nodes' positions, points' positions at an offset and in a body's axes and cables' lengths
+    (:data:`_LINKED_POSITION_SENSORS`: on a dependent node too, its second derivative by the assembled coordinates), inputs, their own states and earlier such
     controllers alone — nothing whose value moves
     with the rates the reduction's move carries, so their entries −a ∂y/∂q_all move along P δq alone
     (:func:`_coupling_part` on the assembled coordinates, ``full`` = P w)."""
@@ -1361,6 +1369,20 @@ def _linked_position_controllers(assembler) -> list:
         out.append(bool(exact[k]) and all(kind is None or kind in _LINKED_POSITION_SENSORS
                                           or (kind == CONTROLLER and out[index]) for kind, index, _ in reads))
     return out
+
+
+def _linked_rate_controllers(assembler) -> list:
+    """(controllers,) bool: the continuous controllers whose couplings a model with rigid links or guides takes
+    generated though their entries move with the rates the reduction's move carries: those of
+    :func:`_position_and_rate_reads` (``linked``) — they read positions (:data:`_RATE_FREE_POSITIONS`, the kinds of
+    :data:`_LINKED_POSITION_SENSORS`) and plain rates (a joint's rate, a node's velocity component, on a dependent
+    node too), at least one of each, no input, state or other controller, not joints' alone (:func:`_joint_reads`:
+    :func:`linked_rates_tangent`'s). Along q their entries −a ∂y/∂q_all move as a
+    position controller's (:func:`_coupling_part`, the rates held); along the rates by
+    :func:`linked_coupling_rates_product`."""
+    control = assembler.control
+    return [_joint_reads(control, k) is None and _position_and_rate_reads(assembler, k, linked=True) is not None
+            for k in range(len(control.controllers))]
 
 
 def _linked_split(assembler, exact: np.ndarray):
@@ -1462,16 +1484,17 @@ def _joint_reads(control, k: int):
 _RATE_FREE_POSITIONS, _PLAIN_RATES = (0, 2, 5, 7, 8), (1, 3)
 
 
-def _position_and_rate_reads(assembler, k: int):
+def _position_and_rate_reads(assembler, k: int, linked: bool = False):
     """(position reads, rate reads) of continuous controller ``k`` (their positions among its reads), or None unless
     it reads sensors of :data:`_RATE_FREE_POSITIONS` and :data:`_PLAIN_RATES` alone, at least one rate and one
     position, no input, state or other controller, on a model without rigid links or guides, with mixed second
     derivatives of its output by them that are functions (:func:`_output_mixed`) and the sensors' second derivatives
     generated (:func:`_exact_controllers`). Its coupling entry K_rc = −a Σ_p ∂f/∂s_p ∂s_p/∂q_c then moves with the
     rates through ∂²f/∂s_p∂s_r alone: a position sensor's gradient holds no rate, a rate sensor's ∂s_r/∂v is a
-    coordinate's unit."""
+    coordinate's unit. ``linked``: on a model with rigid links or guides too (:func:`_linked_rate_controllers`: the
+    rates' move there is :func:`linked_coupling_rates_product`'s, a rate sensor's coordinate a dependent one too)."""
     control = assembler.control
-    if assembler.model.links is not None or not _exact_controllers(assembler)[k]:
+    if (assembler.model.links is not None and not linked) or not _exact_controllers(assembler)[k]:
         return None
     controller = control.controllers[k]
     reads = _controller_reads(control, k)
@@ -1492,19 +1515,22 @@ def _rate_column(assembler, kind: int, index: int) -> int:
     return int(model.hinge_dofs[index] if kind == 1 else model.node_dofs[index // 3, index % 3])
 
 
-def _general_coupling_rates_part(assembler, state, w: np.ndarray):
+def _general_coupling_rates_part(assembler, state, w: np.ndarray, full: np.ndarray | None = None,
+                                 linked: bool = False):
     """(rows, cols, values) of the couplings' part of ∂(K w)/∂v for a hinge's force driven by a controller of
     :func:`_position_and_rate_reads` (not of joints alone: those are :func:`_coupling_rates_part`'s): K's entry
     K_rc = −a Σ_p ∂f/∂s_p ∂s_p/∂q_c moves with rate sensor r by −a Σ_p ∂²f/∂s_p∂s_r ∂s_p/∂q_c, so along w: row r of
     the hinge, column the rate's, −a Σ_p ∂²f/∂s_p∂s_r (∂s_p/∂q · w) — SymPy's mixed second derivatives
     (:func:`_output_mixed`) at the sensors' values the evaluation computes, the gradients ∂s_p/∂q those of
-    :func:`_sensor_kinematics` (csrc/evaluate.c's); 0 while the output is saturated."""
+    :func:`_sensor_kinematics` (csrc/evaluate.c's); 0 while the output is saturated. ``linked``, ``full``: the
+    controllers of :func:`_linked_rate_controllers` on a model with rigid links or guides, the direction u = P w on
+    every assembled coordinate (n_total + 1,), rows and columns assembled ones (:func:`linked_coupling_rates_product`)."""
     control, model = assembler.control, assembler.model
     n = model.n_dofs
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
     taken = [(int(a), int(control.actuator_controller[a])) for a in np.flatnonzero(kinds == 0)
              if _joint_reads(control, int(control.actuator_controller[a])) is None
-             and _position_and_rate_reads(assembler, int(control.actuator_controller[a])) is not None]
+             and _position_and_rate_reads(assembler, int(control.actuator_controller[a]), linked) is not None]
     if not taken:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     native = assembler.native()
@@ -1513,13 +1539,14 @@ def _general_coupling_rates_part(assembler, state, w: np.ndarray):
     native.controller_outputs_at(state)
     held.values[:] = kept
     sensed = np.array(native.buffers["sensor_values"], float)
-    full = np.zeros(model.n_total + 1)
-    full[:n] = w
+    if full is None:
+        full = np.zeros(model.n_total + 1)
+        full[:n] = w
     t = float(state.t)
     out_rows, out_cols, out_values = [], [], []
     for a, k in taken:
         controller = control.controllers[k]
-        positions, rates = _position_and_rate_reads(assembler, k)
+        positions, rates = _position_and_rate_reads(assembler, k, linked)
         reads = _controller_reads(control, k)
         values = [float(sensed[sensor]) for _, _, sensor in reads]
         lo, hi = control.limits[k]
@@ -2051,6 +2078,18 @@ def linked_cable_rates_product(assembler, state, w: np.ndarray, dq: np.ndarray, 
     taut = _taut_cables(assembler, state)
     if taut is None or not np.any(taut[3][:, 3] != 0.0):
         return None
+    n_asm, k = model.n_assembled, dq.shape[1]
+    P, u, moves = _linked_rates_moves(assembler, state, w, dq, rates)
+    grown = _cable_rates_product(assembler, taut, u, moves)
+    return scale * np.column_stack([np.asarray(P.T @ grown[:n_asm, c]).reshape(-1) for c in range(k)])
+
+
+def _linked_rates_moves(assembler, state, w: np.ndarray, dq: np.ndarray, rates):
+    """(P, u = P w on every assembled coordinate (n_total + 1,), the assembled rates' move of each column
+    δv_all = P δv + ∂(J v)/∂q δq (n_total + 1, k)) at ``state`` on a model with rigid links or guides (the compiled
+    links' buffers; one evaluation): what :func:`linked_cable_rates_product` and :func:`linked_coupling_rates_product`
+    move their blocks along."""
+    model = assembler.model
     n, n_asm, k = model.n_dofs, model.n_assembled, dq.shape[1]
     ev = assembler.evaluate(state, matrices=True, inertia_tangent=True)
     P, (by_velocity, _), dependent = ev.projection, ev.rates_tangent, ev.dependent_rows
@@ -2060,8 +2099,28 @@ def linked_cable_rates_product(assembler, state, w: np.ndarray, dq: np.ndarray, 
     for c in range(k):
         moves[:n_asm, c] = np.asarray(P @ (rates[0][:, c] if rates is not None else np.zeros(n))).reshape(-1)
         moves[dependent, c] += np.asarray(by_velocity @ dq[:, c]).reshape(-1)
-    grown = _cable_rates_product(assembler, taut, u, moves)
-    return scale * np.column_stack([np.asarray(P.T @ grown[:n_asm, c]).reshape(-1) for c in range(k)])
+    return P, u, moves
+
+
+def linked_coupling_rates_product(assembler, state, w: np.ndarray, dq: np.ndarray, scale: float, rates):
+    """Pᵀ s ∂(K_y u)/∂v_all δv_all (n, k) of the couplings of :func:`_linked_rate_controllers` on a model with rigid
+    links or guides, u = P w: their entries K_rc = −a Σ_p ∂f/∂s_p ∂s_p/∂q_c move with each rate sensor's s_r by
+    −a Σ_p ∂²f/∂s_p∂s_r ∂s_p/∂q_c (:func:`_general_coupling_rates_part` on the assembled coordinates: SymPy's mixed
+    second derivatives, the position sensors' gradients of :func:`_sensor_kinematics`), s_r the rate of an assembled
+    coordinate (a joint's, a node's velocity component, dependent ones too) moving along each column's move with
+    δv_all = P δv + ∂(J v)/∂q δq (the compiled links' buffers, as :func:`linked_cable_rates_product`). Exact, one
+    evaluation (for P and ∂(J v)/∂q); None where no such coupling exists."""
+    model = assembler.model
+    if not any(_linked_rate_controllers(assembler)):
+        return None
+    n, n_asm, k = model.n_dofs, model.n_assembled, dq.shape[1]
+    P, u, moves = _linked_rates_moves(assembler, state, w, dq, rates)
+    rows, cols, values = _general_coupling_rates_part(assembler, state, w, full=u, linked=True)
+    if not len(rows):
+        return None
+    grown = np.zeros((model.n_total + 1, k))
+    np.add.at(grown, rows, values[:, None] * moves[cols])
+    return scale * np.asarray(P.T @ grown[:n_asm]).reshape(n, k)
 
 
 def geometric_product(assembler, state, y: np.ndarray, w: np.ndarray) -> np.ndarray:
