@@ -260,8 +260,8 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     (:func:`_geometry_generated`). The loads: the generated ``point_load_stiffness_D_q`` at the moved offset δr less
     at none (the load is affine in its offset, its K_l w too)."""
     geometry = getattr(owner, "geometry", None)
-    if geometry is None:
-        return
+    if geometry is None or "beam_stiffness_D_reference" not in (getattr(owner.kernels, "info", None) or {}):
+        return   # a variant generated before the kernel: every geometry column is the caller's difference
     model, k = owner.model, geometry.k
     elements = geometry.elements
     along = full[model.element_dofs[elements]] if len(elements) else np.zeros((0, 14))
