@@ -824,6 +824,20 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         tangent=configuration_tangent("stiffness_along", "stiffness_along_D_q", plane,
                                       "∂((∂F_i/∂q) v)/∂q at fixed v, row-major: [r, d] = ∂(K v)_r/∂q_d"))
 
+    # the same product K v and its derivative along one variation of the reference data at fixed v and configuration,
+    # ∂((∂F_i/∂q) v)/∂X: the forward-mode program of the lowered product seeded with the reference data's first
+    # variation (reference_tangent, as beam_internal_force_D_reference's), a geometry parameter's (∂K/∂p) w at an
+    # event's impulse weight (latdyn/analyses/parameter_stiffness.py ``_geometry``)
+    b = Builder(kin.auxiliary + shear_definitions)
+    _, _, stiffness = elastic(b, with_tangent=True)
+    along = [sp.Add(*[stiffness[a][c] * direction[c] for c in range(N)]) for a in range(N)]
+    add("beam_stiffness_D_reference", "Tangent stiffness along a direction, (∂F_i/∂q) v (v in the velocity block), "
+        "and its derivative along a variation of the reference data at fixed v and configuration (forward mode of "
+        "the lowered product, codegen/forward.py)", "Eqs. 29-43", [cv.GEOMETRY, cv.VELOCITY, cv.SECTION, cv.REFERENCE],
+        [Output("stiffness_along", (N,), along)], b,
+        tangent=reference_tangent("stiffness_along", "stiffness_along_D_reference", plane,
+                                  "∂((∂F_i/∂q) v)/∂(reference data) along the variation given, (14, 1)"))
+
     # the section forces' derivative along a direction, (∂S/∂q) a (a in the velocity block), and its derivative by the
     # element's coordinates, ∂((∂S/∂q) a)/∂q under the configuration update at fixed a: the forward-mode program of the
     # lowered product seeded as ``beam_stiffness_D_q``'s, the second derivative of a section-force sensor an event's

@@ -33,6 +33,13 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   its clip, so its own kernel, ``contact_stiffness_D_law``'s ∂(∂f_contact/∂θ)/∂(k, n, c) at the joint's (θ, θ̇),
   times the law's derivative and w_j (:func:`_stops`);
 * friction's laws: its force depends on θ̇ alone, so its part of K is 0, and its (∂K/∂p) w too;
+* geometry parameters (a body's ``at``, a beam's free end, an end's offset, a ``y_axis``): ∂r/∂p is
+  Σ_e ∂F_e/∂X · V_e(q), the element's internal force along its reference variation at the state
+  (latdyn/analyses/geometry_sensitivities.py), so along w the new kernel ``beam_stiffness_D_reference``'s
+  ∂(K_e w_e)/∂X · V_e (codegen/derivation.py: the forward-mode program of the lowered product K v seeded with the
+  reference data's first variation, as ``beam_internal_force_D_reference``'s), which holds the variation's turn with
+  the end too (:func:`_geometry`); a load at a moved offset, affine in its offset, by ``point_load_stiffness_D_q`` at
+  the moved offset less at none. A moved hinge axis is not (its frame's turn T_j θ J(θa) δa moves with θ along w);
 * initial velocities: no ∂r/∂p.
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
@@ -54,8 +61,8 @@ With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the ge
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
 stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
 added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
-differenced along w by the caller (:func:`exact_parameters` False): geometry parameters (no kernel holds ∂(K w)/∂X:
-``beam_internal_force_D_reference`` is ∂F/∂X alone), a hinge law that names an input or a controller (its value is
+differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter that moves a hinge axis,
+or any in a variant generated before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a controller (its value is
 the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
 every parameter of a run whose state an event moved in time through a prescribed motion, a reel or a controller's
 output in t (:func:`time_generated`), and with rigid links or guides every parameter beside
@@ -68,6 +75,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY, WIDTH
 from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY_KEY, SECTION_KEY, joint_law
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
@@ -83,6 +91,8 @@ def _generated_use(owner, key: str, laws: dict) -> bool:
         return True
     if CABLE_KEY.match(key) or joint_law(key) is not None:   # EA, damping, rest length, ρA; stops, friction
         return True
+    if GEOMETRY_KEY.match(key):
+        return _geometry_generated(owner, key)
     load, hinge = owner._key_kinds(key)
     if load:
         return True
@@ -92,6 +102,15 @@ def _generated_use(owner, key: str, laws: dict) -> bool:
             return _slopes_known(owner.model.hinges[j].stiffness)
         return all(_slopes_known(law) for law in laws.values())
     return False
+
+
+def _geometry_generated(owner, key: str) -> bool:
+    """Whether a geometry use ``key`` has its (∂K/∂p) w generated (:func:`_geometry`): the variant holds
+    ``beam_stiffness_D_reference``, the model has no rigid links or guides, and the key is no hinge axis (a moved
+    axis's turn T_j θ J(θa) δa of the nodal frame moves with θ along w: not generated, the difference)."""
+    info = getattr(owner.kernels, "info", None) or {}
+    return ("beam_stiffness_D_reference" in info and owner.model.links is None
+            and GEOMETRY_KEY.match(key)["hinge"] is None)
 
 
 def _slopes_known(law) -> bool:
@@ -161,6 +180,7 @@ def stiffness_along_all(owner, state, full: np.ndarray, cables: bool = True) -> 
     total = np.zeros((model.n_total + 1, len(owner.names)))
     _hinges(owner, state, full, total)
     _loads(owner, state, full, total)
+    _geometry(owner, state, full, total)
     _bodies(owner, state, full, total)
     if cables:   # (ExplicitTime's laws in t have none: its reels are not generated here)
         _cables(owner, state, full, total)
@@ -232,6 +252,58 @@ def _loads(owner, state, full: np.ndarray, total: np.ndarray) -> None:
         rows(state.T[nodes[on]]), rows(offset[pairs[on]]), rows(values[on]), rows(turns),
         rows(direction[on]))[0]).reshape(len(on), 6)
     np.add.at(total, (_scattered(model.node_dofs[nodes[on]], model.n_total), columns[on, None]), along)
+
+
+def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """The geometry parameters' uses (docs/parameters.md "Geometry parameters"): their static ∂r/∂p is
+    Σ_e ∂F_e/∂X · V_e(q), ``beam_internal_force_D_reference`` along the element's reference variation at the state
+    (:meth:`ReferenceGeometry.at_state`: ψ, δo, δh spatial, turning with the end), plus the loads at a moved offset
+    (``point_load_D_offset``), so along w
+
+        (∂K/∂p) w = Σ_e A_e ∂(K_e w_e)/∂X · V_e + Σ_l [K_l(δr) − K_l(0)] w_l,
+
+    the elements' from the generated ``beam_stiffness_D_reference`` (K_e v at v = w_e, its derivative along V_e).
+    That is the whole derivative along w: the reference seeds (δT_e = skew(ψ) T_e, δo, δh) and the configuration's
+    (δT_e = skew(ω) T_e with ω = Δπ + Δθ h, δo = Δπ × o, δh = Δπ × h; codegen/derivation.py
+    ``geometry_first_variation``, ``reference_first_variation``) each depend on the block the other moves, and the
+    kernel's second variation along V_e of the configuration's seed — skew(ω) skew(ψ) T_e, Δπ × δo, Δπ × δh — is
+    what the static ∂r/∂p's seed turning with the end (its ψ by ω, its δo and δh by Δπ) gives along w, skew(ψ) skew(ω)
+    T_e + skew(ω × ψ) T_e the same. A moved hinge axis's term T_j θ J(θa) δa moves otherwise with θ: not generated
+    (:func:`_geometry_generated`). The loads: the generated ``point_load_stiffness_D_q`` at the moved offset δr less
+    at none (the load is affine in its offset, its K_l w too)."""
+    geometry = getattr(owner, "geometry", None)
+    if geometry is None or "beam_stiffness_D_reference" not in (getattr(owner.kernels, "info", None) or {}):
+        return   # a variant generated before the kernel: every geometry column is the caller's difference
+    model, k = owner.model, geometry.k
+    elements = geometry.elements
+    along = full[model.element_dofs[elements]] if len(elements) else np.zeros((0, 14))
+    on = np.flatnonzero(np.any(along != 0.0, axis=1))
+    if len(on):
+        elements, along = elements[on], along[on]
+        m = len(elements)
+        at = np.ascontiguousarray(owner.assembler.native().element_inputs(state)[0][elements])
+        variation = geometry.at_state(state, elements, at)                           # (m, WIDTH, k)
+        tiled = lambda a: np.ascontiguousarray(np.tile(a, (k, 1)))  # noqa: E731
+        forces = np.asarray(owner.kernels.beam_stiffness_D_reference(
+            tiled(at), tiled(along), tiled(model.element_sections[elements]),
+            np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, WIDTH)))[1]).reshape(k, m, 14)
+        for column in range(k):
+            np.add.at(total[:, column], model.element_dofs[elements], forces[column])
+    for index, node, offset in geometry.moved_loads:
+        frame_node = geometry.load_frame_node(index)
+        direction = np.zeros(6)
+        direction[0:3] = full[_scattered(model.node_dofs[node, 3:6], model.n_total)]
+        if frame_node >= 0:
+            direction[3:6] = full[_scattered(model.node_dofs[frame_node, 3:6], model.n_total)]
+        if not np.any(direction):
+            continue
+        values = geometry.load_arm_values(state.t, index, 1.0)
+        frame = np.eye(3) if frame_node < 0 else state.T[frame_node]
+        rows = lambda a: np.ascontiguousarray(np.tile(np.reshape(a, (1, -1)), (k + 1, 1)), dtype=float)  # noqa: E731
+        arms = np.ascontiguousarray(np.concatenate([np.zeros((1, 3)), offset.T]))     # none, then δr by column
+        out = np.asarray(owner.kernels.point_load_stiffness_D_q(rows(state.T[node]), arms, rows(values), rows(frame),
+                                                               rows(direction))[0]).reshape(k + 1, 6)
+        total[model.node_dofs[node]] += (out[1:] - out[0]).T
 
 
 def _bodies(owner, state, full: np.ndarray, total: np.ndarray) -> None:

@@ -397,13 +397,15 @@ def optimisation(ops: int) -> str:
 #: rest length and a compliant stop's by its law only at an event with such a parameter
 #: (latdyn/analyses/parameter_stiffness.py); the section forces' and a cable's tension's second derivatives only at an
 #: event with a controller reading them (latdyn/analyses/weight_derivative.py ``_sensor_kinematics``), a point's
-#: velocity relative to a body's likewise.
+#: velocity relative to a body's likewise; the stiffness's derivative along the reference data only at an event with a
+#: geometry parameter (latdyn/analyses/parameter_stiffness.py ``_geometry``).
 ON_DEMAND = ("beam_inertia_tangent", "beam_section_forces_D_q", "beam_internal_force_D_reference",
              "beam_inertia_force_D_reference", "beam_section_forces_D_reference", "beam_internal_force_D_section",
              "beam_inertia_force_D_section", "beam_section_forces_D_section", "beam_energies_D_section",
              "beam_stiffness_D_section", "beam_stiffness_D_q", "point_load_stiffness_D_q", "cable_stiffness_D_q",
              "cable_stiffness_D_rest_length", "contact_stiffness_D_law", "beam_section_forces_D_q_D_q",
-             "cable_tension_D_q_D_q", "point_velocity_in_body_D_q_D_q")
+             "cable_tension_D_q_D_q", "point_velocity_in_body_D_q_D_q",
+             "beam_stiffness_D_reference")
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
