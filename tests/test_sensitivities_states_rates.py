@@ -63,17 +63,19 @@ assert "restitution: 0.5" in SAMPLED_STOP and "elbow_rate: {" in LATCH_RATE
 
 
 @pytest.mark.parametrize("text, names, events, relative", [
-    (SLEW_RATE, ["Kp", "EI"], [], 1e-4), (SLEW_RATE_PLACED, ["Lx"], [], 1e-4), (GIMBAL_RATE, ["Kd", "tf"], [], 1e-4), (SAMPLED_VELOCITY, ["Kd"], [], 1e-3),
-    (SAMPLED_STOP, ["Kd"], ["stop"], 1e-4), (LATCH_RATE, ["Kp"], ["latch"], 1e-4)],
-    ids=["slewing boom PI of the rate", "the boom's tip placed by a parameter", "gimbal filtered-rate PIDs", "sampled PD of a velocity",
-         "sampled PD of a velocity beside a stop", "PI of a rate beside a latch"])
+    (SLEW_RATE, ["Kp", "EI"], [], 1e-4), (SLEW_RATE_PLACED, ["Lx"], [], 1e-4), (GIMBAL_RATE, ["Kd", "tf"], [], 1e-4),
+    (SAMPLED_VELOCITY, ["Kd"], [], 1e-3), (SAMPLED_STOP, ["Kd"], ["stop"], 1e-4),
+    (LATCH_RATE, ["Kp"], ["latch"], 1e-4)],
+    ids=["slewing boom PI of the rate", "the boom's tip placed by a parameter", "gimbal filtered-rate PIDs",
+         "sampled PD of a velocity", "sampled PD of a velocity beside a stop", "PI of a rate beside a latch"])
 def test_states_reading_rates_agree_with_richardson_central_differences(text, names, events, relative):
     """Measured (every probe's worst over the rows, relative to its largest; the event times too; perturbations of
-    1e-4 relative): the boom Kp 1.4e-9, Ki 8.7e-9, EI 2.0e-9 (its tip's place Lx 4.6e-10); the gimbal Kp 3.7e-9, Ki 1.1e-7, Kd 5.0e-9, tf 1.3e-8,
-    EI 1.3e-9; the sampled PD Kp 1.7e-9, EI 1.9e-9, Kd 6.0e-7 (4.5e-8 at 1e-3, 3.9e-6 at 1e-5: the differences'
-    round-off, hence 1e-3 here); beside the stop Kp 3.6e-10, Kd 7.3e-8, EI 6.1e-10; beside the latch Kp 4.0e-9, Ki
-    5.1e-8, a 2.1e-8, EI 1.4e-9, k 1.0e-6 (8.4e-8 at 1e-3, 7.4e-6 at 1e-5). Without D_v δv the sensitivities were 0.86
-    (boom), 1.3 (gimbal), 1.0 (sampled) relative off; without δf taken anew after the latch, the integral 0.4 off."""
+    1e-4 relative): the boom Kp 1.4e-9, Ki 8.7e-9, EI 2.0e-9 (its tip's place Lx 4.6e-10); the gimbal Kp 3.7e-9,
+    Ki 1.1e-7, Kd 5.0e-9, tf 1.3e-8, EI 1.3e-9; the sampled PD Kp 1.7e-9, EI 1.9e-9, Kd 6.0e-7 (4.5e-8 at 1e-3,
+    3.9e-6 at 1e-5: the differences' round-off, hence 1e-3 here); beside the stop Kp 3.6e-10, Kd 7.3e-8, EI 6.1e-10;
+    beside the latch Kp 4.0e-9, Ki 5.1e-8, a 2.1e-8, EI 1.4e-9, k 1.0e-6 (8.4e-8 at 1e-3, 7.4e-6 at 1e-5). Without
+    D_v δv the sensitivities were 0.86 (boom), 1.3 (gimbal), 1.0 (sampled) relative off; without δf taken anew after
+    the latch, the integral 0.4 off."""
     result = _run(text)
     assert [e["kind"] for e in result.summary["events"]] == events
     for name in names:

@@ -1617,7 +1617,9 @@ class ControllerStates:
     The held part enters ∂r/∂p as ∂y/∂S times it (:meth:`ControllerTerms.add`); the part through the
     sensors is the condensed total derivative dy/ds = ∂y/∂s + ∂y/∂S A⁻¹ h/2 ∂f/∂s that the step's
     matrix holds when the evaluation condenses the states from (S_n, f_n) (:meth:`condensed`). δs is
-    the sensors' derivative along δq (probes: hinge angles, point positions and displacements),
+    the sensors' derivative along δq (probes: hinge angles, point positions and displacements) and, for a sensor
+    reading a rate (a hinge's or guide's rate, a point's velocity), along the step end's δv: δs = D_q δq + D_v δv
+    (:meth:`_sensed`; after an event's jump δf is taken anew at the jumped rates, :meth:`restarted`),
     ∂y/∂S, ∂f/∂s, ∂f/∂S and ∂f/∂p the symbolic derivatives of the controller's expressions, those the
     code generator prints for Newton (codegen/laws.py): ∂f/∂s and ∂f/∂S the step's compiled controller law's own
     (:meth:`_rates_gradients`), ∂f/∂p compiled beside the outputs' partials (derivative_laws.ControllerPartials); the
@@ -2018,7 +2020,8 @@ class SampledTerms:
         δy_k = ∂f/∂s δs + ∂f/∂S δS_k + ∂f/∂p      (0 while y_k is clipped),
         δS_{k+1} = δS_k + (∂g/∂s δs + ∂g/∂S δS_k + ∂g/∂p)/rate,
 
-    δs the sensors' derivative along δq at t_k, the partial derivatives those of the controller's
+    δs the sensors' derivative along δq at t_k (and δv for a rate sensor), the partial derivatives those of the
+    controller's
     expressions (SymPy, as the code generator's). The held δy_k enters ∂r/∂p of every step until the
     next sample through the actuators that name the controller (τ = a y + b: −a δy on a hinge's or a
     guide's row, the point-load kernel's force for a δy of a load's component: :meth:`add`). The
@@ -2121,8 +2124,9 @@ class SampledTerms:
                 continue
             rows, i = self._rows(c), self.index[c.name]
             inside, y_s, y_S, y_p, g_s, g_S, g_p = self.partials(c, state.t, values, S[rows])
+            rated = reads_rates(self.sensors[c.name])   # δs = D_q δq + D_v δv at the sample's state
             ds = _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq, None,
-                                     carried.get("dv", np.zeros_like(dq)) if reads_rates(self.sensors[c.name]) else None)
+                                     carried.get("dv", np.zeros_like(dq)) if rated else None)
             dy[i] = y_s @ ds + y_S @ dS[rows] + y_p if inside else 0.0
             dS[rows] = dS[rows] + (g_s @ ds + g_S @ dS[rows] + g_p) / c.rate
             S[rows] = [states[f"{c.name}.{name}"] for name in c.states]

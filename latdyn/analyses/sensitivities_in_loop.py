@@ -139,7 +139,8 @@ names θ, θ̇ or an input and does not compile (every form of the expression la
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
 that ``_states_refusal`` names (a sensor other than joint angles and points' positions and displacements — a rate,
-which the package refuses for states on both paths —, a point on a rigid link's body or a guided body (its δs P δq,
+whose δs = D_q δq + D_v δv the per-step path takes (ControllerStates._sensed, ``restarted``), not this loop —,
+a point on a rigid link's body or a guided body (its δs P δq,
 the per-step path's NumPy), beside geometry parameters, or whose laws did not compile),
 controllers reading a
 section force whose section values a parameter moves beside geometry parameters (refused on both paths),
