@@ -58,19 +58,24 @@ SLEW_RATE_PLACED = SLEW_RATE.replace("tip: {at: [0.8, 0.3, 0.25]", 'tip: {at: ["
     "parameters: {Kp: 4.0,", "parameters: {Lx: 0.8, Kp: 4.0,").replace("sensitivities: [Kp, Ki, EI]",
                                                                        "sensitivities: [Lx, Kp]")
 assert "Lx, Kp" in SLEW_RATE_PLACED and '"Lx"' in SLEW_RATE_PLACED
+#: the boom's PI reading the tip's vertical velocity too (a node's velocity component)
+SLEW_VELOCITY = SLEW_RATE.replace('states: {E: "0.5 - th - 0.2*w"}', 'states: {E: "0.5 - th - 0.2*w + 0.5*tip_vz"}') \
+    .replace("    tip_z:", "    tip_vz: {point: tip, quantity: velocity, component: z}\n    tip_z:")
+assert "0.5*tip_vz" in SLEW_VELOCITY and "tip_vz: {" in SLEW_VELOCITY
 assert "0.2*w" in SLEW_RATE and "(w2 - D2)" in GIMBAL_RATE and "(tip_vz - P)" in SAMPLED_VELOCITY
 assert "restitution: 0.5" in SAMPLED_STOP and "elbow_rate: {" in LATCH_RATE
 
 
 @pytest.mark.parametrize("text, names, events, relative", [
-    (SLEW_RATE, ["Kp", "EI"], [], 1e-4), (SLEW_RATE_PLACED, ["Lx"], [], 1e-4), (GIMBAL_RATE, ["Kd", "tf"], [], 1e-4),
+    (SLEW_RATE, ["Kp", "EI"], [], 1e-4), (SLEW_VELOCITY, ["Ki"], [], 1e-4), (SLEW_RATE_PLACED, ["Lx"], [], 1e-4), (GIMBAL_RATE, ["Kd", "tf"], [], 1e-4),
     (SAMPLED_VELOCITY, ["Kd"], [], 1e-3), (SAMPLED_STOP, ["Kd"], ["stop"], 1e-4),
     (LATCH_RATE, ["Kp"], ["latch"], 1e-4)],
-    ids=["slewing boom PI of the rate", "the boom's tip placed by a parameter", "gimbal filtered-rate PIDs",
+    ids=["slewing boom PI of the rate", "and of the tip's velocity", "the boom's tip placed by a parameter", "gimbal filtered-rate PIDs",
          "sampled PD of a velocity", "sampled PD of a velocity beside a stop", "PI of a rate beside a latch"])
 def test_states_reading_rates_agree_with_richardson_central_differences(text, names, events, relative):
     """Measured (every probe's worst over the rows, relative to its largest; the event times too; perturbations of
-    1e-4 relative): the boom Kp 1.4e-9, Ki 8.7e-9, EI 2.0e-9 (its tip's place Lx 4.6e-10); the gimbal Kp 3.7e-9,
+    1e-4 relative): the boom Kp 1.4e-9, Ki 8.7e-9, EI 2.0e-9 (its tip's place Lx 4.6e-10; reading the tip's
+    velocity too Kp 7.8e-9, Ki 1.1e-7, EI 1.2e-8); the gimbal Kp 3.7e-9,
     Ki 1.1e-7, Kd 5.0e-9, tf 1.3e-8, EI 1.3e-9; the sampled PD Kp 1.7e-9, EI 1.9e-9, Kd 6.0e-7 (4.5e-8 at 1e-3,
     3.9e-6 at 1e-5: the differences' round-off, hence 1e-3 here); beside the stop Kp 3.6e-10, Kd 7.3e-8, EI 6.1e-10;
     beside the latch Kp 4.0e-9, Ki 5.1e-8, a 2.1e-8, EI 1.4e-9, k 1.0e-6 (8.4e-8 at 1e-3, 7.4e-6 at 1e-5). Without
@@ -82,12 +87,19 @@ def test_states_reading_rates_agree_with_richardson_central_differences(text, na
         assert _richardson_error(text, result, name, relative) <= 1e-6, name
 
 
-@pytest.mark.parametrize("text", [SAMPLED_VELOCITY, LATCH_RATE], ids=["sampled PD of a velocity", "PI beside a latch"])
-def test_states_reading_rates_are_the_same_with_the_loop_on_and_off(text):
-    """The sampled controller's run takes the loop of steps between its samples (its samples on the Python path, both
-    ways) and writes the per-step Python path's sensitivities to the bit; a continuous controller with states reading a
-    rate keeps its run on the Python path (sensitivities_in_loop._states_refusal): the same both ways."""
+@pytest.mark.parametrize("text, smooth", [(SLEW_RATE, 30), (SLEW_VELOCITY, 30), (GIMBAL_RATE, 30),
+                                          (SLEW_RATE_PLACED, 30), (LATCH_RATE, 49), (SAMPLED_VELOCITY, 50),
+                                          (SAMPLED_STOP, 49)],
+                         ids=["boom PI of the rate", "and of the tip's velocity", "gimbal filtered-rate PIDs",
+                              "the boom's tip placed", "PI beside a latch", "sampled PD of a velocity",
+                              "sampled PD beside a stop"])
+def test_states_reading_rates_are_the_same_with_the_loop_on_and_off(text, smooth):
+    """The loop of steps takes the smooth steps (a joint's rate's or a node's velocity's δs its row of δv,
+    csrc/controller_states.c ``controller_state_sensed``; a sampled controller's between its samples) and writes the
+    per-step Python path's sensitivities to the bit (the events' steps and the restart's δf on the Python path both
+    ways)."""
     runs = runs_with_the_loop_on_and_off(text)
+    assert runs[True].summary["sensitivity_steps_in_loop"] == smooth
     assert_same_sensitivities(runs[True], runs[False], nonzero="some")
 
 

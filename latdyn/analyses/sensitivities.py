@@ -1781,7 +1781,7 @@ class ControllerStates:
         native.laws.bind_inputs()
         _native_library().latdyn_controller_states_sensed(
             native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), float(state.t), first, count,
-            sensor_dof.ctypes.data, column_dof.ctypes.data, dq.shape[1], dq.ctypes.data, ds.ctypes.data)
+            sensor_dof.ctypes.data, column_dof.ctypes.data, dq.shape[1], dq.ctypes.data, None, ds.ctypes.data)
         return ds
 
     def _accepted(self) -> dict:
@@ -1791,8 +1791,9 @@ class ControllerStates:
         """``carried`` after the step's events at ``state``: the integrator restarts there and takes the states'
         rates f at the state after the events' jumps (latdyn.step.compiled ``start``: S kept, f taken anew), so for
         the controllers that read a rate (whose sensor jumps with v: a latch, a stop, a stick) δf = ∂f/∂s δs⁺ +
-        ∂f/∂S δS + ∂f/∂p with δs⁺ = D_q δq + D_v δv⁺ of the jumped rates (:meth:`_sensed`); at a state where nothing
-        jumped this is after_step's δf again. The others' δf is kept (their sensors do not jump)."""
+        ∂f/∂S δS + ∂f/∂p with δs⁺ = D_q δq + D_v δv⁺ of the jumped rates (:meth:`_sensed`); called after a jump only
+        (TransientSensitivities.after_events with an event pending), elsewhere after_step's δf stands. The others'
+        δf is kept (their sensors do not jump)."""
         rated = [c for c in self.controllers if reads_rates(self.sensors[c.name])]
         if not rated or "controller_df" not in carried:
             return carried
@@ -1937,14 +1938,14 @@ def _senses_prescribed(model, wiring, k: int) -> bool:
 def senses_dependent(model, wiring, k: int) -> bool:
     """Whether a sensor of the wiring's controller ``k`` reads a point on a node that follows rigid links or a guide
     (model.links.dependent), or in such a body's axes: its δs is P δq there (ParameterDerivatives._dependent_motion)."""
-    from latdyn.assembly.control import ANGLE, BODY_FRAME
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, RATE
 
     if model.links is None:
         return False
     dependent = set(int(i) for i in model.links.dependent)
     for i in range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1])):
         kind, index = int(wiring.sensor_kind[i]), int(wiring.sensor_index[i])
-        if kind != ANGLE and (index // 3 in dependent
+        if kind not in (ANGLE, RATE) and (index // 3 in dependent
                               or (kind == BODY_FRAME and int(wiring.sensor_frame_node[i]) in dependent)):
             return True
     return False
@@ -1956,7 +1957,7 @@ def sensor_rows(model, wiring) -> tuple[np.ndarray, np.ndarray]:
     _on_free_nodes_and_hinges takes them); a point offset from its node (its node's six coordinates) or in a body's
     axes (its node's six, then the body's) each gradient column's coordinate likewise; the other kinds −1
     (csrc/controller_states.c controller_state_sensed)."""
-    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION, RATE
 
     hinges, nodes = set(int(j) for j in model.free_hinges), set(int(i) for i in model.free_nodes)
 
@@ -1968,7 +1969,7 @@ def sensor_rows(model, wiring) -> tuple[np.ndarray, np.ndarray]:
     sensor_dof, column_dof = [], np.full(int(wiring.sensor_column_start[n]), -1, np.int64)
     for i, (kind, index) in enumerate(zip(wiring.sensor_kind[:n], wiring.sensor_index[:n])):
         kind, index = int(kind), int(index)
-        if kind == ANGLE:
+        if kind in (ANGLE, RATE):   # a joint's angle, or its rate (its row of δv)
             dof = int(model.hinge_dofs[index])
             sensor_dof.append(dof if index in hinges and dof < model.n_dofs else -1)
         else:

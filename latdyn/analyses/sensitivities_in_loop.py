@@ -511,7 +511,7 @@ def _states_refusal(owner) -> str | None:
     ∂s/∂t δt (ControllerStates._sensed, TransientSensitivities._prescribed_in_time), and at every step the loop takes
     δt_{n+1} = δt_n + δh is 0 exactly (the step lands on the grid, δh = −δt_n: csrc/sensitivity_loop.c), where that
     term is nothing on the Python path as well (tests/test_sensitivities_in_loop_states_more.py)."""
-    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION, POSITION
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION, POSITION, RATE, VELOCITY
 
     from latdyn.analyses.sensitivities import senses_dependent
 
@@ -528,7 +528,7 @@ def _states_refusal(owner) -> str | None:
         kinds = {int(wiring.sensor_kind[i]) for i in sensors}
         points = {POSITION, OFFSET_POSITION, BODY_FRAME}
         if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k)
-                or not kinds <= {ANGLE} | points or (kinds & points and owner.geometry is not None)):
+                or not kinds <= {ANGLE, RATE, VELOCITY} | points or (kinds & points and owner.geometry is not None)):
             return (f"controller {c.name}: states, and it reads other than hinge and guide angles and points' "
                     "positions and displacements in global or a body's axes (or those beside geometry parameters)")
         if senses_dependent(owner.model, wiring, k):

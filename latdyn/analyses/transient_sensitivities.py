@@ -1151,8 +1151,8 @@ class TransientSensitivities(ParameterDerivatives):
         carried = self._stick_or_release(carried, new)
         pending = carried.get("pending")
         states = self._controller_states()
-        if pending is None:
-            return carried if states is None else states.restarted(carried, new)
+        if pending is None:   # no jump (a latch's, a stop's, a stick's or release's: each leaves one pending)
+            return carried
         self.time_shift = carried["dt"]   # the restart at the event's time, moved by δt_e
         if states is not None:   # the states kept through the restart: δS held in ∂r/∂p there
             states.hold(carried)
