@@ -1761,8 +1761,9 @@ class ControllerStates:
         (:func:`senses_dependent`) and none is on a prescribed body or joint or δt is 0: the gradients of the
         evaluation's sensors times δq, the C the loop of steps calls (csrc/controller_states.c
         ``latdyn_controller_states_sensed``). A controller reading a rate (a hinge's or guide's rate, a point's
-        velocity): δs = D_q δq + D_v δv, ``dv`` the step end's δv (:func:`_sensor_derivatives`; the loop of steps
-        keeps such a run on this path, sensitivities_in_loop._states_refusal)."""
+        velocity): δs = D_q δq + D_v δv, ``dv`` the step end's δv (:func:`_sensor_derivatives`; the loop of steps takes a
+        joint's rate and a node's velocity component as that row of δv, csrc/controller_states.c
+        controller_state_sensed, the same bits)."""
         import ctypes
 
         owner = self.terms.owner
