@@ -272,7 +272,8 @@ def test_without_the_states_step_size_part_the_event_check_fails(monkeypatch):
 
     monkeypatch.setattr(ControllerStates, "by_step_size", lambda self, state: np.zeros(self.terms.model.n_total + 1))
     kept = ControllerStates.after_step
-    monkeypatch.setattr(ControllerStates, "after_step", lambda self, state, dq, dh=None, moved=None: kept(self, state, dq))
+    monkeypatch.setattr(ControllerStates, "after_step",
+                        lambda self, state, dq, dh=None, moved=None, dv=None: kept(self, state, dq))
     result = events._run(PI_STOP, "Ki")
     with pytest.raises(AssertionError):
         events._agree(result, PI_STOP, "Ki", tolerance=1e-5, event_tolerance=1.0)

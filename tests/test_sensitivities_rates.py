@@ -3,7 +3,7 @@ a hinge's or guide's rate δθ̇ and a point's velocity δ(v + ω × T r) = δv 
 from the step's carried δv — checked against Richardson central differences of whole runs
 (tests/test_sensitivities_transient.py's reference), on the genuinely 3D spinning arm (a point off
 its node: the ω × (δπ × T r) term; a hinge on a skew axis) and on a planar arm with a continuous PD
-that reads the hinge's rate (its coupling in C); a controller with states that reads a rate is refused."""
+that reads the hinge's rate (its coupling in C), and with an integral state reading the rate."""
 from __future__ import annotations
 
 import pytest
@@ -75,11 +75,16 @@ def test_rate_probes_under_a_pd_that_reads_the_rate_agree_with_richardson_differ
         assert _agree(result, PD_PLANAR, name, 1e-6) < 1e-6
 
 
-def test_a_controller_with_states_reading_a_rate_is_refused_in_a_sensitivity_run():
+def test_a_controller_with_states_reading_a_rate_agrees_with_richardson_differences():
+    """The PD with an integral state whose rate reads the hinge's rate: δs = D_q δq + D_v δv in the states'
+    derivative (ControllerStates._sensed; refused before, tests/test_sensitivities_states_rates.py). Measured: kd
+    1.8e-9, P 2.3e-11."""
     data = yaml.safe_load(PD_PLANAR)
-    data["controllers"]["pd"]["states"] = {"I": "th"}
-    with pytest.raises(SceneError, match=r"solve\.sensitivities.*reads the rate probe 'om'"):
-        latdyn.run(latdyn.load_scene(data))
+    data["controllers"]["pd"] = {"output": "-6*(th - 0.1) - kd*om - 3*I", "states": {"I": "om + 0.5*kd*th"}}
+    text = yaml.safe_dump(data)
+    result = _run(text)
+    for name in ("kd", "P"):
+        assert _agree(result, text, name, 1e-6) < 1e-6
 
 
 def test_velocities_in_a_body_frame_under_a_pd_that_reads_the_rate_agree():

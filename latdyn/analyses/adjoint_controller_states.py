@@ -27,6 +27,9 @@ and f̄ beside the structure's bars and applies the transposes in reverse order,
   ∂(B δS)/∂q w transposed (:meth:`StatesTransposed.held_stiffness_along`;
   :meth:`AdjointSensitivities._held_weights_transposed`).
 
+A controller reading a rate (δs = D_q δq + D_v δv in the forward method) is refused by the adjoint
+(sensitivities._adjoint_rate_sensor_refusal): D_v and the δf taken anew after a jump are not transposed here.
+
 D_s and B are the forward method's maps (``ControllerStates._sensed``, ``ControllerTerms.add``) applied to unit
 columns — n columns of δq, P of held (P the states) — and transposed; ∂f/∂s, ∂f/∂S, ∂f/∂p are the step's compiled
 laws' (``ControllerStates._at``). Everything is evaluated again at the stored state with the stored (S, f) put in the

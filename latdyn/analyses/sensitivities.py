@@ -206,13 +206,22 @@ def refusal(scene) -> SceneError | None:
                           "rates and torques, guide positions, rates and forces, point velocities and "
                           "controllers' outputs and states "
                           "are")
+    # a controller with states or a sampled one reading a rate: δs = D_q δq + D_v δv (ControllerStates._sensed,
+    # SampledTerms.sample, _sensor_derivatives with the step end's δv)
+    return None
+
+
+def _adjoint_rate_sensor_refusal(scene) -> str | None:
+    """Why the adjoint refuses ``scene`` for a controller with states or a sampled one reading a rate (a hinge's or a
+    guide's rate, a point's velocity), or None: the forward method's δs = D_q δq + D_v δv (:func:`_sensor_derivatives`)
+    has its D_q transposed in latdyn/analyses/adjoint_controller_states.py, its D_v not yet."""
     rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
     for c in scene.controllers.values():
         read = sorted(rates & set(c.reads))
         if read and (c.states or c.sampled):
-            return refuse(f"controller {c.name!r} reads the rate probe {read[0]!r} and has states or is sampled: its "
-                          "states' and samples' derivatives by a rate sensor are not computed yet (a continuous "
-                          "controller without states may read rates)")
+            return (f"controller {c.name!r} reads the rate probe {read[0]!r} and "
+                    f"{'is sampled' if c.sampled else 'has states'}: the adjoint does not transpose its sensors' "
+                    "derivative by the rates (D_v of δs = D_q δq + D_v δv) yet")
     return None
 
 
@@ -233,6 +242,8 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = _adjoint_geometry_refusal(scene)
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
+    elif _adjoint_rate_sensor_refusal(scene) is not None:
+        why = _adjoint_rate_sensor_refusal(scene)
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
@@ -1606,7 +1617,9 @@ class ControllerStates:
     The held part enters ∂r/∂p as ∂y/∂S times it (:meth:`ControllerTerms.add`); the part through the
     sensors is the condensed total derivative dy/ds = ∂y/∂s + ∂y/∂S A⁻¹ h/2 ∂f/∂s that the step's
     matrix holds when the evaluation condenses the states from (S_n, f_n) (:meth:`condensed`). δs is
-    the sensors' derivative along δq (probes: hinge angles, point positions and displacements),
+    the sensors' derivative along δq (probes: hinge angles, point positions and displacements) and, for a sensor
+    reading a rate (a hinge's or guide's rate, a point's velocity), along the step end's δv: δs = D_q δq + D_v δv
+    (:meth:`_sensed`; after an event's jump δf is taken anew at the jumped rates, :meth:`restarted`),
     ∂y/∂S, ∂f/∂s, ∂f/∂S and ∂f/∂p the symbolic derivatives of the controller's expressions, those the
     code generator prints for Newton (codegen/laws.py): ∂f/∂s and ∂f/∂S the step's compiled controller law's own
     (:meth:`_rates_gradients`), ∂f/∂p compiled beside the outputs' partials (derivative_laws.ControllerPartials); the
@@ -1740,20 +1753,26 @@ class ControllerStates:
                                       compiled.value(laws[s], arguments))
         return arguments, f_s, f_S, f_p
 
-    def _sensed(self, c, state, dq: np.ndarray, moved: np.ndarray | None = None) -> np.ndarray:
+    def _sensed(self, c, state, dq: np.ndarray, moved: np.ndarray | None = None,
+                dv: np.ndarray | None = None) -> np.ndarray:
         """δs (m, k): the derivatives of ``c``'s sensors along δq (probe derivatives), and along the prescribed
         motions by the step end's δt ``moved`` (None: 0). A controller reading a point offset from its node or in a
         body's axes (``by_gradient``), where no sensor of it reads a node that follows rigid links or a guide
         (:func:`senses_dependent`) and none is on a prescribed body or joint or δt is 0: the gradients of the
         evaluation's sensors times δq, the C the loop of steps calls (csrc/controller_states.c
-        ``latdyn_controller_states_sensed``)."""
+        ``latdyn_controller_states_sensed``). A controller reading a rate (a hinge's or guide's rate, a point's
+        velocity): δs = D_q δq + D_v δv, ``dv`` the step end's δv (:func:`_sensor_derivatives`; the loop of steps takes a
+        joint's rate and a node's velocity component as that row of δv, csrc/controller_states.c
+        controller_state_sensed, the same bits)."""
         import ctypes
 
         owner = self.terms.owner
         k = self.by_gradient.get(c.name)
-        if k is None or senses_dependent(owner.model, self.terms.assembler.control, k) or (
+        rated = reads_rates(self.sensors[c.name])
+        if rated or k is None or senses_dependent(owner.model, self.terms.assembler.control, k) or (
                 moved is not None and np.any(moved) and _senses_prescribed(owner.model, self.terms.assembler.control, k)):
-            return _sensor_derivatives(owner, self.sensors[c.name], state, dq, moved)
+            return _sensor_derivatives(owner, self.sensors[c.name], state, dq, moved,
+                                       (np.zeros_like(dq) if dv is None else dv) if rated else None)
         native = self.terms.assembler.native(inertia_tangent=True)
         wiring = self.terms.assembler.control
         first, count = int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1] - wiring.sensor_start[k])
@@ -1763,11 +1782,29 @@ class ControllerStates:
         native.laws.bind_inputs()
         _native_library().latdyn_controller_states_sensed(
             native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), float(state.t), first, count,
-            sensor_dof.ctypes.data, column_dof.ctypes.data, dq.shape[1], dq.ctypes.data, ds.ctypes.data)
+            sensor_dof.ctypes.data, column_dof.ctypes.data, dq.shape[1], dq.ctypes.data, None, ds.ctypes.data)
         return ds
 
     def _accepted(self) -> dict:
         return {"S": self.values[self.slots].copy(), "f": self.rates[self.rate_index].copy()}
+
+    def restarted(self, carried: dict, state) -> dict:
+        """``carried`` after the step's events at ``state``: the integrator restarts there and takes the states'
+        rates f at the state after the events' jumps (latdyn.step.compiled ``start``: S kept, f taken anew), so for
+        the controllers that read a rate (whose sensor jumps with v: a latch, a stop, a stick) δf = ∂f/∂s δs⁺ +
+        ∂f/∂S δS + ∂f/∂p with δs⁺ = D_q δq + D_v δv⁺ of the jumped rates (:meth:`_sensed`); called after a jump only
+        (TransientSensitivities.after_events with an event pending), elsewhere after_step's δf stands. The others'
+        δf is kept (their sensors do not jump)."""
+        rated = [c for c in self.controllers if reads_rates(self.sensors[c.name])]
+        if not rated or "controller_df" not in carried:
+            return carried
+        df = carried["controller_df"].copy()
+        for c in rated:
+            rows = slice(self.first[c.name], self.first[c.name] + len(c.states))
+            _, f_s, f_S, f_p = self._at(c, state)
+            ds = np.asarray(self._sensed(c, state, carried["dq"], carried["dt"], carried["dv"]), float)
+            df[rows] = f_s @ ds.reshape(len(self.sensors[c.name]), -1) + f_S @ carried["controller_dS"][rows] + f_p
+        return {**carried, "controller_df": df, **self._prefixed(self._accepted())}
 
     def start(self, state) -> dict:
         """δS_0, δf_0 at the (re)start ``state`` (the states held, δq = 0), held for ∂r/∂p there."""
@@ -1848,9 +1885,11 @@ class ControllerStates:
                 self.values[self.slots], self.rates[self.rate_index] = kept[1], kept[2]
         return context()
 
-    def after_step(self, state, dq: np.ndarray, dh: np.ndarray | None = None, moved: np.ndarray | None = None) -> dict:
-        """δS_{n+1}, δf_{n+1} and the accepted (S, f) after the step ending at ``state``, δq its
-        configuration's derivative, ``dh`` its size's (class docstring; None: 0)."""
+    def after_step(self, state, dq: np.ndarray, dh: np.ndarray | None = None, moved: np.ndarray | None = None,
+                   dv: np.ndarray | None = None) -> dict:
+        """δS_{n+1}, δf_{n+1} and the accepted (S, f) after the step ending at ``state``, δq and δv its
+        configuration's and rates' derivatives (δv for the sensors reading rates: δs = D_q δq + D_v δv), ``dh`` its
+        size's (class docstring; None: 0)."""
         k = self.terms.k
         dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
         library = _native_library()
@@ -1858,7 +1897,7 @@ class ControllerStates:
         for c in self.controllers:   # csrc/controller_states.c latdyn_controller_states_after
             rows, (factor, pivots), f_s, f_S, f_p, hh, by_h = self._step[c.name]
             p, m = len(c.states), len(self.sensors[c.name])
-            ds = np.ascontiguousarray(self._sensed(c, state, dq, moved), float).reshape(m, k)
+            ds = np.ascontiguousarray(self._sensed(c, state, dq, moved, dv), float).reshape(m, k)
             held = np.ascontiguousarray(self.terms.held[c.name], float)
             out_S, out_f, scratch = np.zeros((p, k)), np.zeros((p, k)), np.zeros((p, k))
             library.latdyn_controller_states_after(p, m, k, hh, factor.ctypes.data, pivots.ctypes.data, f_s.ctypes.data,
@@ -1900,14 +1939,14 @@ def _senses_prescribed(model, wiring, k: int) -> bool:
 def senses_dependent(model, wiring, k: int) -> bool:
     """Whether a sensor of the wiring's controller ``k`` reads a point on a node that follows rigid links or a guide
     (model.links.dependent), or in such a body's axes: its δs is P δq there (ParameterDerivatives._dependent_motion)."""
-    from latdyn.assembly.control import ANGLE, BODY_FRAME
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, RATE
 
     if model.links is None:
         return False
     dependent = set(int(i) for i in model.links.dependent)
     for i in range(int(wiring.sensor_start[k]), int(wiring.sensor_start[k + 1])):
         kind, index = int(wiring.sensor_kind[i]), int(wiring.sensor_index[i])
-        if kind != ANGLE and (index // 3 in dependent
+        if kind not in (ANGLE, RATE) and (index // 3 in dependent
                               or (kind == BODY_FRAME and int(wiring.sensor_frame_node[i]) in dependent)):
             return True
     return False
@@ -1919,7 +1958,7 @@ def sensor_rows(model, wiring) -> tuple[np.ndarray, np.ndarray]:
     _on_free_nodes_and_hinges takes them); a point offset from its node (its node's six coordinates) or in a body's
     axes (its node's six, then the body's) each gradient column's coordinate likewise; the other kinds −1
     (csrc/controller_states.c controller_state_sensed)."""
-    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION, RATE
 
     hinges, nodes = set(int(j) for j in model.free_hinges), set(int(i) for i in model.free_nodes)
 
@@ -1931,7 +1970,7 @@ def sensor_rows(model, wiring) -> tuple[np.ndarray, np.ndarray]:
     sensor_dof, column_dof = [], np.full(int(wiring.sensor_column_start[n]), -1, np.int64)
     for i, (kind, index) in enumerate(zip(wiring.sensor_kind[:n], wiring.sensor_index[:n])):
         kind, index = int(kind), int(index)
-        if kind == ANGLE:
+        if kind in (ANGLE, RATE):   # a joint's angle, or its rate (its row of δv)
             dof = int(model.hinge_dofs[index])
             sensor_dof.append(dof if index in hinges and dof < model.n_dofs else -1)
         else:
@@ -1951,17 +1990,26 @@ def _native_library():
 
 
 def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np.ndarray,
-                        moved: np.ndarray | None = None) -> np.ndarray:
-    """δs (m, k): the derivatives of the sensors ``probes`` (hinge angles, guide slides, point positions
-    and displacements) at ``state`` along δq (n, k) (:meth:`ParameterDerivatives._probe_derivatives`), and where
-    the state's time moves with p (``moved`` = δt, an event's and the steps after it) along the prescribed motions
-    at fixed free coordinates, ∂s/∂t δt (a cable's length from a moving anchor; the time loop's
-    ``_prescribed_in_time``, as a probe's row)."""
-    dx, dpi, dtheta = owner._by_parameter(dq, state)   # rate sensors are refused here (refusal)
+                        moved: np.ndarray | None = None, dv: np.ndarray | None = None) -> np.ndarray:
+    """δs (m, k) = D_q δq + D_v δv: the derivatives of the sensors ``probes`` (hinge angles and rates, guide slides
+    and rates, point positions, displacements and velocities) at ``state`` along δq (n, k) and, for the rate
+    sensors, the step end's δv (n, k) (:meth:`ParameterDerivatives._probe_derivatives` with
+    :meth:`ParameterDerivatives._rates_by_parameter`: a dependent node's P δv + ∂(J v)/∂q δq), and where the state's
+    time moves with p (``moved`` = δt, an event's and the steps after it) along the prescribed motions at fixed free
+    coordinates, ∂s/∂t δt (a cable's length from a moving anchor; the time loop's ``_prescribed_in_time``, as a
+    probe's row, the rates by the motions' accelerations). ``dv`` None: no sensor reads a rate."""
+    dx, dpi, dtheta = owner._by_parameter(dq, state)
+    rates = None if dv is None else owner._rates_by_parameter(np.asarray(dv, float), dq, state)
     if moved is not None:
-        owner._prescribed_in_time(state, np.asarray(moved, float), dx, dpi, dtheta, None)
-    return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta) for probe in probes],
+        owner._prescribed_in_time(state, np.asarray(moved, float), dx, dpi, dtheta, rates)
+    return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta, rates) for probe in probes],
                     float).reshape(len(probes), dq.shape[1])
+
+
+def reads_rates(probes: list) -> bool:
+    """Whether any of the sensors ``probes`` reads a rate (a hinge's or a guide's rate, a point's velocity): its δs
+    takes the step end's δv (:func:`_sensor_derivatives`)."""
+    return any(p.quantity in ("rate", "velocity") for p in probes)
 
 
 class SampledTerms:
@@ -1974,7 +2022,8 @@ class SampledTerms:
         δy_k = ∂f/∂s δs + ∂f/∂S δS_k + ∂f/∂p      (0 while y_k is clipped),
         δS_{k+1} = δS_k + (∂g/∂s δs + ∂g/∂S δS_k + ∂g/∂p)/rate,
 
-    δs the sensors' derivative along δq at t_k, the partial derivatives those of the controller's
+    δs the sensors' derivative along δq at t_k (and δv for a rate sensor), the partial derivatives those of the
+    controller's
     expressions (SymPy, as the code generator's). The held δy_k enters ∂r/∂p of every step until the
     next sample through the actuators that name the controller (τ = a y + b: −a δy on a hinge's or a
     guide's row, the point-load kernel's force for a δy of a load's component: :meth:`add`). The
@@ -2077,7 +2126,9 @@ class SampledTerms:
                 continue
             rows, i = self._rows(c), self.index[c.name]
             inside, y_s, y_S, y_p, g_s, g_S, g_p = self.partials(c, state.t, values, S[rows])
-            ds = _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq)
+            rated = reads_rates(self.sensors[c.name])   # δs = D_q δq + D_v δv at the sample's state
+            ds = _sensor_derivatives(self.terms.owner, self.sensors[c.name], state, dq, None,
+                                     carried.get("dv", np.zeros_like(dq)) if rated else None)
             dy[i] = y_s @ ds + y_S @ dS[rows] + y_p if inside else 0.0
             dS[rows] = dS[rows] + (g_s @ ds + g_S @ dS[rows] + g_p) / c.rate
             S[rows] = [states[f"{c.name}.{name}"] for name in c.states]

@@ -138,8 +138,9 @@ after it is the Python path's, energy_sensitivities.external_work_after_event). 
 names θ, θ̇ or an input and does not compile (every form of the expression language's names measured compiles: only
 a failed build or no compiler), cable parameters whose derivative names θ, θ̇ or an input, section
 values whose derivative is a law in t or an input (the loader refuses those anyway), controllers with states
-that ``_states_refusal`` names (a sensor other than joint angles and points' positions and displacements — a rate,
-which the package refuses for states on both paths —, a point on a rigid link's body or a guided body (its δs P δq,
+that ``_states_refusal`` names (a sensor other than joint angles and rates, nodes' velocity components and points'
+positions and displacements — a point's velocity off its node or in a body's axes, whose δs = D_q δq + D_v δv the
+per-step path takes (ControllerStates._sensed), not this loop —, a point on a rigid link's body or a guided body (its δs P δq,
 the per-step path's NumPy), beside geometry parameters, or whose laws did not compile),
 controllers reading a
 section force whose section values a parameter moves beside geometry parameters (refused on both paths),
@@ -497,7 +498,8 @@ def _read_joint(model, probe) -> int:
 def _states_refusal(owner) -> str | None:
     """Why the continuous controllers with states of ``owner`` keep the run on the Python path, or None: the loop
     carries their δS, δf (csrc/controller_states.c, the C the Python step calls: ControllerStates.begin_step and
-    after_step) where each reads hinge or guide angles and the components of points' positions and displacements in
+    after_step) where each reads hinge or guide angles or rates (a rate's δs its row of the step end's δv), nodes'
+    velocity components (likewise) and the components of points' positions and displacements in
     global or a body's axes alone (not beside geometry parameters, which move a point; δs a row of δq for an angle or a
     node's coordinate, and for a point offset from its node or in a body's axes the gradient the evaluation's
     sensor_value leaves times δq, csrc/controller_states.c ``controller_state_sensed``, which ControllerStates._sensed
@@ -510,7 +512,7 @@ def _states_refusal(owner) -> str | None:
     ∂s/∂t δt (ControllerStates._sensed, TransientSensitivities._prescribed_in_time), and at every step the loop takes
     δt_{n+1} = δt_n + δh is 0 exactly (the step lands on the grid, δh = −δt_n: csrc/sensitivity_loop.c), where that
     term is nothing on the Python path as well (tests/test_sensitivities_in_loop_states_more.py)."""
-    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION, POSITION
+    from latdyn.assembly.control import ANGLE, BODY_FRAME, OFFSET_POSITION, POSITION, RATE, VELOCITY
 
     from latdyn.analyses.sensitivities import senses_dependent
 
@@ -527,9 +529,10 @@ def _states_refusal(owner) -> str | None:
         kinds = {int(wiring.sensor_kind[i]) for i in sensors}
         points = {POSITION, OFFSET_POSITION, BODY_FRAME}
         if (c.name not in states.place or tuple(c.reads) != wiring.sensor_names(k)
-                or not kinds <= {ANGLE} | points or (kinds & points and owner.geometry is not None)):
-            return (f"controller {c.name}: states, and it reads other than hinge and guide angles and points' "
-                    "positions and displacements in global or a body's axes (or those beside geometry parameters)")
+                or not kinds <= {ANGLE, RATE, VELOCITY} | points or (kinds & points and owner.geometry is not None)):
+            return (f"controller {c.name}: states, and it reads other than hinge and guide angles and rates, nodes' "
+                    "velocities and points' positions and displacements in global or a body's axes (or those beside "
+                    "geometry parameters)")
         if senses_dependent(owner.model, wiring, k):
             return (f"controller {c.name}: states reading a point on a rigid link's body or a guided body (its δs P δq, "
                     "the per-step path's NumPy: ParameterDerivatives._dependent_motion)")

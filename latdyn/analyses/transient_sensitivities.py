@@ -505,7 +505,7 @@ class TransientSensitivities(ParameterDerivatives):
         if self.scene.solve.adaptive:   # what the accepted step's error estimate is differentiated from (resized)
             carried["accepted_trial"] = adaptive_sensitivities.accepted_trial(new, a_new - a_old, total, before, dh, h)
         if states is not None:   # δS with the step size's part (an event's δh)
-            carried = {**carried, **states.after_step(new, carried["dq"], dh, carried["dt"])}
+            carried = {**carried, **states.after_step(new, carried["dq"], dh, carried["dt"], carried["dv"])}
         if np.any(self.held) and (cable is not None or event is not None):
             self._refuse_sticking(new, "another event (a latch, a stop, a cable's change) while a joint is stuck")
         if cable is not None:
@@ -1174,18 +1174,21 @@ class TransientSensitivities(ParameterDerivatives):
         W δv̇ = −(∂r/∂p + K δq + C δv + dt² δ(K)v̇) (K exact, at the restarted v̇); δa = δv̇."""
         carried = self._stick_or_release(carried, new)
         pending = carried.get("pending")
-        if pending is None:
+        states = self._controller_states()
+        if pending is None:   # no jump (a latch's, a stop's, a stick's or release's: each leaves one pending)
             return carried
         self.time_shift = carried["dt"]   # the restart at the event's time, moved by δt_e
-        states = self._controller_states()
         if states is not None:   # the states kept through the restart: δS held in ∂r/∂p there
             states.hold(carried)
         try:
-            return external_work_after_event(self, carried, self._restart(carried, new, pending), new, pending["kind"])
+            carried = external_work_after_event(self, carried, self._restart(carried, new, pending), new,
+                                                pending["kind"])
         finally:
             self.time_shift = None
             if states is not None:
                 self.controllers.held = {}
+        # the states' rates taken anew after the jump (a rate sensor's δs⁺: ControllerStates.restarted)
+        return carried if states is None else states.restarted(carried, new)
 
     # ------------------------------------------------------------------ sticking by friction
     def _held(self, carried: dict) -> np.ndarray:

@@ -520,7 +520,7 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_section_force_slope.argtypes = [model, work, configuration, P, I64, I64, P, I64, P, P, P, I64, P]
         library.latdyn_controller_states_sensed.restype = None
         library.latdyn_controller_states_sensed.argtypes = [model, work, configuration, ctypes.c_double, I64, I64, P, P,
-                                                            I64, P, P]
+                                                            I64, P, P, P]
         library.latdyn_controller_states_after.restype = None
         library.latdyn_controller_states_after.argtypes = [I64, I64, I64, ctypes.c_double, P, P, P, P, P, P, P, P, P,
                                                            P, P, P]

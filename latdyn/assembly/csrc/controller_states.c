@@ -143,25 +143,32 @@ typedef struct ControllerStatesLoopTag {
 } ControllerStatesLoop;
 
 /* Sensor i of the wiring at c (time t), as the evaluation reads it (evaluate.c sensor_value), less its origin: a
- * joint's angle or a node's coordinate (kinds 0 and 2), or a point offset from its node or in a body's axes (kinds 5
+ * joint's angle or a node's coordinate (kinds 0 and 2), a joint's rate or a node's velocity component (kinds 1 and 3:
+ * sensor_value itself), or a point offset from its node or in a body's axes (kinds 5
  * and 7: sensor_value itself, which leaves its gradient in Work) — the kinds _states_refusal lets a controller with
  * states read. */
 static double controller_state_sensor(const Model *m, Work *w, const Configuration *c, int64_t i, double t)
 {
     const int64_t index = m->sensor_index[i], kind = m->sensor_kind[i];
-    if (kind == 5 || kind == 7) return sensor_value(m, c, w, i, t);
+    if (kind == 1 || kind == 3 || kind == 5 || kind == 7) return sensor_value(m, c, w, i, t);   /* a rate, a point */
     return (kind == 0 ? c->theta[index] : c->x[index]) - m->sensor_origin[i];
 }
 
-/* δs (k) of sensor i of the wiring along δq (n × k) at c (time t): a joint's angle or a node's coordinate (kinds 0
- * and 2) its row of δq (sensor_dof[i], −1: 0), a point offset from its node or in a body's axes (kinds 5 and 7) its
+/* δs (k) of sensor i of the wiring along δq (n × k) and δv (n × k, NULL: 0) at c (time t): a joint's angle or a
+ * node's coordinate (kinds 0 and 2) its row of δq (sensor_dof[i], −1: 0), a joint's rate or a node's velocity
+ * component (kinds 1 and 3) its row of δv (δs = D_v δv: ControllerStates._sensed's rates), a point offset from its node or in a body's axes (kinds 5 and 7) its
  * gradient at c (sensor_value's, Jᵀ e_c from the generated point_load: by the node's and the body's coordinates)
  * times δq on those coordinates' rows (column_dof, −1: 0), summed in the gradient's column order. */
 static void controller_state_sensed(const Model *m, Work *w, const Configuration *c, double t, int64_t i,
                                     const int64_t *sensor_dof, const int64_t *column_dof, int64_t k, const double *dq,
-                                    double *ds)
+                                    const double *dv, double *ds)
 {
     const int64_t kind = m->sensor_kind[i];
+    if (kind == 1 || kind == 3) {
+        const int64_t dof = sensor_dof[i];
+        for (int64_t col = 0; col < k; ++col) ds[col] = dof >= 0 && dv != NULL ? dv[dof * k + col] : 0.0;
+        return;
+    }
     if (kind != 5 && kind != 7) {
         const int64_t dof = sensor_dof[i];
         for (int64_t col = 0; col < k; ++col) ds[col] = dof >= 0 ? dq[dof * k + col] : 0.0;
@@ -180,15 +187,16 @@ static void controller_state_sensed(const Model *m, Work *w, const Configuration
     }
 }
 
-/* The per-step Python path's δs (count × k) of the wiring's sensors first … first + count − 1 along δq (n × k) at c
+/* The per-step Python path's δs (count × k) of the wiring's sensors first … first + count − 1 along δq (n × k) and δv
+ * (NULL: 0) at c
  * (time t): controller_state_sensed, the loop's own (ControllerStates._sensed, for a controller with states reading a
  * point offset from its node or in a body's axes). */
 void latdyn_controller_states_sensed(const Model *m, Work *w, const Configuration *c, double t, int64_t first,
                                      int64_t count, const int64_t *sensor_dof, const int64_t *column_dof, int64_t k,
-                                     const double *dq, double *ds)
+                                     const double *dq, const double *dv, double *ds)
 {
     for (int64_t r = 0; r < count; ++r)
-        controller_state_sensed(m, w, c, t, first + r, sensor_dof, column_dof, k, dq, ds + r * k);
+        controller_state_sensed(m, w, c, t, first + r, sensor_dof, column_dof, k, dq, dv, ds + r * k);
 }
 
 /* The index of the wiring's controller `ctl` among the controllers with states, −1 for one without. */
@@ -330,19 +338,19 @@ static void controller_states_step_size_add(const Model *m, const ControllerStat
 }
 
 /* ControllerStates.after_step in the loop at c (time t): δs the hinge angles' and the nodes' coordinates' rows of δq
- * (0 for a joint or node not free), the offset and body-axes points' by their gradients (controller_state_sensed),
+ * and the hinge rates' and nodes' velocities' rows of δv (0 for a joint or node not free), the offset and body-axes points' by their gradients (controller_state_sensed),
  * δS_{n+1}, δf_{n+1}
  * (latdyn_controller_states_after) with the step size's δh, and (S_n, f_n) ← (S_{n+1}, f_{n+1}) for the next step. */
 static void controller_states_after_loop(const Model *m, Work *w, const Configuration *c, ControllerStatesLoop *st,
                                          const int64_t *read_start, int64_t k, double t, double h, const double *dq,
-                                         const double *dh)
+                                         const double *dv, const double *dh)
 {
     const double hh = 0.5 * h;
     for (int64_t i = 0; i < st->n; ++i) {
         const int64_t ctl = st->place[i], first = st->first[i], p = st->first[i + 1] - first;
         const int64_t sensors = read_start[ctl + 1] - read_start[ctl];
         for (int64_t r = 0; r < sensors; ++r)
-            controller_state_sensed(m, w, c, t, read_start[ctl] + r, st->sensor_dof, st->column_dof, k, dq,
+            controller_state_sensed(m, w, c, t, read_start[ctl] + r, st->sensor_dof, st->column_dof, k, dq, dv,
                                     st->ds + r * k);
         latdyn_controller_states_after(p, sensors, k, hh, st->factor + first * st->width_S, st->pivots + first,
                                        st->f_s + first * st->width_s, st->f_S + first * st->width_S,

@@ -705,7 +705,8 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
             for (int64_t col = 0; col < k; ++col) to[i * k + col] = x[i * cols + col] + x[i * cols + k] * s->dh[col];
     }
     for (int64_t col = 0; col < k; ++col) s->dt[col] = s->dt[col] + s->dh[col];
-    if (s->states != NULL) controller_states_after_loop(m, w, c, s->states, s->read_start, k, t, h, s->dq, s->dh);
+    if (s->states != NULL) controller_states_after_loop(m, w, c, s->states, s->read_start, k, t, h, s->dq, s->dv,
+                                                          s->dh);
     if (s->accounts != NULL) work_accounts_step(m, w, c, s->accounts, k, s->dq, s->dv, s->dvdot, s->dh, h, grid, t);
     s->steps += 1;
     s->h = h;
