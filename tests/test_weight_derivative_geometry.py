@@ -57,16 +57,22 @@ def test_the_stiffness_by_the_reference_is_richardsons_of_the_stiffness_along_v(
         reference[18] *= 0.1
         v = rng.normal(size=14)
 
-        def along(eps):
-            geometry, section = _reference_moved(state, reference, eps)
-            return np.asarray(kernels.beam_stiffness_D_q(geometry, v[None], section)[0])[0]
+        _assert_richardsons_of_the_stiffness_along(kernels, state, reference, v)
 
-        computed = np.asarray(kernels.beam_stiffness_D_reference(state.geometry(), v[None], state.section[None],
-                                                                 reference[None])[1]).reshape(14)
-        h = 1e-4
-        central = [(along(s) - along(-s)) / (2 * s) for s in (h, h / 2)]
-        numeric = (4 * central[1] - central[0]) / 3
-        assert np.abs(computed - numeric).max() <= 1e-7 * np.abs(numeric).max()
+
+def _assert_richardsons_of_the_stiffness_along(kernels, state, reference, v) -> None:
+    """``beam_stiffness_D_reference``'s ∂(K v)/∂X along ``reference`` at ``state`` is Richardson's extrapolation of
+    central differences of ``beam_stiffness_D_q``'s K v with the reference moved (steps 1e-4, 5e-5), to 1e-7."""
+    def along(eps):
+        geometry, section = _reference_moved(state, reference, eps)
+        return np.asarray(kernels.beam_stiffness_D_q(geometry, v[None], section)[0])[0]
+
+    computed = np.asarray(kernels.beam_stiffness_D_reference(state.geometry(), v[None], state.section[None],
+                                                             reference[None])[1]).reshape(14)
+    h = 1e-4
+    central = [(along(s) - along(-s)) / (2 * s) for s in (h, h / 2)]
+    numeric = (4 * central[1] - central[0]) / 3
+    assert np.abs(computed - numeric).max() <= 1e-7 * np.abs(numeric).max()
 
 
 def test_the_planar_stiffness_by_the_reference_is_richardsons_of_the_stiffness_along_v():
@@ -78,16 +84,7 @@ def test_the_planar_stiffness_by_the_reference_is_richardsons_of_the_stiffness_a
         state = planar_state(rng, 2, deformation=0.3)
         reference, v = _planar_reference(rng, 2), planar_velocity(rng, 2)
 
-        def along(eps):
-            geometry, section = _reference_moved(state, reference, eps)
-            return np.asarray(kernels.beam_stiffness_D_q(geometry, v[None], section)[0])[0]
-
-        computed = np.asarray(kernels.beam_stiffness_D_reference(state.geometry(), v[None], state.section[None],
-                                                                 reference[None])[1]).reshape(14)
-        h = 1e-4
-        central = [(along(s) - along(-s)) / (2 * s) for s in (h, h / 2)]
-        numeric = (4 * central[1] - central[0]) / 3
-        assert np.abs(computed - numeric).max() <= 1e-7 * np.abs(numeric).max()
+        _assert_richardsons_of_the_stiffness_along(kernels, state, reference, v)
 
 
 @pytest.mark.parametrize("text", [BOOM, KNEE_STOP, PLANAR_LATCH], ids=["boom", "knee", "planar_latch"])

@@ -426,28 +426,29 @@ def _csv_header(path: Path) -> list[str]:
 
 
 # =========================================================================== cases
-def _with_energy_probes(raw: dict) -> dict:
+def _with_energy_probes(raw: dict, scene) -> dict:
     """The case scene with :data:`ENERGY_PROBES` added (transient analyses only), except where the scene's
     ``solve.sensitivities`` would refuse them (an energy probe is differentiated with the scene's own probes, and
     some are not: with cables, controllers, an adaptive run's loads in t —
     latdyn/analyses/energy_sensitivities.py): the case is then judged on non-finite values alone, as a structure
-    that never receives energy, rather than refused for a probe its author never wrote."""
+    that never receives energy, rather than refused for a probe its author never wrote. ``scene``: ``raw`` loaded."""
     solve = raw.get("solve") or {}
     if solve.get("analysis", "transient") != "transient":
         return raw
-    if solve.get("sensitivities") and _energies_refuse_the_sensitivities(raw):
+    if solve.get("sensitivities") and _energies_refuse_the_sensitivities(raw, scene):
         return raw
     return _add_energy_probes(raw)
 
 
-def _energies_refuse_the_sensitivities(raw: dict) -> bool:
-    """Whether adding :data:`ENERGY_PROBES` to ``raw`` makes its ``solve.sensitivities`` refused where without
-    them it is not (latdyn/analyses/sensitivities.py ``refusal``: the same check the run makes first)."""
+def _energies_refuse_the_sensitivities(raw: dict, scene) -> bool:
+    """Whether adding :data:`ENERGY_PROBES` to ``raw`` (``scene`` loaded) makes its ``solve.sensitivities``
+    refused where without them it is not (latdyn/analyses/sensitivities.py ``refusal``: the same check the run
+    makes first)."""
     from latdyn.analyses.sensitivities import refusal
     from latdyn.scene.loader import load_scene
 
     try:
-        if refusal(load_scene(copy.deepcopy(raw))) is not None:
+        if refusal(scene) is not None:
             return False   # refused for the scene's own reasons: the case's run reports those
         return refusal(load_scene(_add_energy_probes(copy.deepcopy(raw)))) is not None
     except SceneError:
@@ -482,8 +483,8 @@ def _case_scene(spec: StudySpec, overrides: dict, key: str):
     for path, value in overrides.items():
         apply_override(raw, path, value, spec.file, key)
     what = "the combination " + ", ".join(f"{k} = {show_value(v)}" for k, v in overrides.items())
-    _check_scene(raw, spec.file, key, what)
-    raw = _with_energy_probes(raw)
+    plain = _check_scene(raw, spec.file, key, what)
+    raw = _with_energy_probes(raw, plain)
     scene = _check_scene(raw, spec.file, key, what)
     return raw, scene.source_hash[:16]
 
