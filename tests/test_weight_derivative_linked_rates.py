@@ -161,18 +161,22 @@ GIMBAL_DRIVEN_LOAD = (GIMBAL_LOADS.replace("parameters: {k1: 6.0,", "parameters:
                       .replace("solve: {", 'controllers:\n  pd: {output: "Kp*(0.3 - a1) + Kp*a1**2"}\nsolve: {'))
 
 
-def test_a_driven_loads_coupling_entries_stay_with_its_block_in_the_difference():
-    """A load a controller of joints' angles drives: its block is differenced (``linked_generated_loads``), and its
-    coupling entries F(e_p) ∂y/∂q with it (``linked_exact_couplings`` False for a load's entries): af426b0 put them in
-    W_gen, whose exact part left their derivative out (``_coupling_part`` takes hinges' entries alone): 3.1e-8 of the
-    exact part off Richardson's difference of Pᵀ W_gen P w at this turned state, now 8.7e-12."""
+def test_a_driven_loads_coupling_entries_are_generated_with_its_block():
+    """A load a controller of joints' angles drives: its block and its coupling entries F(e_p) ∂y/∂q are in W_gen
+    together since linkedhand (``linked_generated_loads``, ``linked_exact_couplings`` True for a load's entries; their
+    move along q ``_driven_load_part``'s at u = P w): the exact part against Richardson's difference of Pᵀ W_gen P w
+    at this turned state, measured 1.2e-11. (af426b0 put the entries alone in W_gen, whose exact part then left their
+    derivative out, 3.1e-8 off; 40bf44a differenced the block and the entries.)"""
     from latdyn.analyses import weight_derivative as wd
 
     assembler, state, rng = turned_state(GIMBAL_DRIVEN_LOAD, 11, 0.3)
-    assert wd.linked_has_rest(assembler) and not np.any(wd.linked_exact_couplings(assembler))
+    assert not wd.linked_has_rest(assembler) and np.all(wd.linked_exact_couplings(assembler))
     n = assembler.model.n_dofs
     hinges = wd.linked_exact_hinges(assembler)
     w, dq, dv, dvdot = rng.normal(size=n), rng.normal(size=(n, 1)), rng.normal(size=(n, 1)), rng.normal(size=(n, 1))
     exact = wd.linked_configuration_tangent(assembler, state, w, dq, 1.0, False)
+    moved = wd.linked_chain_rates_product(assembler, state, w, dq, 1.0, (dv, dvdot))
+    if moved is not None:   # a controller of an angle alone: no move along the rates
+        exact = exact + moved
     reference = richardson_of_the_generated_product(assembler, state, hinges, w, dq, dv, dvdot, 1.0, False)
     assert np.max(np.abs(exact[:, 0] - reference)) / np.max(np.abs(reference)) <= 1e-9

@@ -144,6 +144,7 @@ from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configu
                                                linked_geometric_rate_in_time,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
                                                linked_cable_rates_product, linked_coupling_rates_product,
+                                               linked_chain_rates_product,
                                                linked_rates_tangent,
                                                needs_the_kernel, rates_rest_needed, rates_rest_product,
                                                rates_tangent_of_weight, refuse_without_kernel,
@@ -1091,6 +1092,9 @@ class TransientSensitivities(ParameterDerivatives):
         by_sensed_rates = linked_coupling_rates_product(assembler, state, w, dq, scale, rates)
         if by_sensed_rates is not None:   # controllers of positions and rates: their entries move with the rates
             out += by_sensed_rates
+        by_chain = linked_chain_rates_product(assembler, state, w, dq, scale, rates)
+        if by_chain is not None:   # the other controllers' couplings and driven loads moving with the rates
+            out += by_chain
         hinges_and_couplings = linked_rates_tangent(assembler, state, w) if rates is not None else None
         if hinges_and_couplings is not None:   # the hinges' and mixed couplings' entries moving with the free rates
             out += scale * times(hinges_and_couplings, rates[0])

@@ -98,7 +98,18 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   dependent node's too: :func:`_linked_rate_controllers`, since linkedctrl), whose entries move with the rates the
   reduction's move carries by −a Σ_p ∂²f/∂s_p∂s_r ∂s_p/∂q_c δs_r, δv_all = P δv + ∂(J v)/∂q δq
   (:func:`linked_coupling_rates_product`, exact, one evaluation) (:func:`_linked_position_controllers`, :func:`_coupling_part` at
-  u = P w on the assembled coordinates):
+  u = P w on the assembled coordinates), and since linkedhand (40bf44a differenced them) the couplings of the other
+  controllers of :func:`_exact_controllers` whose reads' moves along the rates :func:`_read_moves` gives — points'
+  velocities at an offset and relative to a body, cables' tensions, elements' section forces, free joints' forces
+  (their laws generated along the rates), a rate beside an input, a sampled controller's held output, a state or
+  another such controller, on dependent nodes too (:func:`_linked_chain_controllers`) — and the point loads they
+  drive with their coupling entries (:func:`linked_generated_loads`): along P δq the unlinked parts at u = P w
+  (:func:`_coupling_part`, :func:`_load_part`, :func:`_driven_load_part`, the sensors' second derivatives at the
+  state's rates, the dependent nodes' completed), along the rates the reduction's move carries
+  Pᵀ s ∂(K u)/∂v_all δv_all with δv_all = P δv + ∂(J v)/∂q δq, a hinge's row by −a M_k · δv_all and a driven
+  component's node rows by K_l(a e_c) u (V_k · δv_all) + g (M_k · δv_all), V_k = ∂y_k/∂v_all and
+  M_k = ∂(∂y_k/∂q_all · u)/∂v_all of :func:`_chain_rates_moves` on the assembled coordinates
+  (:func:`linked_chain_rates_product`, exact, one evaluation):
   :func:`_linked_split`) through the reduction, :func:`linked_configuration_tangent`: with u = P w, y = W_gen u,
   ∂(Pᵀ W_gen P w)/∂q δq = Pᵀ H_gen (P δq) + ∂(Pᵀ y)/∂q δq + Pᵀ W_gen (∂(J w)/∂q δq) — H_gen the generated H above
   on every assembled coordinate (the dependent nodes' elements and bodies too; a load on a node that follows the
@@ -132,10 +143,10 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   motions, P moves with the prescribed coordinates too: the geometric term of the inertia forces moved in time,
   ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, the same composition along the prescribed coordinates' rates q̇_p
   (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
-* differenced, the blocks not generated anywhere (as H_rest: the loads a continuous controller drives, the couplings
-  not of :func:`exact_couplings`, the hinges outside :func:`exact_hinges`), the couplings of controllers reading a
-  point's velocity at an offset or relative to a body or a free joint's force (their values or gradients move with
-  the rates the move carries), a rate beside an input, a state or another controller, or a controller of those, a load's coupling entries, and the hinges whose K_jj moves with
+* differenced, the blocks not generated anywhere (as H_rest: the couplings not of :func:`exact_couplings` and the
+  loads their controllers drive, the hinges outside :func:`exact_hinges`), the couplings and driven loads of a
+  controller outside :func:`_linked_chain_controllers` (a free joint's force whose laws are not generated along the
+  rates, an output whose second derivatives by all its reads are not functions), and the hinges whose K_jj moves with
   their rate where ∂K_jj/∂θ̇ is not generated (:func:`linked_exact_hinges`, :func:`exact_hinges_by_rates`: a law
   whose slope in θ does not parse back as a law),
   Pᵀ W_rest P w (:func:`linked_rest_product`, computed on its own: the reduced W w less the exact part carried that
@@ -146,7 +157,10 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   rate take none; 10be92c took 2k there, docs/performance.md "The linked weight's loads, cables and couplings
   generated (issue 34)"; the gimbal with a damper 0.05 (1 + 4θ²) or a torque of θ and θ̇ on its outer hinge, or a PD
   mixing a hinge's angle and rate, take none since af426b0's linkedrates, docs/performance.md "The linked weight's
-  rates generated (issue 34)").
+  rates generated (issue 34)"; the gimbal with a PD of a point's velocities at an offset and in a body's axes, a
+  guided mass with loads a PD drives and a chain of rigid bays with a controller of a hinge's torque at a compliant
+  stop, an input and another controller take none since linkedhand, docs/performance.md "The linked weight's last
+  differences generated (issue 34)").
 
 Along the rates: W moves with them where K does, ∂(K w)/∂v δv (``TransientSensitivities._stiffness_by_rates``; its
 transpose in the adjoint, the same matrix times the identity). Which terms of K move with the rates is asked of the
@@ -217,7 +231,8 @@ from latdyn.numerics.linalg import RCM_IN_PYTHON
 __all__ = ["cable_stiffness_by_rates", "configuration_tangent_of_weight", "exact_couplings", "exact_couplings_by_rates",
            "exact_hinges", "exact_hinges_by_rates", "exact_loads", "exact_loads_by_rates",
            "geometric_product", "geometric_second_product", "linked_configuration_tangent", "linked_geometric_derivative",
-           "linked_cable_rates_product", "linked_coupling_rates_product", "linked_exact_couplings", "linked_exact_hinges",
+           "linked_cable_rates_product", "linked_chain_rates_product", "linked_coupling_rates_product",
+           "linked_exact_couplings", "linked_exact_hinges",
            "linked_generated_loads",
            "linked_geometric_rate_in_time", "linked_has_rest", "linked_rate_moving_hinges", "linked_rates_tangent",
            "linked_rest_product",
@@ -475,7 +490,8 @@ def _load_values(assembler, state, on: np.ndarray) -> np.ndarray:
     return values
 
 
-def _driven_load_part(assembler, state, w: np.ndarray, scale: float):
+def _driven_load_part(assembler, state, w: np.ndarray, scale: float, full: np.ndarray | None = None,
+                      exact: np.ndarray | None = None):
     """(rows, cols, values) of the part of H that the load components driven by controllers of
     :func:`_exact_controllers` add beyond :func:`_load_part`'s turns (at the driven values): with e_p a unit
     component times the gain a, F(e_p) its generalized force on the node's six rows (``point_load``'s, as
@@ -487,17 +503,22 @@ def _driven_load_part(assembler, state, w: np.ndarray, scale: float):
         the couplings F(e_p) gᵀ, F turning:          s K_l(e_p) (gᵀ w)                (node rows × load columns)
         the couplings, g moving:                     s F(e_p) (G w)ᵀ                  (node rows × angle columns)
 
-    0 for a saturated controller (g, G = 0)."""
+    0 for a saturated controller (g, G = 0). ``full`` (n_total + 1; default w on the free coordinates): the direction on
+    every assembled coordinate (a model with rigid links or guides, u = P w: :func:`linked_configuration_tangent`);
+    ``exact`` (loads,) bool: the loads taken (default :func:`exact_loads`; :func:`linked_generated_loads`)."""
     actuators, _, gradients, columns, curvatures = _driving(assembler, state)
     model = assembler.model
     n = model.n_dofs
-    exact = exact_loads(assembler)
+    exact = exact_loads(assembler) if exact is None else exact
     actuators = [(l, p, gain, k) for l, p, gain, k in actuators if exact[l] and np.any(gradients.get(k, 0.0))]
     if not actuators:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    full = np.zeros(model.n_total + 1)
-    full[:n] = w
-    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
+    if full is None:
+        full = np.zeros(model.n_total + 1)
+        full[:n] = w
+        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0)
+    else:
+        along = full[columns] if len(columns) else np.zeros(0)
     loads = assembler.loads
     load_columns = _scattered(assembler._load_columns(), model.n_total)
     rows = lambda a: np.ascontiguousarray(np.reshape(a, (1, -1)), dtype=float)  # noqa: E731
@@ -1024,7 +1045,8 @@ def _coupling_part(assembler, state, w: np.ndarray, scale: float, exact: np.ndar
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
     controllers = _exact_controllers(assembler)
     driving = {int(control.actuator_controller[a]) for a in actuators}
-    chained = [p or r for p, r in zip(_linked_position_controllers(assembler), _linked_rate_controllers(assembler))]
+    chained = [p or r or c for p, r, c in zip(_linked_position_controllers(assembler),
+                                              _linked_rate_controllers(assembler), _linked_chain_controllers(assembler))]
     if subset and not any(chained[k] for k in driving):
         # linked_exact_couplings of joints alone: no chain; the actuators' own
         controllers = [bool(on) and k in driving for k, on in enumerate(controllers)]
@@ -1281,14 +1303,18 @@ def linked_exact_hinges(assembler) -> np.ndarray:
 def linked_generated_loads(assembler) -> np.ndarray:
     """(loads,) bool: the point loads whose part of H a model with rigid links or guides takes generated
     (:func:`_load_part` on the assembled coordinates, :func:`linked_configuration_tangent`): those of
-    :func:`exact_loads` with no component a continuous controller drives (K_l then depends on the configuration and
-    the state's time alone, not on the rates the reduction's move carries; the same loads as :func:`exact_loads`
-    today, kept apart so that a driven load that function may come to take, whose values move with its controller's
-    sensors and their rates, stays differenced here)."""
+    :func:`exact_loads` whose every driven component's controller is one of :func:`_linked_chain_controllers` (its
+    values' and couplings' move along P δq :func:`_driven_load_part`'s at u = P w, along the rates the reduction's
+    move carries :func:`linked_chain_rates_product`'s; 40bf44a differenced every driven load)."""
     control = assembler.control
     out = exact_loads(assembler).copy()
     kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
-    out[np.asarray(getattr(control, "actuator_index", np.zeros(0, np.int64)))[kinds == 1]] = False
+    if not np.any(kinds == 1):
+        return out
+    chain = _linked_chain_controllers(assembler)
+    for a in np.flatnonzero(kinds == 1):   # driven by a controller of the chain: its moves generated (linkedhand)
+        if not chain[int(control.actuator_controller[a])]:
+            out[int(control.actuator_index[a])] = False
     return out
 
 
@@ -1313,8 +1339,10 @@ def linked_exact_couplings(assembler) -> np.ndarray:
     free ones, or none where it is locked or prescribed: P does not move their rows) with an output whose mixed
     second derivatives by an angle and a rate vanish (:func:`_mixed_curvature_vanishes`; the entries then do not move
     with the rates that the reduction's move carries, ``TransientSensitivities._linked_move``) or are generated
-    (:func:`_joint_reads`: no state, no input; their move along the rates is :func:`linked_rates_tangent`'s). The
-    others keep the difference (:func:`linked_rest_product`)."""
+    (:func:`_joint_reads`: no state, no input; their move along the rates is :func:`linked_rates_tangent`'s), of
+    :func:`_linked_position_controllers`, :func:`_linked_rate_controllers` or :func:`_linked_chain_controllers`
+    (:func:`linked_chain_rates_product`), and a load component's entries where its load is of
+    :func:`linked_generated_loads`. The others keep the difference (:func:`linked_rest_product`)."""
     control = assembler.control
     held = _LINKED_COUPLINGS.get(id(control))
     if held is not None and held[0]() is control:
@@ -1334,10 +1362,13 @@ def linked_exact_couplings(assembler) -> np.ndarray:
                                  or _joint_reads(control, k) is not None))
     positions = _linked_position_controllers(assembler)
     rates = _linked_rate_controllers(assembler)
+    chain = _linked_chain_controllers(assembler)
+    loads = linked_generated_loads(assembler)
     kinds = np.asarray(control.actuator_kind)
-    for e, a in enumerate(np.asarray(control.coupling_actuator)):   # a load's entries: its block's difference
+    for e, a in enumerate(np.asarray(control.coupling_actuator)):   # a load's entries: with its block
         k = control.actuator_controller[a]
-        out[e] &= bool(kinds[a] == 0) and (plain[k] or positions[k] or rates[k])
+        out[e] &= (bool(kinds[a] == 0) and (plain[k] or positions[k] or rates[k] or chain[k])
+                   or bool(kinds[a] == 1) and bool(loads[control.actuator_index[a]]))
     return out
 
 
@@ -1736,9 +1767,10 @@ def _load_rates_part(assembler, state, w: np.ndarray):
 _RATE_MOVED_SENSORS = (0, 1, 2, 3, 5, 6, 7, 8, 11, 12, 13, 14)
 
 
-def _rates_chain_controllers(assembler) -> np.ndarray:
+def _rates_chain_controllers(assembler, linked: bool = False) -> np.ndarray:
     """(controllers,) bool: the continuous controllers whose coupling entries' and driven loads' move along the rates
-    :func:`_chain_rates_moves` generates, on a model without rigid links or guides: those of
+    :func:`_chain_rates_moves` generates, on a model without rigid links or guides (``linked``: with them too,
+    :func:`_linked_chain_controllers`): those of
     :func:`_exact_controllers` reading sensors of :data:`_RATE_MOVED_SENSORS`, inputs, sampled controllers' held
     outputs, their own states and earlier controllers of this kind alone, with every second derivative of the output
     by the sensors and controllers it reads a function (:func:`_output_curvature` over them all, the rates'
@@ -1747,7 +1779,7 @@ def _rates_chain_controllers(assembler) -> np.ndarray:
 
     control = assembler.control
     out = np.zeros(len(control.controllers), bool)
-    if assembler.model.links is not None:
+    if assembler.model.links is not None and not linked:
         return out
     exact = _exact_controllers(assembler)
     model = assembler.model
@@ -1828,7 +1860,7 @@ def _read_moves(assembler, state, kind: int, index: int, sensor: int, full: np.n
     return float(gradient @ full[dofs]), V, M
 
 
-def _chain_rates_moves(assembler, state, w: np.ndarray) -> dict:
+def _chain_rates_moves(assembler, state, w: np.ndarray, full: np.ndarray | None = None, linked: bool = False) -> dict:
     """{k: (G_k, V_k, M_k, y_k)} for the controllers of :func:`_rates_chain_controllers` at ``state`` along ``w``
     (n,), in their order: with a_p the arguments of f_k that are sensors (:func:`_read_moves`) or earlier such
     controllers' outputs (their own G, V, M), inputs and states held,
@@ -1839,16 +1871,19 @@ def _chain_rates_moves(assembler, state, w: np.ndarray) -> dict:
 
     SymPy's first and second derivatives of the output by all its moving reads (:func:`_output_curvature`) at the
     arguments the evaluation reads (as :func:`_controller_curvatures`); all three 0 while the output is saturated
-    (csrc/evaluate.c controller_outputs), y_k after saturation."""
+    (csrc/evaluate.c controller_outputs), y_k after saturation. ``linked``, ``full``: the controllers of
+    :func:`_linked_chain_controllers` on a model with rigid links or guides, along u = P w on every assembled
+    coordinate (n_total + 1,), V and M over the assembled rates (:func:`linked_chain_rates_product`)."""
     from latdyn.assembly.control import CONTROLLER
 
     control, model, scene = assembler.control, assembler.model, assembler.model.scene
-    chain = _rates_chain_controllers(assembler)
+    chain = _rates_chain_controllers(assembler, linked)
     if not np.any(chain):
         return {}
     n = model.n_dofs
-    full = np.zeros(model.n_total + 1)
-    full[:n] = w
+    if full is None:
+        full = np.zeros(model.n_total + 1)
+        full[:n] = w
     native = assembler.native()
     held = scene.controller_outputs
     kept = held.values.copy()
@@ -2123,6 +2158,68 @@ def linked_coupling_rates_product(assembler, state, w: np.ndarray, dq: np.ndarra
     return scale * np.asarray(P.T @ grown[:n_asm]).reshape(n, k)
 
 
+def _linked_chain_controllers(assembler) -> list:
+    """(controllers,) bool: on a model with rigid links or guides, the continuous controllers of
+    :func:`_rates_chain_controllers` (``linked``): those of :func:`_exact_controllers` reading sensors of
+    :data:`_RATE_MOVED_SENSORS` (a point's velocity at an offset or relative to a body, a cable's tension, an element's
+    section force, a free joint's force whose laws are generated along the rates, beside angles, positions, lengths
+    and rates; on a dependent node too), inputs, sampled controllers' held outputs, their own states and earlier such
+    controllers alone, every second derivative of the output a function. Their couplings and the loads they drive are
+    in W_gen (:func:`linked_exact_couplings`, :func:`linked_generated_loads`): along P δq the unlinked parts on the
+    assembled coordinates (:func:`_coupling_part`, :func:`_load_part`, :func:`_driven_load_part` at u = P w: the
+    sensors' second derivatives at the state's rates, dependent nodes' completed), along the rates the reduction's
+    move carries :func:`linked_chain_rates_product` (linkedhand; 40bf44a differenced them, :func:`linked_rest_product`).
+    Empty (all False) without links."""
+    if assembler.model.links is None:
+        return [False] * len(assembler.control.controllers)
+    return [bool(c) for c in _rates_chain_controllers(assembler, linked=True)]
+
+
+def linked_chain_rates_product(assembler, state, w: np.ndarray, dq: np.ndarray, scale: float, rates):
+    """Pᵀ s ∂(K u)/∂v_all δv_all (n, k) on a model with rigid links or guides, u = P w, of the blocks of W_gen that the
+    controllers of :func:`_linked_chain_controllers` make and no other product moves along the rates (the couplings of
+    controllers of joints alone are :func:`linked_rates_tangent`'s, of positions and plain rates
+    :func:`linked_coupling_rates_product`'s): with G_k, V_k, M_k of each controller along u (:func:`_chain_rates_moves`
+    on the assembled coordinates: V_k = ∂y_k/∂v_all, M_k = ∂(∂y_k/∂q_all · u)/∂v_all) and δv_all = P δv + ∂(J v)/∂q δq
+    (:func:`_linked_rates_moves`, the compiled links' buffers),
+
+        a hinge's row (a coupling −a ∂y_k/∂q_all):           −a M_k · δv_all
+        a driven load component's node rows (a y_k + b):    K_l(a e_c) u (V_k · δv_all) + g (M_k · δv_all)
+
+    (g = ``point_load``'s force at a e_c, K_l(a e_c) u its block along u: :func:`_driven_component`, as unlinked
+    :func:`_chain_coupling_rates_part`, :func:`_chain_load_rates_part`). Exact, one evaluation; None where no such
+    block exists."""
+    control, model = assembler.control, assembler.model
+    chain = _linked_chain_controllers(assembler)
+    if not any(chain):
+        return None
+    kinds = np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64)))
+    moved_by_others = _linked_rate_controllers(assembler)
+    loads = linked_generated_loads(assembler)
+    taken = [int(a) for a in range(len(kinds)) if chain[int(control.actuator_controller[a])] and (
+        (kinds[a] == 0 and _joint_reads(control, int(control.actuator_controller[a])) is None
+         and not moved_by_others[int(control.actuator_controller[a])])
+        or (kinds[a] == 1 and loads[int(control.actuator_index[a])]))]
+    if not taken:
+        return None
+    n, n_asm, k = model.n_dofs, model.n_assembled, dq.shape[1]
+    P, u, moves = _linked_rates_moves(assembler, state, w, dq, rates)
+    chain_moves = _chain_rates_moves(assembler, state, w, full=u, linked=True)
+    columns = _scattered(assembler._load_columns(), model.n_total)
+    grown = np.zeros((model.n_total + 1, k))
+    for a in taken:
+        _, V, M, _ = chain_moves[int(control.actuator_controller[a])]
+        gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+        if kinds[a] == 0:
+            grown[int(model.hinge_dofs[control.actuator_index[a]])] += -gain * (M @ moves)
+            continue
+        if not np.any(V) and not np.any(M):
+            continue
+        node_rows, block, force = _driven_component(assembler, state, a, u, columns)
+        np.add.at(grown, node_rows, np.outer(block, V @ moves) + np.outer(force, M @ moves))
+    return scale * np.asarray(P.T @ grown[:n_asm]).reshape(n, k)
+
+
 def geometric_product(assembler, state, y: np.ndarray, w: np.ndarray) -> np.ndarray:
     """∂(Pᵀ y)/∂q at fixed y, times w (n,), at ``state`` (its dependent nodes completed: J of it in the links'
     buffers): the forward step's geometric term of y's dependent rows (y on the assembled coordinates), csrc/links.c
@@ -2288,7 +2385,8 @@ def linked_configuration_tangent(assembler, state, w: np.ndarray, dq: np.ndarray
     parts = [_generated(assembler, state, w, scale, mass, full=u),
              _load_part(assembler, state, w, scale, full=u, exact=linked_generated_loads(assembler)),
              _cable_part(assembler, state, w, scale, full=u),
-             _coupling_part(assembler, state, w, scale, exact=linked_exact_couplings(assembler), full=u)]
+             _coupling_part(assembler, state, w, scale, exact=linked_exact_couplings(assembler), full=u),
+             _driven_load_part(assembler, state, w, scale, full=u, exact=linked_generated_loads(assembler))]
     rows, cols, values = (np.concatenate([part[i] for part in parts]) for i in range(3))
     keep = (rows < n_asm) & (cols < n_asm)
     H_gen = csr.CSR.from_coo(values[keep], rows[keep], cols[keep], (n_asm, n_asm))
