@@ -5,7 +5,7 @@ sticking friction (issue 34)").
 
 The scenes of tests/test_adjoint_friction_sticks.py (a 3D arm slewing on a skew friction hinge under a sinusoidal
 torque that sticks and slips again, 7 parameters; the same arm braked hard, four sticks, 5 parameters; a gimbal ring
-sticking and slipping five times as its arm swings, 6 parameters), each run without sensitivities, by the forward
+and the arm it carries, both on friction hinges, each sticking and slipping, 6 parameters), each run without sensitivities, by the forward
 method and by the adjoint, kernels and laws compiled before, interleaved ``--repeats`` times; printed: the median wall
 and CPU (``time.process_time``) times of ``latdyn.run`` and their ratios to the run without and, for the adjoint, to
 the forward method; the 1-minute load average. Run it under ``chrt -f 10`` on a loaded machine.
@@ -55,7 +55,7 @@ def main() -> None:
     from tests.test_adjoint_friction_sticks import BRAKED, GIMBAL, SLEW_SINE
 
     scenes = {"slewing, sticks and slips again": SLEW_SINE, "braked arm, four sticks": BRAKED,
-              "gimbal ring, five sticks": GIMBAL}
+              "gimbal, ring and arm sticking": GIMBAL}
     for name, text in scenes.items():
         cases = variants(text)
         for data in cases.values():   # compiled before
