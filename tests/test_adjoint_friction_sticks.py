@@ -161,3 +161,38 @@ def test_a_joint_force_probe_beside_a_stick_stays_refused(tmp_path):
     completed, _ = latdyn_run(tmp_path, SLEWING_STOPS, quiet=True)
     assert completed.returncode == 2 and "beams.arm.start.hinge.friction" in completed.stderr
     assert "Traceback" not in completed.stderr
+
+
+#: a block on a skew guide held by static friction from t = 0 (gravity's pull along it 3.27 N, F_s = 5 N) until a
+#: growing push breaks it away
+GUIDE = """
+title: a block on a skew guide held by static friction, pushed off by a growing force
+parameters: {Fc: 1.0, Fs: 5.0, P: 3.0}
+gravity: [0, 0, -9.81]
+bodies:
+  block: {at: [0, 0, 0], mass: 1.0, inertia: [0.01, 0.01, 0.01],
+          guide: {axis: [1, 1, -0.5], friction: {coulomb: "Fc", static: "Fs"}}}
+loads:
+  - {at: block, force: ["P*t", 0, 0]}
+solve: {analysis: transient, sensitivity_method: adjoint, dt: 0.01, t_end: 1.0, sensitivities: [Fc, P]}
+output:
+  probes:
+    x: {point: block, quantity: position, component: x}
+"""
+
+
+def test_a_stick_beside_geometry_parameters_or_on_a_guide_stays_refused():
+    """Geometry parameters beside a stick (the held angle's terms of the start's move are not formed): the slewing arm
+    whose tip's x names a parameter is refused when it sticks at t = 0.544, naming the hinge's friction. A guide's
+    slider held by friction: the forward method does not differentiate a stick on a guide (its reduction with the held
+    slide), and the adjoint refuses it as the forward method's message says, at t = 0, naming the guide's friction."""
+    geometry = (SLEW_SINE.replace("tip: {at: [1.0, 0.2, 0.1]", 'tip: {at: ["L", 0.2, 0.1]')
+                .replace("A: 3.0, W: 1.0}", "A: 3.0, W: 1.0, L: 1.0}")
+                .replace("sensitivities: [Fc, Fs, cv, EI, m, A, W]", "sensitivities: [Fc, L]"))
+    assert geometry.count('"L"') == 1
+    with pytest.raises(SceneError) as raised:
+        _run(geometry)
+    assert raised.value.key == "beams.arm.start.hinge.friction" and "beside geometry parameters" in str(raised.value)
+    with pytest.raises(SceneError) as raised:
+        _run(GUIDE)
+    assert raised.value.key == "bodies.block.guide.friction" and "guides or rigid links" in str(raised.value)

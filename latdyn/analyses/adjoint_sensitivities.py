@@ -175,7 +175,7 @@ class AdjointSensitivities(TransientSensitivities):
         own refusals (:meth:`TransientSensitivities._refuse_what_a_held_angle_moves`: guides or rigid links, directions
         without inertia, energies, momenta, controllers with states or sampled ones), and this pass's: a stick beside
         latches, stops or cables (a stick's time and the held angle beside an event's δt are not transposed), beside
-        geometry parameters or controllers, and probes other than points (in global axes) and joint angles and rates
+        geometry parameters or controllers, with nothing else free, and probes other than points (in global axes) and joint angles and rates
         (a joint force, a section force, a cable, a point in a body's frame: their forms of the held angle are not
         formed). Everything else is transposed (:meth:`_friction_event_transposed`)."""
         from latdyn.errors import SceneError
@@ -189,6 +189,8 @@ class AdjointSensitivities(TransientSensitivities):
                 why = "beside geometry parameters"
             elif self.controllers is not None:
                 why = "beside controllers"
+            elif self.model.n_dofs == 0:
+                why = "with nothing else free (the stuck joints the only coordinates)"
             else:
                 other = [probe.name for probe in self.probes if not _held_angle_probe(probe)]
                 why = (f"beside probe {other[0]!r} (a joint force, a section force, a cable, a point in a body's "
