@@ -84,6 +84,7 @@ output:
     swing_rate: {hinge: arm.start, quantity: rate}
     tip_y: {point: tip, quantity: position, component: y}
     tip_z: {point: tip, quantity: displacement, component: z}
+    tip_in_ring: {point: tip, quantity: position, frame: ring, component: x}
 """
 
 #: tests/test_adjoint_geometry.py's arm braked ten times harder, without its torque probe: it sticks at t = 0.284 (the

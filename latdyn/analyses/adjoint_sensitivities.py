@@ -175,9 +175,9 @@ class AdjointSensitivities(TransientSensitivities):
         own refusals (:meth:`TransientSensitivities._refuse_what_a_held_angle_moves`: guides or rigid links, directions
         without inertia, energies, momenta, controllers with states or sampled ones), and this pass's: a stick beside
         latches, stops or cables (a stick's time and the held angle beside an event's δt are not transposed), beside
-        geometry parameters or controllers, with nothing else free, and probes other than points (in global axes) and joint angles and rates
-        (a joint force, a section force, a cable, a point in a body's frame: their forms of the held angle are not
-        formed). Everything else is transposed (:meth:`_friction_event_transposed`)."""
+        geometry parameters or controllers, with nothing else free, and probes other than points and joint angles and
+        rates (a joint force, a section force, a cable: their forms of the held angle are not formed). Everything else
+        is transposed (:meth:`_friction_event_transposed`)."""
         from latdyn.errors import SceneError
 
         self._refused = True   # nothing for :meth:`finish` to write where the run is refused (exit 2)
@@ -193,8 +193,8 @@ class AdjointSensitivities(TransientSensitivities):
                 why = "with nothing else free (the stuck joints the only coordinates)"
             else:
                 other = [probe.name for probe in self.probes if not _held_angle_probe(probe)]
-                why = (f"beside probe {other[0]!r} (a joint force, a section force, a cable, a point in a body's "
-                       "frame or a controller's)" if other else None)
+                why = (f"beside probe {other[0]!r} (a joint force, a section force, a cable or a controller's)"
+                       if other else None)
         if why is None:
             self._refused = False
             return
@@ -1349,8 +1349,9 @@ class AdjointSensitivities(TransientSensitivities):
 
 def _held_angle_probe(probe) -> bool:
     """Whether the reverse pass seeds ``probe``'s forms of a held angle (:meth:`AdjointSensitivities._held_forms`, the
-    forward method's :meth:`_probe_derivatives` on the angle's δθ): a point in global axes, a joint's angle or rate."""
-    if is_joint_force(probe) or is_controller_probe(probe) or is_probe_here(probe) or is_energy_or_momentum(probe):
+    forward method's :meth:`_probe_derivatives` on the angle's δθ): a point (in global axes or a body's frame), a joint's
+    angle or rate."""
+    if is_joint_force(probe) or is_controller_probe(probe) or is_energy_or_momentum(probe):
         return False
     return probe.kind == "point" or (probe.kind == "hinge" and probe.quantity in ("angle", "rate"))
 
