@@ -77,8 +77,13 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
-friction sticks (a stick and a release are events not transposed yet: refused when it sticks,
-:meth:`_refuse_a_stick`; friction while the joints slip is taken), a controller's output probe beside events where it
+friction sticks or releases beside other events, geometry parameters, controllers or probes other than points and
+joints' angles and rates (refused when it sticks, :meth:`_refuse_a_stick`; friction slipping, and its sticks and
+releases otherwise, are taken: the forward method's stick — a stop's impulse with restitution 0, the held angle's
+δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
+its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
+bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`), a controller's output
+probe beside events where it
 names t (continuous controllers without states enter E and the matrices as in the forward method; with states and
 sampled ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held
 outputs' bars beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`,
@@ -110,8 +115,8 @@ from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_forc
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
-from latdyn.analyses.transient_sensitivities import (TransientSensitivities, _NodeRotations, _StepColumns,
-                                                      friction_key)
+from latdyn.analyses.transient_sensitivities import (WEIGHT_STEP, TransientSensitivities, _NodeRotations,
+                                                      _StepColumns, friction_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
@@ -119,7 +124,7 @@ from latdyn.errors import SolverError
 from latdyn.numerics.csr import CSR, Transpose, transposed
 from latdyn.numerics.linalg import issparse
 from latdyn.step.integrators import consistent_acceleration
-from latdyn.timeloop.impulse import hinge_directions
+from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["AdjointSensitivities"]
 
@@ -158,27 +163,55 @@ class AdjointSensitivities(TransientSensitivities):
             self._refuse_events(ev, split)
             if split.n_massless:
                 self._refuse_start(state, ev, split)
-        self._refuse_a_stick(state)   # stuck by friction from t = 0 (latdyn.timeloop.events.stick_at_start)
+            #: whether an impulse's weight is M + dt²K alone, as the forward method's start sets it (a stick's jump)
+            self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
+        if model.stuck.any():   # stuck by friction from t = 0 (latdyn.timeloop.events.stick_at_start): δθ_0 = 0 held
+            self._refuse_a_stick(state, int(np.flatnonzero(model.stuck)[0]))
         return carried
 
-    def _refuse_a_stick(self, state) -> None:
-        """SceneError (exit 2) naming the friction of the first joint friction holds at ``state``, where one does: a
-        stick and a release are events the reverse pass does not transpose yet (the forward method's stick is a
-        stop's impulse with restitution 0, the held angle's δθ carried through K's column of it while stuck, the
-        release a stop's restart: :meth:`TransientSensitivities._stick_or_release`); friction while every joint slips
-        is a force of the residual (its rate derivative in the exact matrices, its law's values in ∂r/∂p) and taken.
-        Checked at the start and after each step's events (:meth:`after_events`), where the run sticks a joint. (Not
-        the forward method's :meth:`TransientSensitivities._refuse_sticking`, which refuses what it does not follow.)"""
-        stuck = np.flatnonzero(self.model.stuck)
-        if not len(stuck):
-            return
+    def _refuse_a_stick(self, state, joint: int, why: str | None = None) -> None:
+        """SceneError (exit 2) naming the friction of ``joint``, which sticks or is released at ``state``, where the
+        reverse pass does not transpose its stick or release (``why``; else the checks below): the forward method's
+        own refusals (:meth:`TransientSensitivities._refuse_what_a_held_angle_moves`: guides or rigid links, directions
+        without inertia, energies, momenta, controllers with states or sampled ones), and this pass's: a stick beside
+        latches, stops or cables (a stick's time and the held angle beside an event's δt are not transposed), beside
+        geometry parameters or controllers, with nothing else free, and probes other than points and joint angles and
+        rates (a joint force, a section force, a cable: their forms of the held angle are not formed). Everything else
+        is transposed (:meth:`_friction_event_transposed`)."""
         from latdyn.errors import SceneError
 
-        self._refused = True   # nothing for :meth:`finish` to write: the run is refused (exit 2)
-        raise SceneError(self.scene.file, friction_key(self.model.hinges[int(stuck[0])]),
-                         f"at t = {float(state.t):.6g} the joint sticks: the discrete adjoint differentiates friction "
-                         "while the joints slip, not a stick or a release yet; expected solve.sensitivity_method: "
-                         "forward (the default), which does (docs/parameters.md, \"Friction\")")
+        self._refused = True   # nothing for :meth:`finish` to write where the run is refused (exit 2)
+        if why is None:
+            self._refuse_what_a_held_angle_moves(state)   # SceneError: the forward method refuses it too
+            if self._with_events():
+                why = "beside latches, stops or cables"
+            elif self.geometry is not None:
+                why = "beside geometry parameters"
+            elif self.controllers is not None:
+                why = "beside controllers"
+            elif self.model.n_dofs == 0:
+                why = "with nothing else free (the stuck joints the only coordinates)"
+            else:
+                other = [probe.name for probe in self.probes if not _held_angle_probe(probe)]
+                why = (f"beside probe {other[0]!r} (a joint force, a section force, a cable or a controller's)"
+                       if other else None)
+        if why is None:
+            self._refused = False
+            return
+        raise SceneError(self.scene.file, friction_key(self.model.hinges[joint]),
+                         f"at t = {float(state.t):.6g} the joint sticks or slips {why}: the discrete adjoint "
+                         "differentiates a stick and a release where the probes are points and joint angles and "
+                         "rates and no other event, geometry parameter or controller comes beside them; expected "
+                         "solve.sensitivity_method: forward (the default), which does (docs/parameters.md, "
+                         "\"Friction\")")
+
+    def _may_stick(self) -> bool:
+        """Whether a joint of the model has friction that can hold it (static level > 0): the numbering each step is
+        taken on is stored then (a stick and a release renumber the coordinates)."""
+        if "_sticks_here" not in self.__dict__:
+            self._sticks_here = any(h.friction is not None and h.friction.static > 0.0 and h.angle is None
+                                    for h in self.model.hinges)
+        return self._sticks_here
 
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,
              lands: bool = True) -> dict:
@@ -205,6 +238,8 @@ class AdjointSensitivities(TransientSensitivities):
                 entry["rule"] = ("lands",) if lands and timed else None   # else 0 (TransientSensitivities.step)
                 carried["timed"], carried["dh_moves"] = timed and not lands, False
             entry["timed_end"] = carried["timed"]   # δt_{n+1} may be non-zero: a row here moves in time
+        if "numbering" not in entry and self._may_stick():   # a stick or release at its end renumbers
+            entry["numbering"] = self._numbering()
         if carried["trajectory"] and carried["trajectory"][-1].get("pending"):   # not accepted: a run resumed
             carried["trajectory"].pop()                                             # from before it
         carried["trajectory"].append(entry)
@@ -214,7 +249,6 @@ class AdjointSensitivities(TransientSensitivities):
         """After the events of the step just stored: the numbering and cables' sides the rows and the next
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
         pass transposes the restart, :meth:`_restart_transposed`)."""
-        self._refuse_a_stick(new)
         if carried["trajectory"]:
             carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:
@@ -222,7 +256,25 @@ class AdjointSensitivities(TransientSensitivities):
             entry["numbering_end"] = self._numbering()
             if entry.get("event") is not None:
                 entry["after"] = new.copy()
+        if self._may_stick() and carried["trajectory"]:
+            self._stick_or_release_stored(carried["trajectory"][-1], new)
         return carried
+
+    def _stick_or_release_stored(self, entry: dict, new) -> None:
+        """Where a joint stuck or was released by friction at the end of the step ``entry`` holds (the stuck joints
+        of the numbering it was taken on against the model's now), what the reverse pass transposes
+        (:meth:`_friction_event_transposed`): ``friction`` ("stick" or "release", the joint), the numbering after it
+        and the state after its jump and restart; refused where that is not transposed (:meth:`_refuse_a_stick`)."""
+        before = entry["numbering"][2]
+        changed = np.flatnonzero(before != self.model.stuck)
+        if not len(changed):
+            return
+        if len(changed) > 1:
+            self._refuse_a_stick(new, int(changed[0]), "with another joint at one instant")
+        j = int(changed[0])
+        self._refuse_a_stick(new, j)
+        entry.update({"friction": ("stick" if self.model.stuck[j] else "release", j),
+                      "numbering_end": self._numbering(), "after": new.copy()})
 
     # ------------------------------------------------------------------ events: what the forward pass keeps
     def _with_events(self) -> bool:
@@ -274,17 +326,20 @@ class AdjointSensitivities(TransientSensitivities):
         return carried
 
     def _numbering(self) -> tuple:
-        """(the locked joints, the cables' sides or None): what the coordinates' numbering and the evaluation's
-        cable law depend on, changed by latches and cables' changes."""
+        """(the locked joints, the cables' sides or None, the joints friction holds): what the coordinates' numbering
+        and the evaluation's cable law depend on, changed by latches, cables' changes, sticks and releases."""
         cables = self.model.cables
-        return self.model.locked.copy(), (None if cables is None else np.array(cables.sides, float))
+        return (self.model.locked.copy(), (None if cables is None else np.array(cables.sides, float)),
+                self.model.stuck.copy())
 
     def _numbered(self, numbering: tuple) -> None:
         """The model put back on ``numbering`` (:meth:`_numbering`): the locked joints and the coordinates
         renumbered as a latch renumbers them (latdyn/timeloop/events.py ``latch_hinges``), the cables' sides
         set in place (the evaluation reads them there)."""
         model = self.model
-        locked, sides = numbering
+        locked, sides = numbering[:2]
+        if len(numbering) > 2:   # the joints friction holds (locked too)
+            model.stuck[:] = numbering[2]
         if not np.array_equal(model.locked, locked):
             model.locked[:] = locked
             model.number_coordinates()
@@ -499,8 +554,11 @@ class AdjointSensitivities(TransientSensitivities):
             return np.zeros((k, len(outputs))), np.zeros((k, len(events)))
         trajectory, rows = carried["trajectory"], carried["rows"]
         states = [carried["start"]] + [entry.get("after", entry["state"]) for entry in trajectory]
-        numberings = [carried.get("numbering_start")] + [entry.get("numbering_end") for entry in trajectory]
-        final = self._numbering() if self._with_events() else None   # the model's, put back at the end
+        numberings = [carried.get("numbering_start")]
+        for entry in trajectory:   # a step without an event or a stick (the loop's) ends on the numbering before it
+            numberings.append(entry.get("numbering_end") or numberings[-1])
+        final = self._numbering() if self._with_events() or self._may_stick() else None   # put back at the end
+        held_seeds: dict[int, list] = {}   # stored state index -> [(column, c_θ (n_hinges,))]: held angles' forms
         seeds: dict[int, list] = {}   # stored state index -> [(column, (c_q, c_v, c_v̇, explicit))]
         timings: dict[int, list] = {}   # stored state index -> [(column, its seed on δt there)]
         taken: list[list[int]] = []   # each output's columns: one, or a norm at 0's three components
@@ -525,6 +583,8 @@ class AdjointSensitivities(TransientSensitivities):
                 if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                     forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
                 forms_of[at] = held[id(probe), index] = forms
+                if final is not None and self.model.stuck.any():   # a joint friction holds: its angle's δθ
+                    held["theta", id(probe), index] = self._held_forms(probe, states[index])
                 if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self):
                     # the row's time moves with p (an output row at an event): taken where the probe has no explicit
                     # time dependence there (the forward method's row adds nothing more), else refused
@@ -544,12 +604,15 @@ class AdjointSensitivities(TransientSensitivities):
                 columns += len(forms)
                 for column, form in zip(taken[-1], forms):
                     seeds.setdefault(rows[row], []).append((column, form))
+                c_theta = held.get(("theta", id(outputs[at][0]), rows[row]))
+                if c_theta is not None:
+                    held_seeds.setdefault(rows[row], []).append((taken[-1][0], c_theta))
             for index, _ in events:   # an event time's column, seeded on δt there with 1
                 timings.setdefault(index, []).append((columns, 1.0))
                 columns += 1
             if final is not None:   # the reverse pass starts on the numbering the last accepted step ended on
                 self._numbered(numberings[-1] if numberings[-1] is not None else final)
-            gradient = self._reverse_columns(carried, states, seeds, columns, timings)
+            gradient = self._reverse_columns(carried, states, seeds, columns, timings, held_seeds)
         finally:
             self._linked_parts_held = None
             if final is not None:
@@ -586,7 +649,8 @@ class AdjointSensitivities(TransientSensitivities):
                 out[:, output] = np.where(np.any(gradient[:, columns] != 0.0, axis=1), np.nan, 0.0)
         return out
 
-    def _reverse_columns(self, carried: dict, states: list, seeds: dict, m: int, timings: dict) -> np.ndarray:
+    def _reverse_columns(self, carried: dict, states: list, seeds: dict, m: int, timings: dict,
+                         held_seeds: dict | None = None) -> np.ndarray:
         """(k, m): the transposed recurrence (module docstring) with the m columns that ``seeds`` seeds
         ({stored state index: [(column, (c_q, c_v, c_v̇, explicit))]}) at their states and ``timings`` ({index: [(column,
         seed)]}: an event time's 1) on δt there. At a step that ends on a latch or a stop the forward method's pieces
@@ -601,6 +665,8 @@ class AdjointSensitivities(TransientSensitivities):
         n = model.n_dofs
         q_bar, v_bar, vdot_bar, a_bar = (np.zeros((n, m)) for _ in range(4))
         t_bar, g_bar = np.zeros(m), np.zeros(m)   # the adjoints of δt_{n+1} and of the carried δh
+        theta_bar = np.zeros((len(model.hinges), m))   # the adjoints of the held angles' δθ (joints friction holds)
+        held_seeds = held_seeds or {}
         states_t = self._states_transposed()   # the controllers' states: S̄, f̄ beside the bars
         S_bar, f_bar = (None, None) if states_t is None else (np.zeros((states_t.P, m)), np.zeros((states_t.P, m)))
         samples_t = self._samples_transposed()   # the sampled controllers: ȳ (the held δy's) and their states' S̄
@@ -622,6 +688,8 @@ class AdjointSensitivities(TransientSensitivities):
                     self._seed_controllers(c_S, column, S_bar, y_bar, sampled_bar)
             for column, seed in timings.get(i + 1, []):
                 t_bar[column] += seed
+            for column, c_theta in held_seeds.get(i + 1, []):
+                theta_bar[:, column] += c_theta
             entry = trajectory[i]
             if entry.get("sample") is not None:   # the sample after the step and its restart, transposed
                 sample = entry["sample"]
@@ -637,7 +705,12 @@ class AdjointSensitivities(TransientSensitivities):
                                                                  y_bar, sampled_bar, gradient)
             if samples_t is not None:   # the held outputs the step was taken with
                 outputs[:] = entry["outputs"]
-            if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
+            if entry.get("friction") is not None:   # a stick's or release's restart, renumbering (and jump)
+                q_bar, v_bar, vdot_bar, theta_bar, by_event = self._friction_event_transposed(
+                    entry, q_bar, v_bar, vdot_bar + a_bar, theta_bar)
+                gradient += by_event
+                a_bar = np.zeros_like(v_bar)
+            elif entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
                 held = states_t is not None or samples_t is not None   # δS or δy held through the event's pieces
                 with self._controllers_at(carried, i + 1):   # the states as accepted at the event (they do not jump)
                     self._weights_met = [] if held else None
@@ -695,6 +768,7 @@ class AdjointSensitivities(TransientSensitivities):
                     if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
                         t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
                     q_bar, v_bar, vdot_bar, a_bar = bars
+                    theta_bar = self._held_step_transposed(new, w, theta_bar)
                     continue
             C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             if rule is not None:   # the step's size moves with p: its column, and δh's functional transposed
@@ -722,7 +796,8 @@ class AdjointSensitivities(TransientSensitivities):
             v_bar = dv0_bar + h * du0_bar
             a_bar = h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar
             vdot_bar = af / (1 - am) * da0_bar
-        if carried.get("numbering_start") is not None and self._with_events():
+            theta_bar = self._held_step_transposed(new, w, theta_bar)
+        if carried.get("numbering_start") is not None and (self._with_events() or self._may_stick()):
             self._numbered(carried["numbering_start"])
         for column, (c_q, c_v, c_vdot, explicit, *c_S) in seeds.get(0, []):   # δS_0 = 0: a state's seed adds nothing
             q_bar[:, column] += c_q   # δq_0 = δX of geometry parameters (0 without)
@@ -835,6 +910,102 @@ class AdjointSensitivities(TransientSensitivities):
                 S_bar = S_bar + sign * scale * (held.held_stiffness_along(state, w).T @ u_bar)
         return S_bar
 
+    # ------------------------------------------------------------------ sticking by friction transposed
+    def _friction_event_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray,
+                                   theta_bar: np.ndarray) -> tuple:
+        """The transpose of the forward method's stick or release at the end of the step ``entry`` holds
+        (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`, its
+        :meth:`_restart`), its pieces in reverse order, for the bars (q̄, v̄, s̄ = v̇̄ + ā) after it and θ̄ (n_hinges, m),
+        the held angles' adjoints:
+
+        - the restart as after a stop (:meth:`_restart_transposed`), with the held angles' terms of its ∂r/∂p (K's
+          columns of them at the state after it, :meth:`_held_columns`) and of its weight's (∂K/∂p)v̇ (their
+          difference along v̇, :meth:`_held_stiffness_columns`): θ̄ += (K_θ + dt² ∂K_θ/∂q[v̇])ᵀ ū;
+        - the renumbering (:meth:`_renumbering_transposed`); a release's δq[θ_j] = δθ_j gives θ̄_j = q̄[θ_j] (the
+          held δθ_j is 0 after it); a stick's δθ_j = δq[θ_j] before it gives q̄[θ_j] += θ̄_j, θ̄_j = 0;
+        - a stick's jump, a stop's impulse with restitution 0 (:meth:`_impulse_transposed`), with the held angles'
+          terms of its weight (the other joints friction holds): θ̄ −= (dt² ∂K_θ/∂q[Δv] + ∂(M a)_θ/∂a[Δv])ᵀ ū.
+
+        The restart sets δv̇ and δa afresh (the stick's ``dvdot`` 0): nothing of v̇̄ or ā passes. Returns (q̄, v̄, v̇̄,
+        θ̄ before it, (k, m) into the gradient); the model left on the numbering before it."""
+        kind, j = entry["friction"]
+        model, scale = self.model, self.scene.solve.dt ** 2
+        theta_bar = theta_bar.copy()
+        self._restart_weight = None
+        q_bar, v_bar, _, gradient, _ = self._restart_transposed(entry, q_bar, v_bar, s_bar)
+        stuck = np.flatnonzero(model.stuck)   # on the numbering after it: the angles held through the restart
+        if len(stuck) and model.n_dofs:
+            after, u_bar = self._restart_u
+            theta_bar[stuck] += self._held_columns(after, stuck, True).T @ u_bar
+            before, _ = self._restart_weight
+            rates = free_acceleration(model, after)
+            if np.any(rates):
+                theta_bar[stuck] += scale * (self._held_stiffness_columns(before, rates, stuck).T @ u_bar)
+        self._numbered(entry["numbering_end"])
+        if kind == "release":   # its angle back among the free coordinates, δq[θ_j] = δθ_j
+            theta_bar[j] = q_bar[model.hinge_dofs[j]]
+        q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
+        if kind == "release":
+            return q_bar, v_bar, np.zeros_like(v_bar), theta_bar, gradient
+        q_bar[model.hinge_dofs[j]] += theta_bar[j]   # the held δθ_j: δq[θ_j] at the stick
+        theta_bar[j] = 0.0
+        v_bar, q_by_jump, vdot_by_jump, by_jump, _ = self._impulse_transposed({**entry, "event": (j, "stick", 0.0)},
+                                                                             v_bar)
+        stuck = np.flatnonzero(model.stuck)   # the other joints friction holds through the jump
+        if len(stuck):
+            change, u_bar = self._impulse_weight
+            new = entry["state"]
+            at_rest, accelerated = self._at_rest_and_accelerated(new, change)
+            weight = (scale * self._held_stiffness_columns(new, change, stuck)
+                      + self._held_columns(accelerated, stuck, True) - self._held_columns(at_rest, stuck, True))
+            theta_bar[stuck] -= weight.T @ u_bar
+        return q_bar + q_by_jump, v_bar, vdot_by_jump, theta_bar, gradient + by_jump
+
+    def _held_columns(self, state, stuck: np.ndarray, inertia: bool) -> np.ndarray:
+        """(n, s): the forward method's held forces (:meth:`TransientSensitivities._held_forces`: K's column of each
+        held angle, with ``inertia`` the inertia tangent's too, at ``state``) of a unit δθ of each joint of ``stuck``,
+        on the free coordinates: ∂r/∂p's held part is these times δθ."""
+        unit = np.zeros((len(self.model.hinges), len(stuck)))
+        unit[stuck, np.arange(len(stuck))] = 1.0
+        saved, self.held = self.held, unit
+        try:
+            return self._on_free_coordinates(state, self._held_forces(state, inertia))
+        finally:
+            self.held = saved
+
+    def _held_stiffness_columns(self, state, w: np.ndarray, stuck: np.ndarray) -> np.ndarray:
+        """(n, s): the held angles' part of the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`,
+        :meth:`_terms_beside_stiffness_along`: the held forces differenced along w, step WEIGHT_STEP ℓ/|w|_∞) for a
+        unit δθ of each joint of ``stuck``: the same difference of :meth:`_held_columns`."""
+        eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
+        advance = self.assembler.advance
+        return (self._held_columns(advance(state, eta * w), stuck, False)
+                - self._held_columns(advance(state, -eta * w), stuck, False)) / (2 * eta)
+
+    def _held_step_transposed(self, new, w: np.ndarray, theta_bar: np.ndarray) -> np.ndarray:
+        """θ̄ before a step taken while joints were held by friction: the step's ∂r/∂p holds K's columns of their
+        angles times δθ (:meth:`_held_columns` at its end, with the inertia tangent), so θ̄ −= (K_θ)ᵀ w."""
+        stuck = np.flatnonzero(self.model.stuck)
+        if not len(stuck):
+            return theta_bar
+        theta_bar = theta_bar.copy()
+        theta_bar[stuck] -= self._held_columns(new, stuck, True).T @ w
+        return theta_bar
+
+    def _held_forms(self, probe, state) -> np.ndarray:
+        """c_θ (n_hinges,): ``probe``'s derivative by each held angle's δθ at ``state`` (the forward method's
+        :meth:`record`: δθ += held, through :meth:`_probe_derivatives` on unit δθ columns of the joints friction
+        holds), zero elsewhere."""
+        model = self.model
+        stuck = np.flatnonzero(model.stuck)
+        out = np.zeros(len(model.hinges))
+        zero = np.zeros((model.n_dofs, len(stuck)))
+        dx, dpi, dtheta = self._by_parameter(zero, state)
+        dtheta[stuck, np.arange(len(stuck))] += 1.0
+        rates = (self._rates_by_parameter(zero, zero, state) if probe.quantity in ("rate", "velocity") else None)
+        out[stuck] = self._probe_derivatives(probe, state, dx, dpi, dtheta, rates, explicit=False)
+        return out
+
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
                           gamma_p: float, explicit: np.ndarray | None = None) -> dict:
@@ -906,6 +1077,7 @@ class AdjointSensitivities(TransientSensitivities):
         w_bar = v_bar_plus - N @ pushed
         v_bar_minus = w_bar - restitution * (N @ pushed)
         u_bar = np.asarray(solve_linear(_transposed(W), w_bar)).reshape(w_bar.shape)
+        self._impulse_weight = (change, u_bar)   # the held angles' part of its weight (a stick: friction events)
         q_part, v_part, vdot_part, p_part = self._weight_derivative_transposed(new, change, u_bar, scale)
         t_part = (adjoint_time.weight_transposed(self, new, change, u_bar, scale, mass=True)
                   if adjoint_time.moves_in_time(self) else np.zeros(u_bar.shape[1]))
@@ -922,7 +1094,8 @@ class AdjointSensitivities(TransientSensitivities):
         t_e + δt_e, latdyn/analyses/adjoint_time.py)."""
         model = self.model
         self._numbered(entry["numbering_end"])
-        after, kind = entry["after"], entry["event"][1]
+        # a stick or release restarts as after a stop (the forward method's _stick_or_release)
+        after, kind = entry["after"], (entry["event"][1] if entry.get("event") is not None else "stop")
         n = model.n_dofs
         if n == 0:   # nothing free after the latch: the forward method restarts nothing (TransientSensitivities._restart)
             return q_bar, v_bar, None, np.zeros((len(self.names), s_bar.shape[1])), np.zeros(s_bar.shape[1])
@@ -937,6 +1110,7 @@ class AdjointSensitivities(TransientSensitivities):
             matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
         u_bar = -np.asarray(solve_linear(_transposed(matrix), s_bar)).reshape(n, s_bar.shape[1])
         self._restart_u = (after, u_bar)   # the held states' part of its ∂r/∂p (_held_weights_transposed)
+        self._restart_weight = None if kind == "latch" else (before, u_bar)   # the held angles' (friction events)
         q_bar = q_bar + np.asarray(K.T @ u_bar)
         v_bar = v_bar + np.asarray(C.T @ u_bar)
         vdot_bar = None   # a latch restarts with M alone
@@ -1171,6 +1345,15 @@ class AdjointSensitivities(TransientSensitivities):
                              for p in self.probes for name in self.names]
             text = csv_line(["t", *self.columns]) + csv_line(row)
             atomic_write_bytes(Path(writer.out_dir) / SENSITIVITIES_FILE, text.encode("utf-8"))
+
+
+def _held_angle_probe(probe) -> bool:
+    """Whether the reverse pass seeds ``probe``'s forms of a held angle (:meth:`AdjointSensitivities._held_forms`, the
+    forward method's :meth:`_probe_derivatives` on the angle's δθ): a point (in global axes or a body's frame), a joint's
+    angle or rate."""
+    if is_joint_force(probe) or is_controller_probe(probe) or is_energy_or_momentum(probe):
+        return False
+    return probe.kind == "point" or (probe.kind == "hinge" and probe.quantity in ("angle", "rate"))
 
 
 def _norm_at_zero(probe, forms: tuple) -> bool:

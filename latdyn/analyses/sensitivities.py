@@ -228,8 +228,9 @@ def _adjoint_rate_sensor_refusal(scene) -> str | None:
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops, compliant stops' onsets (a hinge's or a
-    guide's) and cables, beside laws in t too, with rigid links and guides and geometry parameters, friction while it
-    slips (a joint that sticks is refused when it sticks: ``AdjointSensitivities._refuse_a_stick``), through
+    guide's) and cables, beside laws in t too, with rigid links and guides and geometry parameters, friction slipping,
+    sticking and released (a stick beside what its transpose does not take is refused when the joint sticks:
+    ``AdjointSensitivities._refuse_a_stick``), through
     controllers with states and sampled ones, latdyn/analyses/adjoint_controller_states.py; the forward method's
     refusals come first, :func:`refusal`)."""
     key = "solve.sensitivity_method"
