@@ -80,8 +80,8 @@ from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["controller_parameter_along", "exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated",
-           "time_stiffness_along"]
+__all__ = ["controller_parameter_along", "exact_parameters", "held_angles_along", "sampled_held_along",
+           "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -517,17 +517,144 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
 
     terms = owner.controllers if terms is None else terms
     model, assembler = owner.model, owner.assembler
-    if terms is None or terms.sampled is not None or any(terms.forces_read.values()):
+    if terms is None:
+        return None
+    forces_read = any(terms.forces_read.values())
+    if forces_read and not _joint_forces_read(owner, terms):
         return None
     control = assembler.control
     total = np.zeros((model.n_total + 1, terms.k))
-    if not (terms.partials or terms.held) or not len(control.actuator_kind):
+    if terms.sampled is not None:   # the held outputs' δy: constants of the step, their loads turning along w
+        sampled_held_along(owner, state, w, terms.sampled, total)
+    if not (terms.partials or terms.held or forces_read) or not len(control.actuator_kind):
         return total
     exact = _exact_controllers(assembler)
     if not all(exact):
         return None
     with owner._controller_outputs_at(state):   # the compiled partials read chained outputs from the scene's array
         return _controller_parameter_along(owner, terms, state, w, exact, total)
+
+
+def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray) -> np.ndarray:
+    """Add into ``total`` (n_total + 1, k) the derivative along w of the sampled controllers' held outputs' terms of
+    ∂r/∂p (:meth:`latdyn.analyses.sensitivities.SampledTerms.add`), exact: a held δy is a constant of the step (the
+    sample's, ``SampledTerms.sample``: the output's derivative at the sample, carried by the forward method), so a
+    hinge's or guide's row −a δy does not move along w, and a load component a δy moves only as the load turns with
+    its node and its frame, ``point_load_stiffness_D_q``'s K_l w at the values a δy (:func:`_load_actuator_along`).
+    Before, a central difference of ``ControllerTerms.add`` along w (step WEIGHT_STEP ℓ/|w|_∞)."""
+    loads: dict[int, np.ndarray] = {}
+    for kind, index, component, i, gain in sampled.actuators:
+        moved = gain * sampled.held[i]
+        if kind == 1 and np.any(moved):
+            loads.setdefault(int(index), np.zeros((6, total.shape[1])))[component] += moved
+    for index, values in loads.items():
+        _load_actuator_along(owner, state, w, index, np.zeros_like(values), values, total)
+    return total
+
+
+def _joint_forces_read(owner, terms) -> bool:
+    """Whether every force a continuous controller reads whose laws a parameter moves (``ControllerTerms.forces_read``)
+    is a free joint's torque or force (its ∂F/∂p = −∂f/∂p moves along q as :func:`_hinges` and :func:`_stops` give:
+    :func:`_moved_joint_forces_along`); a cable's tension, an element's section force or a placed point keep the
+    difference (no kernel gives their ∂F/∂p's move along q)."""
+    from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
+
+    model = owner.model
+    read = {r for found in terms.forces_read.values() for r in found}
+    for name in read:
+        probe = terms.moved_forces[name]
+        if not is_joint_force(probe):
+            return False
+        j = joint_of(model, probe)
+        if model.hinge_dofs[j] >= model.n_dofs:   # a stuck or locked joint's force is a reaction
+            return False
+    return True
+
+
+def _moved_joint_forces_along(owner, terms, state, w: np.ndarray) -> dict:
+    """{name: ∂(∂F/∂p)/∂q w (k,)} of the free joints' forces of :func:`_joint_forces_read`: F = −f (the joint's laws
+    and compliant stops, ``ControllerTerms.sensed_force_slopes``), so −∂(∂f/∂p)/∂θ w_θ, the generated ``hinge_force``
+    stiffness with the derivative law in the law's slot (:func:`_hinges`) and ``contact_stiffness_D_law``
+    (:func:`_stops`) along the joint's own angle alone (the rates held, as W's K)."""
+    from latdyn.analyses.joint_force_sensitivities import joint_of
+
+    model = owner.model
+    out = {}
+    for name in {r for found in terms.forces_read.values() for r in found}:
+        probe = terms.moved_forces[name]
+        j = joint_of(model, probe)
+        d = int(model.hinge_dofs[j])
+        along = np.zeros(model.n_total + 1)
+        along[d] = w[d]
+        total = np.zeros((model.n_total + 1, terms.k))
+        if along[d] != 0.0:
+            _hinges(owner, state, along, total)
+            _stops(owner, state, along, total)
+        out[name] = -total[d]
+    return out
+
+
+def held_angles_along(owner, state, w: np.ndarray):
+    """(n_total + 1, k): the derivative along w of the held angles' terms of ∂r/∂p, Σ_j K[:, θ_j] δθ_j over the joints
+    friction holds (``TransientSensitivities._held_forces``), exact, or None where it is not formed here (a model with
+    rigid links or guides; a held angle a load's controller or a controller outside
+    :func:`latdyn.analyses.weight_derivative._exact_controllers` reads). A held angle is no free coordinate, so w does
+    not move it and its column moves along w as ∂(K e_j)/∂q w, formed in that order (no symmetry of the second
+    derivative assumed):
+
+        Σ_e A_e ∂(K_e e_j)/∂q_e w_e δθ_j  +  Σ_a (−a) Σ_i ∂(∂y_a/∂θ_j)/∂q_i w_i δθ_j,
+
+    the elements' from the generated ``beam_stiffness_D_q`` at the direction e_j (the unit on the held angle's slot)
+    times w_e, the couplings' from the controllers' second derivatives (:func:`latdyn.analyses.weight_derivative.
+    _controller_curvatures`, row θ_j); the joint's own law on its own row (K_jj of its own angle, w_j = 0) and that
+    row are not on the free coordinates. Before, a central difference of ``_held_forces`` along w (step WEIGHT_STEP
+    ℓ/|w|_∞, two native evaluations)."""
+    from latdyn.analyses.weight_derivative import _controller_curvatures, _exact_controllers
+
+    held = owner.held
+    model, assembler = owner.model, owner.assembler
+    total = np.zeros((model.n_total + 1, len(owner.names)))
+    if held is None or not np.any(held):
+        return total
+    if model.links is not None:
+        return None
+    control = assembler.control
+    n = model.n_dofs
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    hinges = np.flatnonzero(np.any(held, axis=1))
+    cols = np.asarray(control.coupling_cols)
+    coupled = [int(a) for a in np.asarray(control.coupling_actuator)[np.isin(cols, model.hinge_dofs[hinges])]]
+    curvatures = None
+    if coupled:
+        exact = _exact_controllers(assembler)
+        if any(control.actuator_kind[a] != 0 or not exact[int(control.actuator_controller[a])] for a in coupled):
+            return None
+        columns, curvatures = _controller_curvatures(assembler, state, exact)
+        local = {int(c): i for i, c in enumerate(columns)}
+        along = full[columns] if len(columns) else np.zeros(0)
+    dofs = model.element_dofs
+    geometry = None
+    for j in hinges:
+        d = int(model.hinge_dofs[j])
+        column = np.zeros(model.n_total + 1)
+        elements, slot = np.nonzero(dofs == d)
+        if len(elements):
+            if geometry is None:
+                geometry = assembler.native().element_inputs(state)[0]
+            direction = np.zeros((len(elements), 14))
+            direction[np.arange(len(elements)), slot] = 1.0
+            blocks = np.asarray(assembler.kernels.beam_stiffness_D_q(
+                np.ascontiguousarray(geometry[elements]), direction,
+                np.ascontiguousarray(model.element_sections[elements]))[1]).reshape(-1, 14, 14)
+            np.add.at(column, dofs[elements], np.einsum("eij,ej->ei", blocks, full[dofs[elements]]))
+        if curvatures is not None and d in local:
+            for a in sorted({a for a, c in zip(np.asarray(control.coupling_actuator), cols) if c == d}):
+                gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+                curvature = curvatures[int(control.actuator_controller[a])]
+                column[int(model.hinge_dofs[control.actuator_index[a]])] -= gain * float(curvature[local[d]] @ along)
+        total += np.outer(column, held[j])
+    return total
 
 
 def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
@@ -546,7 +673,7 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
     values = terms.signal_values(state)
     if terms.compiled is not None:
         values.update(terms.sensed_in_c(state))
-    outputs, slopes, moves = {}, {}, {}
+    outputs, slopes, moves, forces, forces_along = {}, {}, {}, None, None
     for c in terms.continuous:
         k = place[c.name]
         reads = _controller_reads(control, k)
@@ -583,6 +710,15 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
             slope[column] += (float(terms.partials[c.name][column](*arguments)) if terms.compiled is None else
                               terms.compiled.value(terms.partials[c.name][column], arguments))
             move[column] += by_partials[i]
+        if terms.forces_read.get(c.name):   # ∂f/∂s ∂F/∂p of the joints' forces whose laws a parameter moves
+            gradient = (c.output_gradient(*arguments) if terms.compiled is None else
+                        terms.compiled.gradient(c, arguments))
+            if forces is None:
+                forces = terms.sensed_force_slopes(state)
+                forces_along = _moved_joint_forces_along(owner, terms, state, w)
+            for read, i in terms.forces_read[c.name].items():
+                slope += gradient[i] * forces[read]
+                move += mixed[i] * forces[read] + gradient[i] * forces_along[read]
         if terms.chained[c.name] or c.name in terms.held:
             gradient = (c.output_gradient(*arguments) if terms.compiled is None else
                         terms.compiled.gradient(c, arguments))

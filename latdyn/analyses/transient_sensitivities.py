@@ -131,7 +131,7 @@ from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters,
+from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters, held_angles_along,
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
@@ -1042,7 +1042,12 @@ class TransientSensitivities(ParameterDerivatives):
         out = (self._on_free_coordinates(state, exact) if exact is not None
                else np.zeros((model.n_dofs, len(self.names))))
         differenced = self.controllers is not None and exact is None
-        if not differenced and (self.held is None or not np.any(self.held)):
+        holding = self.held is not None and np.any(self.held)
+        held_exact = held_angles_along(self, state, w) if holding else None
+        if held_exact is not None:
+            out += self._on_free_coordinates(state, held_exact)
+        held_differenced = holding and held_exact is None
+        if not differenced and not held_differenced:
             return out
         eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
 
@@ -1051,7 +1056,7 @@ class TransientSensitivities(ParameterDerivatives):
             if differenced:
                 with self._controller_outputs_at(moved):   # a chained output the compiled partials read moves
                     self.controllers.add(moved, total)
-            held = self._held_forces(moved, False)
+            held = self._held_forces(moved, False) if held_differenced else None
             if held is not None:
                 total += held
             return self._on_free_coordinates(moved, total)
