@@ -50,12 +50,29 @@ only). The continuous controllers' is exact (:func:`controller_parameter_along`)
 each output and of its parameters' partials by the reads that move along q (lambdified once per expression in a
 process), times the sensors' generated gradients, through the chain of controllers reading controllers and the held
 δS of their states; a hinge actuator's row −a δ(dy/dp), a load's ``point_load`` at a δ(dy/dp) and
-``point_load_stiffness_D_q`` at a dy/dp. Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞)
-where that function does not form them: sampled controllers (their held outputs' terms), a controller reading a force
-whose laws a parameter moves (∂F/∂p's own move along q has no kernel), a controller whose output's second derivatives
-along q are not generated (``weight_derivative._exact_controllers``), and every held angle's K column times its δθ
-(its move along w is ∂(K w)/∂θ_j, but a stuck angle is no free coordinate and the generated H, latdyn/analyses/
-weight_derivative.py, is assembled on the free coordinates alone).
+``point_load_stiffness_D_q`` at a dy/dp. Exact too since ctrlhand:
+
+* a sampled controller's held outputs (:func:`sampled_held_along`): a held δy is a constant of the step (the
+  sample's, carried by the forward method), so a hinge's row −a δy does not move along w, and a load component a δy
+  turns with its node and frame, ``point_load_stiffness_D_q`` at the values a δy;
+* a controller reading a free joint's torque or force whose laws a parameter moves: ∂F/∂p = −∂f/∂p moves along the
+  joint's own angle as the laws' part of (∂K/∂p) w does, the ``hinge_force`` stiffness with the derivative law in the
+  law's slot and ``contact_stiffness_D_law`` (:func:`_moved_joint_forces_along`), and the output's gradient by it
+  with SymPy's mixed second derivatives as the other reads;
+* the angles friction holds (:func:`held_angles_along`): a held angle is no free coordinate, so its K column times δθ_j
+  moves along w as ∂(K e_j)/∂q w, the generated ``beam_stiffness_D_q`` at the unit on the held slot times w_e and the
+  couplings' row of the held angle from the controllers' second derivatives (``_controller_curvatures``), with W's K:
+  the elements' gravity tangent is not in it (csrc/evaluate.c holds it in the inertia tangent), where the difference
+  of the static K's columns this replaced held it (6.2e-6 – 1.1e-5 of the block off at the 3D panel's sticks, and the
+  whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now).
+
+Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a cable's tension,
+an element's section force or a point a geometry parameter places, whose laws a parameter moves (their ∂F/∂p's move
+along q has no kernel); a controller whose output's second derivatives along q are not generated
+(``weight_derivative._exact_controllers``: a free joint's force whose law's slope does not parse back as a law, a
+variant generated before the sensors' second-derivative kernels, an output whose second derivatives are not
+functions, or a controller reading those); a held angle whose column a load's controller's coupling or such a
+controller's reaches.
 
 With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
@@ -494,23 +511,26 @@ def _mixed_laws(controller, partials: dict, moving: tuple):
 
 
 def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
-    """(n_total + 1, k): the derivative along w of the continuous controllers' terms of ∂r/∂p
+    """(n_total + 1, k): the derivative along w of the controllers' terms of ∂r/∂p
     (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`) at ``state``, exact, or None where it is not formed
-    here (the caller differences those terms then): sampled controllers, a controller reading a force whose laws a
-    parameter moves, or one whose output's second derivatives along q are not generated
-    (:func:`latdyn.analyses.weight_derivative._exact_controllers`). With a_p the reads of f_k that move along q (a
+    here (the caller differences those terms then): a controller reading a force other than a free joint's whose laws
+    a parameter moves (:func:`_joint_forces_read`), or one whose output's second derivatives along q are not generated
+    (:func:`latdyn.analyses.weight_derivative._exact_controllers`). The sampled controllers' held outputs:
+    :func:`sampled_held_along`. With a_p the reads of f_k that move along q (a
     sensor: its generated gradient ∂s/∂q, :func:`latdyn.analyses.weight_derivative._sensor_kinematics`; an earlier
     controller's output y_j: its total gradient g_j, :func:`latdyn.analyses.weight_derivative._controller_curvatures`)
     and δa_p = ∂a_p/∂q w, the chain of :meth:`ControllerTerms.add`, dy_k/dp = ∂f_k/∂p + Σ_j ∂f_k/∂y_j dy_j/dp +
     Σ_l ∂f_k/∂S_l δS_l (held), moves along w as
 
         δ(dy_k/dp) = Σ_p ∂(∂f_k/∂p)/∂a_p δa_p + Σ_j (Σ_p ∂²f_k/∂y_j∂a_p δa_p) dy_j/dp + Σ_j ∂f_k/∂y_j δ(dy_j/dp)
-                     + Σ_l (Σ_p ∂²f_k/∂S_l∂a_p δa_p) δS_l
+                     + Σ_l (Σ_p ∂²f_k/∂S_l∂a_p δa_p) δS_l + Σ_F [(Σ_p ∂²f_k/∂F∂a_p δa_p) ∂F/∂p + ∂f_k/∂F δ(∂F/∂p)]
 
     (0 while y_k is clipped at a limit), SymPy's mixed second derivatives (:func:`_mixed_laws`); a hinge actuator's
     row takes −a δ(dy/dp), a load component's the ``point_load`` kernel at a δ(dy/dp) plus
-    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame). Before, a central
-    difference of :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there).
+    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame); F a free joint's force
+    whose laws a parameter moves, δ(∂F/∂p) :func:`_moved_joint_forces_along`. Before, a central difference of
+    :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there; sampled controllers
+    and joint-force readers until ctrlhand).
     ``terms``: a ControllerTerms other than ``owner.controllers`` (its ``k`` columns: the adjoint's held δS map,
     latdyn/analyses/adjoint_controller_states.py ``held_stiffness_along``)."""
     from latdyn.analyses.weight_derivative import _exact_controllers
