@@ -64,7 +64,8 @@ process), times the sensors' generated gradients, through the chain of controlle
   couplings' row of the held angle from the controllers' second derivatives (``_controller_curvatures``), with W's K:
   the elements' gravity tangent is not in it (csrc/evaluate.c holds it in the inertia tangent), where the difference
   of the static K's columns this replaced held it (6.2e-6 – 1.1e-5 of the block off at the 3D panel's sticks, and the
-  whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now).
+  whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now; the difference
+  that remains below takes W's K's columns too, ``TransientSensitivities._held_forces`` without ``element_gravity``).
 
 Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a cable's tension,
 an element's section force or a point a geometry parameter places, whose laws a parameter moves (their ∂F/∂p's move
