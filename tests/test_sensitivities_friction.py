@@ -359,8 +359,9 @@ def test_sticking_and_release_agree_with_richardson_differences(stuck, name):
 @pytest.mark.parametrize("name", ["Fc", "EI"])
 def test_sticking_on_and_off_in_3d_agrees_with_richardson_differences(stuck_3d, name):
     """3D, flexible: two sticks and releases, the stuck joint's torque (its reaction, with its own law's and the held
-    angle's terms) among the probes. Measured: Fc 8.2e-8, EI 4.6e-8, stuck from t = 0 (9.6e-8, 6.0e-8 stuck
-    from the first step's end; then A 3.9e-8, m 7.2e-8 when tried; with a spring k = 0.5 on the hinge: k 7.6e-8,
+    angle's terms) among the probes. Measured: Fc 8.2e-8, EI 4.6e-8 (1.3e-8, 1.2e-8 since ctrlhand: the held angle's
+    columns in the stick's weight derivative W's K's, without the elements' gravity tangent), stuck from t = 0
+    (9.6e-8, 6.0e-8 stuck from the first step's end; then A 3.9e-8, m 7.2e-8 when tried; with a spring k = 0.5 on the hinge: k 7.6e-8,
     A 3.7e-8). At Newton's default tolerance (1e-8) Fc's
     were 4.3e-6 off (the slipping steps' iterates, not the derivative: 9e-8 at 1e-13; A, EI, m ≤ 3e-8 either way)."""
     t, rate = stuck_3d.t, stuck_3d.probes["rate"]

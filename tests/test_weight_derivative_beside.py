@@ -110,10 +110,12 @@ def test_the_block_is_exact_and_takes_no_difference(monkeypatch, text, tolerance
 
 
 def test_a_scene_the_block_does_not_cover_keeps_the_difference(monkeypatch):
-    """A sampled controller's held outputs (not formed by controller_parameter_along) keep the central difference."""
-    from tests.test_sensitivities_controller_states import PD_STOP
+    """A controller reading a cable's tension whose EA is a parameter (its ∂N/∂p's move along q has no kernel: not
+    formed by controller_parameter_along) keeps the central difference. (A sampled controller's held outputs were this
+    case's scene before ctrlhand: tests/test_weight_derivative_controllers_held.py.)"""
+    from tests.test_weight_derivative_force_sensors import TENSION
 
-    seen = _events_block(monkeypatch, PD_STOP)
+    seen = _events_block(monkeypatch, TENSION.replace("sensitivities: [Kp, k]", "sensitivities: [EA, Kp]"))
     assert seen and all(moves == 2 for *_, moves, _ in seen)
     assert transient_sensitivities.controller_parameter_along(seen[0][0], seen[0][1], seen[0][2]) is None
 

@@ -306,8 +306,23 @@ class SamplesTransposed:
 
     def held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
         """(n, C): ∂(A_y δy)/∂q along ``w`` for the C unit columns of δy (an event's weights with the held δy in
-        ∂r/∂p: the forward method's ``_terms_beside_stiffness_along``, its held outputs' part)."""
-        return _held_map_along(self.owner, self.held_map, self.C, state, w)
+        ∂r/∂p: the forward method's ``_terms_beside_stiffness_along``, its held outputs' part), exact as the forward
+        method's (latdyn/analyses/parameter_stiffness.py ``sampled_held_along`` of the unit columns: a hinge's row
+        −a δy does not move, a load's a δy turns with its node and frame, ``point_load_stiffness_D_q``); with rigid
+        links or guides the central difference (step WEIGHT_STEP ℓ/|w|_∞) of :meth:`held_map` along w, the path
+        before."""
+        import copy
+
+        from latdyn.analyses.parameter_stiffness import sampled_held_along
+
+        if float(np.max(np.abs(w), initial=0.0)) == 0.0:
+            return np.zeros((self.owner.model.n_dofs, self.C))
+        if self.owner.model.links is not None:   # w moves the dependent nodes too (P w): the difference, as before
+            return _held_map_along(self.owner, self.held_map, self.C, state, w)
+        one = copy.copy(self.sampled)
+        one.held = np.eye(self.C)
+        total = sampled_held_along(self.owner, state, w, one, np.zeros((self.owner.model.n_total + 1, self.C)))
+        return self.owner._on_free_coordinates(state, total)
 
     def held_transposed(self, state, w: np.ndarray, y_bar: np.ndarray) -> np.ndarray:
         """ȳ − A_yᵀ w: the held δy's use in the step's ∂r/∂p, transposed."""

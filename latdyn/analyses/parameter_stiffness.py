@@ -50,12 +50,30 @@ only). The continuous controllers' is exact (:func:`controller_parameter_along`)
 each output and of its parameters' partials by the reads that move along q (lambdified once per expression in a
 process), times the sensors' generated gradients, through the chain of controllers reading controllers and the held
 δS of their states; a hinge actuator's row −a δ(dy/dp), a load's ``point_load`` at a δ(dy/dp) and
-``point_load_stiffness_D_q`` at a dy/dp. Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞)
-where that function does not form them: sampled controllers (their held outputs' terms), a controller reading a force
-whose laws a parameter moves (∂F/∂p's own move along q has no kernel), a controller whose output's second derivatives
-along q are not generated (``weight_derivative._exact_controllers``), and every held angle's K column times its δθ
-(its move along w is ∂(K w)/∂θ_j, but a stuck angle is no free coordinate and the generated H, latdyn/analyses/
-weight_derivative.py, is assembled on the free coordinates alone).
+``point_load_stiffness_D_q`` at a dy/dp. Exact too since ctrlhand:
+
+* a sampled controller's held outputs (:func:`sampled_held_along`): a held δy is a constant of the step (the
+  sample's, carried by the forward method), so a hinge's row −a δy does not move along w, and a load component a δy
+  turns with its node and frame, ``point_load_stiffness_D_q`` at the values a δy;
+* a controller reading a free joint's torque or force whose laws a parameter moves: ∂F/∂p = −∂f/∂p moves along the
+  joint's own angle as the laws' part of (∂K/∂p) w does, the ``hinge_force`` stiffness with the derivative law in the
+  law's slot and ``contact_stiffness_D_law`` (:func:`_moved_joint_forces_along`), and the output's gradient by it
+  with SymPy's mixed second derivatives as the other reads;
+* the angles friction holds (:func:`held_angles_along`): a held angle is no free coordinate, so its K column times δθ_j
+  moves along w as ∂(K e_j)/∂q w, the generated ``beam_stiffness_D_q`` at the unit on the held slot times w_e and the
+  couplings' row of the held angle from the controllers' second derivatives (``_controller_curvatures``), with W's K:
+  the elements' gravity tangent is not in it (csrc/evaluate.c holds it in the inertia tangent), where the difference
+  of the static K's columns this replaced held it (6.2e-6 – 1.1e-5 of the block off at the 3D panel's sticks, and the
+  whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now; the difference
+  that remains below takes W's K's columns too, ``TransientSensitivities._held_forces`` without ``element_gravity``).
+
+Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a cable's tension,
+an element's section force or a point a geometry parameter places, whose laws a parameter moves (their ∂F/∂p's move
+along q has no kernel); a controller whose output's second derivatives along q are not generated
+(``weight_derivative._exact_controllers``: a free joint's force whose law's slope does not parse back as a law, a
+variant generated before the sensors' second-derivative kernels, an output whose second derivatives are not
+functions, or a controller reading those); a held angle whose column a load's controller's coupling or such a
+controller's reaches.
 
 With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
@@ -80,8 +98,8 @@ from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["controller_parameter_along", "exact_parameters", "stiffness_along", "stiffness_along_all", "time_generated",
-           "time_stiffness_along"]
+__all__ = ["controller_parameter_along", "exact_parameters", "held_angles_along", "sampled_held_along",
+           "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -494,40 +512,170 @@ def _mixed_laws(controller, partials: dict, moving: tuple):
 
 
 def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
-    """(n_total + 1, k): the derivative along w of the continuous controllers' terms of ∂r/∂p
+    """(n_total + 1, k): the derivative along w of the controllers' terms of ∂r/∂p
     (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`) at ``state``, exact, or None where it is not formed
-    here (the caller differences those terms then): sampled controllers, a controller reading a force whose laws a
-    parameter moves, or one whose output's second derivatives along q are not generated
-    (:func:`latdyn.analyses.weight_derivative._exact_controllers`). With a_p the reads of f_k that move along q (a
+    here (the caller differences those terms then): a controller reading a force other than a free joint's whose laws
+    a parameter moves (:func:`_joint_forces_read`), or one whose output's second derivatives along q are not generated
+    (:func:`latdyn.analyses.weight_derivative._exact_controllers`). The sampled controllers' held outputs:
+    :func:`sampled_held_along`. With a_p the reads of f_k that move along q (a
     sensor: its generated gradient ∂s/∂q, :func:`latdyn.analyses.weight_derivative._sensor_kinematics`; an earlier
     controller's output y_j: its total gradient g_j, :func:`latdyn.analyses.weight_derivative._controller_curvatures`)
     and δa_p = ∂a_p/∂q w, the chain of :meth:`ControllerTerms.add`, dy_k/dp = ∂f_k/∂p + Σ_j ∂f_k/∂y_j dy_j/dp +
     Σ_l ∂f_k/∂S_l δS_l (held), moves along w as
 
         δ(dy_k/dp) = Σ_p ∂(∂f_k/∂p)/∂a_p δa_p + Σ_j (Σ_p ∂²f_k/∂y_j∂a_p δa_p) dy_j/dp + Σ_j ∂f_k/∂y_j δ(dy_j/dp)
-                     + Σ_l (Σ_p ∂²f_k/∂S_l∂a_p δa_p) δS_l
+                     + Σ_l (Σ_p ∂²f_k/∂S_l∂a_p δa_p) δS_l + Σ_F [(Σ_p ∂²f_k/∂F∂a_p δa_p) ∂F/∂p + ∂f_k/∂F δ(∂F/∂p)]
 
     (0 while y_k is clipped at a limit), SymPy's mixed second derivatives (:func:`_mixed_laws`); a hinge actuator's
     row takes −a δ(dy/dp), a load component's the ``point_load`` kernel at a δ(dy/dp) plus
-    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame). Before, a central
-    difference of :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there).
+    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame); F a free joint's force
+    whose laws a parameter moves, δ(∂F/∂p) :func:`_moved_joint_forces_along`. Before, a central difference of
+    :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there; sampled controllers
+    and joint-force readers until ctrlhand).
     ``terms``: a ControllerTerms other than ``owner.controllers`` (its ``k`` columns: the adjoint's held δS map,
     latdyn/analyses/adjoint_controller_states.py ``held_stiffness_along``)."""
     from latdyn.analyses.weight_derivative import _exact_controllers
 
     terms = owner.controllers if terms is None else terms
     model, assembler = owner.model, owner.assembler
-    if terms is None or terms.sampled is not None or any(terms.forces_read.values()):
+    if terms is None:
+        return None
+    forces_read = any(terms.forces_read.values())
+    if forces_read and not _joint_forces_read(owner, terms):
         return None
     control = assembler.control
     total = np.zeros((model.n_total + 1, terms.k))
-    if not (terms.partials or terms.held) or not len(control.actuator_kind):
+    if terms.sampled is not None:   # the held outputs' δy: constants of the step, their loads turning along w
+        sampled_held_along(owner, state, w, terms.sampled, total)
+    if not (terms.partials or terms.held or forces_read) or not len(control.actuator_kind):
         return total
     exact = _exact_controllers(assembler)
     if not all(exact):
         return None
     with owner._controller_outputs_at(state):   # the compiled partials read chained outputs from the scene's array
         return _controller_parameter_along(owner, terms, state, w, exact, total)
+
+
+def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray) -> np.ndarray:
+    """Add into ``total`` (n_total + 1, k) the derivative along w of the sampled controllers' held outputs' terms of
+    ∂r/∂p (:meth:`latdyn.analyses.sensitivities.SampledTerms.add`), exact: a held δy is a constant of the step (the
+    sample's, ``SampledTerms.sample``: the output's derivative at the sample, carried by the forward method), so a
+    hinge's or guide's row −a δy does not move along w, and a load component a δy moves only as the load turns with
+    its node and its frame, ``point_load_stiffness_D_q``'s K_l w at the values a δy (:func:`_load_actuator_along`).
+    Before, a central difference of ``ControllerTerms.add`` along w (step WEIGHT_STEP ℓ/|w|_∞)."""
+    loads: dict[int, np.ndarray] = {}
+    for kind, index, component, i, gain in sampled.actuators:
+        moved = gain * sampled.held[i]
+        if kind == 1 and np.any(moved):
+            loads.setdefault(int(index), np.zeros((6, total.shape[1])))[component] += moved
+    for index, values in loads.items():
+        _load_actuator_along(owner, state, w, index, np.zeros_like(values), values, total)
+    return total
+
+
+def _joint_forces_read(owner, terms) -> bool:
+    """Whether every force a continuous controller reads whose laws a parameter moves (``ControllerTerms.forces_read``)
+    is a free joint's torque or force (its ∂F/∂p = −∂f/∂p moves along q as :func:`_hinges` and :func:`_stops` give:
+    :func:`_moved_joint_forces_along`); a cable's tension, an element's section force or a placed point keep the
+    difference (no kernel gives their ∂F/∂p's move along q)."""
+    from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
+
+    model = owner.model
+    read = {r for found in terms.forces_read.values() for r in found}
+    for name in read:
+        probe = terms.moved_forces[name]
+        if not is_joint_force(probe):
+            return False
+        j = joint_of(model, probe)
+        if model.hinge_dofs[j] >= model.n_dofs:   # a stuck or locked joint's force is a reaction
+            return False
+    return True
+
+
+def _moved_joint_forces_along(owner, terms, state, w: np.ndarray) -> dict:
+    """{name: ∂(∂F/∂p)/∂q w (k,)} of the free joints' forces of :func:`_joint_forces_read`: F = −f (the joint's laws
+    and compliant stops, ``ControllerTerms.sensed_force_slopes``), so −∂(∂f/∂p)/∂θ w_θ, the generated ``hinge_force``
+    stiffness with the derivative law in the law's slot (:func:`_hinges`) and ``contact_stiffness_D_law``
+    (:func:`_stops`) along the joint's own angle alone (the rates held, as W's K)."""
+    from latdyn.analyses.joint_force_sensitivities import joint_of
+
+    model = owner.model
+    out = {}
+    for name in {r for found in terms.forces_read.values() for r in found}:
+        probe = terms.moved_forces[name]
+        j = joint_of(model, probe)
+        d = int(model.hinge_dofs[j])
+        along = np.zeros(model.n_total + 1)
+        along[d] = w[d]
+        total = np.zeros((model.n_total + 1, terms.k))
+        if along[d] != 0.0:
+            _hinges(owner, state, along, total)
+            _stops(owner, state, along, total)
+        out[name] = -total[d]
+    return out
+
+
+def held_angles_along(owner, state, w: np.ndarray):
+    """(n_total + 1, k): the derivative along w of the held angles' terms of ∂r/∂p, Σ_j K[:, θ_j] δθ_j over the joints
+    friction holds (``TransientSensitivities._held_forces``), exact, or None where it is not formed here (a model with
+    rigid links or guides; a held angle a load's controller or a controller outside
+    :func:`latdyn.analyses.weight_derivative._exact_controllers` reads). A held angle is no free coordinate, so w does
+    not move it and its column moves along w as ∂(K e_j)/∂q w, formed in that order (no symmetry of the second
+    derivative assumed):
+
+        Σ_e A_e ∂(K_e e_j)/∂q_e w_e δθ_j  +  Σ_a (−a) Σ_i ∂(∂y_a/∂θ_j)/∂q_i w_i δθ_j,
+
+    the elements' from the generated ``beam_stiffness_D_q`` at the direction e_j (the unit on the held angle's slot)
+    times w_e, the couplings' from the controllers' second derivatives (:func:`latdyn.analyses.weight_derivative.
+    _controller_curvatures`, row θ_j); the joint's own law on its own row (K_jj of its own angle, w_j = 0) and that
+    row are not on the free coordinates. Before, a central difference of ``_held_forces`` along w (step WEIGHT_STEP
+    ℓ/|w|_∞, two native evaluations)."""
+    from latdyn.analyses.weight_derivative import _controller_curvatures, _exact_controllers
+
+    held = owner.held
+    model, assembler = owner.model, owner.assembler
+    total = np.zeros((model.n_total + 1, len(owner.names)))
+    if held is None or not np.any(held):
+        return total
+    if model.links is not None:
+        return None
+    control = assembler.control
+    n = model.n_dofs
+    full = np.zeros(model.n_total + 1)
+    full[:n] = w
+    hinges = np.flatnonzero(np.any(held, axis=1))
+    cols = np.asarray(control.coupling_cols)
+    coupled = [int(a) for a in np.asarray(control.coupling_actuator)[np.isin(cols, model.hinge_dofs[hinges])]]
+    curvatures = None
+    if coupled:
+        exact = _exact_controllers(assembler)
+        if any(control.actuator_kind[a] != 0 or not exact[int(control.actuator_controller[a])] for a in coupled):
+            return None
+        columns, curvatures = _controller_curvatures(assembler, state, exact)
+        local = {int(c): i for i, c in enumerate(columns)}
+        along = full[columns] if len(columns) else np.zeros(0)
+    dofs = model.element_dofs
+    geometry = None
+    for j in hinges:
+        d = int(model.hinge_dofs[j])
+        column = np.zeros(model.n_total + 1)
+        elements, slot = np.nonzero(dofs == d)
+        if len(elements):
+            if geometry is None:
+                geometry = assembler.native().element_inputs(state)[0]
+            direction = np.zeros((len(elements), 14))
+            direction[np.arange(len(elements)), slot] = 1.0
+            blocks = np.asarray(assembler.kernels.beam_stiffness_D_q(
+                np.ascontiguousarray(geometry[elements]), direction,
+                np.ascontiguousarray(model.element_sections[elements]))[1]).reshape(-1, 14, 14)
+            np.add.at(column, dofs[elements], np.einsum("eij,ej->ei", blocks, full[dofs[elements]]))
+        if curvatures is not None and d in local:
+            for a in sorted({a for a, c in zip(np.asarray(control.coupling_actuator), cols) if c == d}):
+                gain = float(control.actuator_gain[a]) if control.actuator_gain[a] != 0.0 else 1.0
+                curvature = curvatures[int(control.actuator_controller[a])]
+                column[int(model.hinge_dofs[control.actuator_index[a]])] -= gain * float(curvature[local[d]] @ along)
+        total += np.outer(column, held[j])
+    return total
 
 
 def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
@@ -546,7 +694,7 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
     values = terms.signal_values(state)
     if terms.compiled is not None:
         values.update(terms.sensed_in_c(state))
-    outputs, slopes, moves = {}, {}, {}
+    outputs, slopes, moves, forces, forces_along = {}, {}, {}, None, None
     for c in terms.continuous:
         k = place[c.name]
         reads = _controller_reads(control, k)
@@ -583,6 +731,15 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
             slope[column] += (float(terms.partials[c.name][column](*arguments)) if terms.compiled is None else
                               terms.compiled.value(terms.partials[c.name][column], arguments))
             move[column] += by_partials[i]
+        if terms.forces_read.get(c.name):   # ∂f/∂s ∂F/∂p of the joints' forces whose laws a parameter moves
+            gradient = (c.output_gradient(*arguments) if terms.compiled is None else
+                        terms.compiled.gradient(c, arguments))
+            if forces is None:
+                forces = terms.sensed_force_slopes(state)
+                forces_along = _moved_joint_forces_along(owner, terms, state, w)
+            for read, i in terms.forces_read[c.name].items():
+                slope += gradient[i] * forces[read]
+                move += mixed[i] * forces[read] + gradient[i] * forces_along[read]
         if terms.chained[c.name] or c.name in terms.held:
             gradient = (c.output_gradient(*arguments) if terms.compiled is None else
                         terms.compiled.gradient(c, arguments))

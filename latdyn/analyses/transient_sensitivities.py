@@ -131,7 +131,7 @@ from latdyn.analyses.cable_sensitivities import LANDING, CableSensitivities
 from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters,
+from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters, held_angles_along,
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
@@ -246,7 +246,7 @@ class TransientSensitivities(ParameterDerivatives):
                                              element_gravity=element_gravity)
         if self.cables is not None and self.cables.uses:
             self.cables.residual_derivatives(state, total, inertia)
-        held = self._held_forces(state, inertia)
+        held = self._held_forces(state, inertia, element_gravity)
         if held is not None:   # the angles friction holds, moved by δθ: K's columns of them
             total += held
         shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
@@ -1043,7 +1043,12 @@ class TransientSensitivities(ParameterDerivatives):
         out = (self._on_free_coordinates(state, exact) if exact is not None
                else np.zeros((model.n_dofs, len(self.names))))
         differenced = self.controllers is not None and exact is None
-        if not differenced and (self.held is None or not np.any(self.held)):
+        holding = self.held is not None and np.any(self.held)
+        held_exact = held_angles_along(self, state, w) if holding else None
+        if held_exact is not None:
+            out += self._on_free_coordinates(state, held_exact)
+        held_differenced = holding and held_exact is None
+        if not differenced and not held_differenced:
             return out
         eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
 
@@ -1052,7 +1057,7 @@ class TransientSensitivities(ParameterDerivatives):
             if differenced:
                 with self._controller_outputs_at(moved):   # a chained output the compiled partials read moves
                     self.controllers.add(moved, total)
-            held = self._held_forces(moved, False)
+            held = self._held_forces(moved, False, False) if held_differenced else None
             if held is not None:
                 total += held
             return self._on_free_coordinates(moved, total)
@@ -1200,17 +1205,21 @@ class TransientSensitivities(ParameterDerivatives):
         held = carried.get("held")
         return held if held is not None else np.zeros((len(self.model.hinges), len(self.names)))
 
-    def _held_forces(self, state, inertia: bool):
+    def _held_forces(self, state, inertia: bool, element_gravity: bool = True):
         """Σ_j K[:, θ_j] δθ_j (n_total + 1, k) over the joints friction holds (:attr:`held`), or None: a stuck
         joint's angle is no free coordinate, but it is where the run stuck it, a function of p, and every
         residual moves with it through K's column of that angle — the elements' blocks (their tangent and, with
         ``inertia``, inertia tangent, as in the exact K), a controller's coupling, and the joint's own law on its
-        (reaction's) row: one native evaluation at ``state``."""
+        (reaction's) row: one native evaluation at ``state``. Without ``inertia`` and ``element_gravity`` (the
+        static ∂r/∂p an event's weight derivative differences, :meth:`_stiffness_derivative`) the elements' tangent
+        without their gravity load's, as W's K (the evaluation with the inertia forces: csrc/evaluate.c holds it in
+        the inertia tangent); the static evaluation's held it, and the held angle's block was 6.2e-6 – 1.1e-5 off W's
+        at the 3D panel's sticks (tests/test_weight_derivative_controllers_held.py)."""
         held = self.held
         if held is None or not np.any(held):
             return None
         model, native = self.model, self.assembler.native(True)
-        native.evaluate(state, True, 1.0, inertia, inertia)
+        native.evaluate(state, True, 1.0, inertia or not element_gravity, inertia)
         b, control = native.buffers, self.assembler.control
         stiffness = b["tangent"] + b["inertia_tangent"] if inertia else b["tangent"]
         dofs, out = model.element_dofs, np.zeros((model.n_total + 1, held.shape[1]))
