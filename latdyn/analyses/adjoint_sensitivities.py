@@ -81,7 +81,7 @@ friction sticks (a stick and a release are events not transposed yet: refused wh
 :meth:`_refuse_a_stick`; friction while the joints slip is taken), a controller's output probe beside events where it
 names t (continuous controllers without states enter E and the matrices as in the forward method; with states and
 sampled ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held
-outputs' bars beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`,
+outputs' bars beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_step_transposed`,
 :meth:`after_sample`). Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
@@ -93,6 +93,7 @@ forward method's ``rates``), are transposed along all three (:meth:`_linked_weig
 """
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -678,17 +679,9 @@ class AdjointSensitivities(TransientSensitivities):
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
             rule = entry.get("rule")
-            if states_t is not None:   # the states' recurrence transposed around the step
-                bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar]
-                w = self._states_step_transposed(carried, i, (new, h, turn, turn_t, tangent, tangent_t, beta_p,
-                                                              gamma_p, old), bars, gradient)
-                q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
-                if samples_t is not None:
-                    y_bar = samples_t.held_transposed(new, w, y_bar)
-                continue
-            if rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below in one call, w
-                bars = [q_bar, v_bar, vdot_bar, a_bar]  # returned for ∂r/∂p's contraction
-                w = native.step(new, h, (tangent, tangent_t, turn_t), bars)
+            if states_t is None and rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below
+                bars = [q_bar, v_bar, vdot_bar, a_bar]                     # in one call, w returned for ∂r/∂p's
+                w = native.step(new, h, (tangent, tangent_t, turn_t), bars)  # contraction
                 if w is not None:
                     g_bar = np.zeros(m)
                     gradient -= self.residual_transposed_product(new, w)
@@ -696,32 +689,12 @@ class AdjointSensitivities(TransientSensitivities):
                         t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
                     q_bar, v_bar, vdot_bar, a_bar = bars
                     continue
-            C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
-            if rule is not None:   # the step's size moves with p: its column, and δh's functional transposed
-                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p)
-                h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
-                            (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
-                h_bar = h_bar + t_bar + g_bar
-                q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
-                                                                                 q_bar, v_bar, t_bar)
-                gradient += by_size
-            else:
-                g_bar = np.zeros(m)
-            z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
-            w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, m)
-            gradient -= self.residual_transposed_product(new, w)
-            if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
-                t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
-            if samples_t is not None:
+            bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar]
+            w = self._step_transposed(carried, i, (new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old),
+                                      bars, gradient)
+            q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
+            if samples_t is not None:   # the held δy's part of the step's ∂r/∂p
                 y_bar = samples_t.held_transposed(new, w, y_bar)
-            dq0_bar = q_bar - K_t @ w
-            dv0_bar = v_bar - C_t @ w
-            du0_bar = tangent_t(dq0_bar)
-            da0_bar = a_bar + h * gamma * dv0_bar + h * h * beta * du0_bar
-            q_bar = turn_t(dq0_bar)
-            v_bar = dv0_bar + h * du0_bar
-            a_bar = h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar
-            vdot_bar = af / (1 - am) * da0_bar
         if carried.get("numbering_start") is not None and self._with_events():
             self._numbered(carried["numbering_start"])
         for column, (c_q, c_v, c_vdot, explicit, *c_S) in seeds.get(0, []):   # δS_0 = 0: a state's seed adds nothing
@@ -761,43 +734,49 @@ class AdjointSensitivities(TransientSensitivities):
     def _controllers_at(self, carried: dict, index: int):
         """A context in which the scene's arrays hold the controllers' accepted (S, f) of the stored state
         ``index`` (0: the start), or a null context without controller states."""
-        from contextlib import nullcontext
-
         states_t = self._states_transposed()
         if states_t is None:
             return nullcontext()
         return states_t.at(carried["controller_start"] if index == 0 else
                            carried["trajectory"][index - 1]["controller"])
 
-    def _states_step_transposed(self, carried: dict, i: int, step: tuple, bars: list,
-                                gradient: np.ndarray) -> np.ndarray:
-        """Step ``i`` of the reverse pass with the continuous controllers' states (``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄,
-        ḡ] at its end replaced by those at its start, ``gradient`` (k, m) updated in place): the forward method's
-        ``ControllerStates.after_step`` transposed, the structure's step as :meth:`_reverse_columns` takes it with
-        its matrix condensed from (S_n, f_n) and the held part's ∂r/∂p transposed, then ``begin_step`` transposed
-        (latdyn/analyses/adjoint_controller_states.py). Returns the step's w (a sampled controller's held part,
-        :meth:`SamplesTransposed.held_transposed`)."""
+    def _step_transposed(self, carried: dict, i: int, step: tuple, bars: list, gradient: np.ndarray) -> np.ndarray:
+        """Step ``i`` of the reverse pass from Python (module docstring: z̄, w, the bars' update; where its size moves
+        with p the step size's column and δh's functional transposed, :meth:`_step_size_column`,
+        :meth:`_step_size_transposed`): ``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄, ḡ] at its end replaced by those at its
+        start, ``gradient`` (k, m) updated in place; returns the step's w (a sampled controller's held part,
+        :meth:`SamplesTransposed.held_transposed`). With continuous controllers' states (S̄, f̄ not None) the hooks of
+        latdyn/analyses/adjoint_controller_states.py around it, in the forward method's reverse order: ``after_step``
+        transposed first (h̄ gains by_hᵀS̄_{n+1}), the step's matrix condensed from (S_n, f_n), the states' B by_h in the
+        step size's column, then the held part's ∂r/∂p and ``begin_step`` transposed."""
         p, model = self.params, self.model
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old = step
         states_t = self._states_transposed()
         q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
         entry = carried["trajectory"][i]
-        before = (carried["controller_start"] if i == 0 else carried["trajectory"][i - 1]["controller"])
         with self._controllers_at(carried, i + 1):
-            terms = states_t.step_terms(new, h, before)
-            q_bar = q_bar.copy()
-            held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, gradient)
-            with states_t.condensed(before, h):
+            if states_t is None:
+                condensed, by_size, h_by_states = nullcontext(), None, None
+            else:
+                before = (carried["controller_start"] if i == 0 else carried["trajectory"][i - 1]["controller"])
+                terms = states_t.step_terms(new, h, before)
+                q_bar = q_bar.copy()
+                held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, gradient)
+                condensed = states_t.condensed(before, h)
+            with condensed:
                 C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
             rule = entry.get("rule")
             if rule is not None:   # the step's size moves with p: its column (the states' ∂r/∂h in it), δh transposed
-                by_size = states_t.held_map(new) @ states_t.by_step_size(terms)
+                if states_t is not None:
+                    by_size = states_t.held_map(new) @ states_t.by_step_size(terms)
                 column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p,
                                                 by_size)
                 h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
                             (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
-                h_bar = h_bar + t_bar + g_bar + h_by_states
+                h_bar = h_bar + t_bar + g_bar
+                if h_by_states is not None:
+                    h_bar = h_bar + h_by_states
                 q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
                                                                                  q_bar, v_bar, t_bar)
                 gradient += by_size
@@ -808,8 +787,9 @@ class AdjointSensitivities(TransientSensitivities):
             gradient -= self.residual_transposed_product(new, w)
             if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
                 t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
-            held_bar = states_t.held_transposed(new, w, held_bar)
-            S_bar, f_bar = states_t.begin_step_transposed(h, terms, held_bar, gradient)
+            if states_t is not None:
+                held_bar = states_t.held_transposed(new, w, held_bar)
+                S_bar, f_bar = states_t.begin_step_transposed(h, terms, held_bar, gradient)
         dq0_bar = q_bar - K_t @ w
         dv0_bar = v_bar - C_t @ w
         du0_bar = tangent_t(dq0_bar)
