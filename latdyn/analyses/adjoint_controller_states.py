@@ -110,10 +110,10 @@ class StatesTransposed:
         return out
 
     def after_step_transposed(self, state, h: float, terms: dict, S_bar: np.ndarray, f_bar: np.ndarray,
-                              q_bar: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+                              q_bar: np.ndarray, v_bar: np.ndarray, gradient: np.ndarray) -> tuple:
         """The transpose of ``ControllerStates.after_step`` (module docstring) for the bars at the step's end:
-        q̄ and the gradient updated in place; returns (held̄ (P, m), the adjoint of the step's δh through
-        δS_{n+1} += by_h δh (m,))."""
+        q̄, v̄ (a sensor reading a rate: δs = D_q δq + D_v δv) and the gradient updated in place; returns (held̄ (P, m),
+        the adjoint of the step's δh through δS_{n+1} += by_h δh (m,))."""
         hh = 0.5 * h
         held_bar = np.zeros_like(S_bar)
         h_bar = np.zeros(S_bar.shape[1])
@@ -126,13 +126,47 @@ class StatesTransposed:
             held_bar[rows] = S_next_bar                               # δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs
             h_bar += by_h @ S_next_bar                                #            + by_h δh
             sensed_bar[c.name] = s_bar
-        n = self.owner.model.n_dofs
-        units = np.eye(n)
-        for c in self.states.controllers:   # δs = D_s δq: the forward method's map on the unit columns, transposed
+        for c in self.states.controllers:   # δs = D_q δq + D_v δv: the forward method's map on unit columns, transposed
             if len(self.states.sensors[c.name]):
-                D_s = np.asarray(self.states._sensed(c, state, units), float).reshape(-1, n)
-                q_bar += D_s.T @ sensed_bar[c.name]
+                self._sensed_transposed(c, state, sensed_bar[c.name], q_bar, v_bar)
         return held_bar, h_bar
+
+    def _sensed_transposed(self, c, state, s_bar: np.ndarray, q_bar: np.ndarray, v_bar: np.ndarray) -> None:
+        """q̄ += D_qᵀ s̄ and v̄ += D_vᵀ s̄ in place: δs = D_q δq + D_v δv of ``c``'s sensors at ``state`` (D_v where one
+        reads a rate, :func:`latdyn.analyses.sensitivities.reads_rates`), the forward method's
+        ``ControllerStates._sensed`` on the n unit columns of δq (and of δv) and transposed."""
+        D_q, D_v = _sensed_forms(self.owner, lambda dq, dv: self.states._sensed(c, state, dq, None, dv),
+                                 self.states.sensors[c.name])
+        q_bar += D_q.T @ s_bar
+        if D_v is not None:
+            v_bar += D_v.T @ s_bar
+
+    def reads_rates(self) -> bool:
+        """Whether a controller with states reads a rate (its δf is taken anew after a jump: :meth:`restarted_transposed`)."""
+        from latdyn.analyses.sensitivities import reads_rates
+
+        return any(reads_rates(self.states.sensors[c.name]) for c in self.states.controllers)
+
+    def restarted_transposed(self, state, bars: list, gradient: np.ndarray) -> list:
+        """The transpose of ``ControllerStates.restarted`` at the state ``state`` after an event's jump and restart:
+        forward, each controller reading a rate takes δf⁺ = ∂f/∂s δs⁺ + ∂f/∂S δS + ∂f/∂p anew, δs⁺ = D_q δq + D_v δv⁺
+        of the jumped rates, in place of the step's δf; so, ``bars`` [q̄, v̄, S̄, f̄] after it: s̄ = ∂f/∂sᵀ f̄,
+        q̄ += D_qᵀ s̄, v̄ += D_vᵀ s̄, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄ and f̄ = 0 on its rows (the step's δf reaches no
+        further). Returns the bars before it (new arrays); the others' f̄ passes unchanged (their δf is kept)."""
+        from latdyn.analyses.sensitivities import reads_rates
+
+        q_bar, v_bar, S_bar, f_bar = (np.array(bar, float) for bar in bars)
+        for c in self.states.controllers:
+            if not reads_rates(self.states.sensors[c.name]):
+                continue
+            rows = slice(self.states.first[c.name], self.states.first[c.name] + len(c.states))
+            _, f_s, f_S, f_p = self.states._at(c, state)
+            bar = f_bar[rows].copy()
+            gradient += f_p.T @ bar
+            S_bar[rows] += f_S.T @ bar
+            self._sensed_transposed(c, state, f_s.T @ bar, q_bar, v_bar)
+            f_bar[rows] = 0.0
+        return [q_bar, v_bar, S_bar, f_bar]
 
     def held_map(self, state) -> np.ndarray:
         """B (n, P): the forward method's ∂r/∂p of a held δS (``ControllerTerms.add`` with ``held`` the unit
@@ -255,6 +289,20 @@ def _output_forms(owner, name: str, state, done: dict) -> tuple:
     return done[name]
 
 
+def _sensed_forms(owner, sensed, probes: list) -> tuple:
+    """(D_q (m, n), D_v (m, n) or None): δs = D_q δq + D_v δv of the sensors ``probes`` from the forward method's map
+    ``sensed(dq, dv)`` on unit columns: the n of δq alone where no sensor reads a rate (``dv`` None), else the 2n of
+    [δq | δv] in one call."""
+    from latdyn.analyses.sensitivities import reads_rates
+
+    n, m = owner.model.n_dofs, len(probes)
+    if not reads_rates(probes):
+        return np.asarray(sensed(np.eye(n), None), float).reshape(m, n), None
+    eye, zero = np.eye(n), np.zeros((n, n))
+    both = np.asarray(sensed(np.hstack([eye, zero]), np.hstack([zero, eye])), float).reshape(m, 2 * n)
+    return both[:, :n], both[:, n:]
+
+
 def _held_map_along(owner, held_map, columns: int, state, w: np.ndarray) -> np.ndarray:
     """(n, ``columns``): ∂(``held_map`` x)/∂q along ``w`` for the unit columns of x, the forward method's
     ``_terms_beside_stiffness_along`` central difference (step WEIGHT_STEP ℓ/|w|_∞) of the held part alone."""
@@ -331,14 +379,14 @@ class SamplesTransposed:
                    np.zeros_like(a_bar)]
         return y_bar, u_bar
 
-    def sample_transposed(self, state, due: list, S_before: np.ndarray, q_bar: np.ndarray, y_bar: np.ndarray,
-                          S_bar: np.ndarray, gradient: np.ndarray) -> tuple:
+    def sample_transposed(self, state, due: list, S_before: np.ndarray, q_bar: np.ndarray, v_bar: np.ndarray,
+                          y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray) -> tuple:
         """The sample of the controllers ``due`` at ``state`` (their states ``S_before`` before it) transposed
-        (class docstring): q̄ and ``gradient`` updated in place; returns (ȳ, S̄) before the sample."""
+        (class docstring; a sensor reading a rate: δs = D_q δq + D_v δv, δv the sample's state's, v̄ += D_vᵀ s̄): q̄, v̄
+        and ``gradient`` updated in place; returns (ȳ, S̄) before the sample."""
         from latdyn.analyses.sensitivities import _sensor_derivatives
 
         sampled, owner = self.sampled, self.owner
-        n = owner.model.n_dofs
         values = dict(zip(sampled.terms.sensors.names, sampled.terms.sensors.values(state)))
         y_bar, S_bar = y_bar.copy(), S_bar.copy()
         for c in sampled.controllers:
@@ -352,9 +400,13 @@ class SamplesTransposed:
             gradient += np.outer(y_p, out_bar) + g_p.T @ by_rate
             S_bar[rows] = S_bar[rows] + g_S.T @ by_rate + np.outer(y_S, out_bar)
             y_bar[i] = 0.0
-            if len(c.reads):
-                D_s = _sensor_derivatives(owner, sampled.sensors[c.name], state, np.eye(n)).reshape(len(c.reads), n)
-                q_bar += D_s.T @ s_bar
+            if len(c.reads):   # the forward method's SampledTerms.sample: δs = D_q δq + D_v δv
+                D_q, D_v = _sensed_forms(owner, lambda dq, dv: _sensor_derivatives(owner, sampled.sensors[c.name],
+                                                                                   state, dq, None, dv),
+                                         sampled.sensors[c.name])
+                q_bar += D_q.T @ s_bar
+                if D_v is not None:
+                    v_bar += D_v.T @ s_bar
         return y_bar, S_bar
 
     def start_transposed(self, state, y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray) -> None:

@@ -223,6 +223,9 @@ class AdjointSensitivities(TransientSensitivities):
             entry["numbering_end"] = self._numbering()
             if entry.get("event") is not None:
                 entry["after"] = new.copy()
+                states_t = self._states_transposed()
+                if states_t is not None and states_t.reads_rates():   # f taken anew at the jumped rates: the next
+                    entry["controller_restarted"] = states_t.stored()  # step's (S_n, f_n) (ControllerStates.restarted)
         return carried
 
     # ------------------------------------------------------------------ events: what the forward pass keeps
@@ -633,14 +636,19 @@ class AdjointSensitivities(TransientSensitivities):
                     if states_t is not None:   # the continuous states held through the restart (ControllerStates.hold)
                         S_bar = S_bar + states_t.held_map(sample["state"]).T @ u_bar
                 q_bar, v_bar, vdot_bar, a_bar = bars
-                q_bar = q_bar.copy()
+                q_bar, v_bar = q_bar.copy(), v_bar.copy()
                 y_bar, sampled_bar = samples_t.sample_transposed(sample["state"], sample["due"], sample["S"], q_bar,
-                                                                 y_bar, sampled_bar, gradient)
+                                                                 v_bar, y_bar, sampled_bar, gradient)
             if samples_t is not None:   # the held outputs the step was taken with
                 outputs[:] = entry["outputs"]
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
                 held = states_t is not None or samples_t is not None   # δS or δy held through the event's pieces
                 with self._controllers_at(carried, i + 1):   # the states as accepted at the event (they do not jump)
+                    if states_t is not None and states_t.reads_rates():   # δf⁺ of the jumped rates, transposed
+                        self._numbered(entry["numbering_end"])
+                        q_bar, v_bar, S_bar, f_bar = states_t.restarted_transposed(entry["after"],
+                                                                                   [q_bar, v_bar, S_bar, f_bar],
+                                                                                   gradient)
                     self._weights_met = [] if held else None
                     q_bar, v_bar, vdot_by_restart, by_restart, t_by_restart = self._restart_transposed(
                         entry, q_bar, v_bar, vdot_bar + a_bar)
@@ -759,10 +767,11 @@ class AdjointSensitivities(TransientSensitivities):
             if states_t is None:
                 condensed, by_size, h_by_states = nullcontext(), None, None
             else:
-                before = (carried["controller_start"] if i == 0 else carried["trajectory"][i - 1]["controller"])
+                before = self._states_before(carried, i)
                 terms = states_t.step_terms(new, h, before)
-                q_bar = q_bar.copy()
-                held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, gradient)
+                q_bar, v_bar = q_bar.copy(), v_bar.copy()
+                held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, v_bar,
+                                                                       gradient)
                 condensed = states_t.condensed(before, h)
             with condensed:
                 C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
@@ -799,6 +808,16 @@ class AdjointSensitivities(TransientSensitivities):
                    h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar, S_bar, f_bar,
                    t_bar, g_bar]
         return w
+
+    @staticmethod
+    def _states_before(carried: dict, i: int) -> tuple:
+        """(S_n, f_n) the forward method's step ``i`` starts from (``ControllerStates.begin_step``, ``condensed``): the
+        accepted (S, f) of the step before, or after its event's restart where the states' rates were taken anew there
+        (``ControllerStates.restarted``: a controller reading a rate; :meth:`after_events`)."""
+        if i == 0:
+            return carried["controller_start"]
+        entry = carried["trajectory"][i - 1]
+        return entry.get("controller_restarted", entry["controller"])
 
     def _held_weights_transposed(self, carried: dict, i: int, S_bar: np.ndarray, sign: float, held,
                                  restart: bool = False) -> np.ndarray:

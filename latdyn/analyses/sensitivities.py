@@ -211,20 +211,6 @@ def refusal(scene) -> SceneError | None:
     return None
 
 
-def _adjoint_rate_sensor_refusal(scene) -> str | None:
-    """Why the adjoint refuses ``scene`` for a controller with states or a sampled one reading a rate (a hinge's or a
-    guide's rate, a point's velocity), or None: the forward method's δs = D_q δq + D_v δv (:func:`_sensor_derivatives`)
-    has its D_q transposed in latdyn/analyses/adjoint_controller_states.py, its D_v not yet."""
-    rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
-    for c in scene.controllers.values():
-        read = sorted(rates & set(c.reads))
-        if read and (c.states or c.sampled):
-            return (f"controller {c.name!r} reads the rate probe {read[0]!r} and "
-                    f"{'is sampled' if c.sampled else 'has states'}: the adjoint does not transpose its sensors' "
-                    "derivative by the rates (D_v of δs = D_q δq + D_v δv) yet")
-    return None
-
-
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops, compliant stops' onsets (a hinge's or a
@@ -242,8 +228,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = _adjoint_geometry_refusal(scene)
     elif controller_probes.adjoint_refusal(scene) is not None:
         why = controller_probes.adjoint_refusal(scene)
-    elif _adjoint_rate_sensor_refusal(scene) is not None:
-        why = _adjoint_rate_sensor_refusal(scene)
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
