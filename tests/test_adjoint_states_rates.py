@@ -2,17 +2,20 @@
 latdyn/analyses/adjoint_controller_states.py; docs/parameters.md, "The discrete adjoint").
 
 The forward method moves such a controller's sensors by δs = D_q δq + D_v δv (δv the step end's, or the sample's
-state's) and, after an event's jump, takes the states' rates anew: δf⁺ = ∂f/∂s δs⁺ + ∂f/∂S δS + ∂f/∂p with δs⁺ of the
+state's) and, after a latch's jump, takes the states' rates anew: δf⁺ = ∂f/∂s δs⁺ + ∂f/∂S δS + ∂f/∂p with δs⁺ of the
 jumped rates (latdyn/analyses/sensitivities.py ``ControllerStates._sensed``, ``ControllerStates.restarted``,
-``SampledTerms.sample``). The reverse pass transposes both: v̄ += D_vᵀ s̄ beside q̄ += D_qᵀ s̄ at each step's end and
-each sample, and at each jump s̄ = ∂f/∂sᵀ f̄ onto q̄ and v̄ of the jumped state, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄, f̄ = 0
-on the rows of the controllers reading a rate (``StatesTransposed.restarted_transposed``); the step after the event
-starts from the restarted (S, f). Each scene is genuinely 3D (hinge axes and points out of the coordinate planes) and
+``SampledTerms.sample``). The reverse pass transposes both: v̄ += D_vᵀ s̄ beside q̄ += D_qᵀ s̄ at each step's end
+and each sample, and at each latch s̄ = ∂f/∂sᵀ f̄ onto q̄ and v̄ of the jumped state, S̄ += ∂f/∂Sᵀ f̄,
+dy/dp += ∂f/∂pᵀ f̄, f̄ = 0 on the rows of the controllers reading a rate
+(``StatesTransposed.restarted_transposed``); the step after the latch starts from the restarted (S, f). After a stop
+the run keeps the states' rates (``sensitivities.rates_taken_anew``), and so, since this change, does the forward
+method (before, it took them anew at stops too: wrong, last test below). Each scene is genuinely 3D (hinge axes and points out of the coordinate planes) and
 typed as YAML. References: the forward method's sensitivities (≤ 1e-10 relative, every probe's end, max and min by
 every parameter and every event time's derivative: tests/test_sensitivities_refusals_lifted.py ``_adjoint_error``)
 and Richardson-extrapolated central differences of whole runs (≤ 1e-6 relative to the largest over the probes, the
-perturbation varied, the time step fixed, ``solve.tol`` 1e-12). Before this change (40bf44a) every scene here was
-refused by the adjoint (exit 2 naming solve.sensitivity_method, "reads the rate probe")."""
+perturbation varied, the time step fixed, ``solve.tol`` 1e-12). Before this change (40bf44a) every adjoint scene here
+was refused (exit 2 naming solve.sensitivity_method, "reads the rate probe"), and the forward method beside the stops
+was off its references (6.9e-3)."""
 from __future__ import annotations
 
 import numpy as np
@@ -24,7 +27,7 @@ from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
 from tests.test_adjoint_controllers_states import BOOM_LATCH, SAMPLED_PD, SLEW_BOOM
 from tests.test_sensitivities_in_loop_controller_integral import WHEEL_STOP
 from tests.test_sensitivities_refusals_lifted import _adjoint_error, _both
-from tests.test_sensitivities_refusals_lifted2 import _run
+from tests.test_sensitivities_refusals_lifted2 import _richardson_error, _run
 from tests.test_sensitivities_states_rates import GIMBAL_RATE, SAMPLED_STOP
 
 #: the slewing boom on its tilted hub under a PI with a filtered rate measurement: Kp (0.5 − θ) + Ki E − Kd F, the
@@ -51,8 +54,8 @@ LATCH_PID = BOOM_LATCH.replace(
 #: hinge's rate (the rate reverses at each impact: F's rate taken anew there)
 WHEEL_RATE_STOP = WHEEL_STOP.replace('F: "w*(angle - F)"', 'F: "w*(rate - F)"').replace(
     "    angle:", "    rate: {hinge: arm.end, quantity: rate}\n    angle:")
-#: the sampled PD's arm at 50 Hz, its derivative a sampled filter P of its hinge's rate, P_{k+1} = P_k + 10 (ω − P_k)/50,
-#: latching at 0.03 rad
+#: the sampled PD's arm at 50 Hz, its derivative a sampled filter P of its hinge's rate,
+#: P_{k+1} = P_k + 10 (ω − P_k)/50, latching at 0.03 rad
 SAMPLED_RATE_LATCH = SAMPLED_PD.replace(
     'pd: {output: "Kp*(0.4 - th) - Kd*(th - P)*50", states: {P: "(th - P)*50"}, rate: 50}',
     'pd: {output: "Kp*(0.4 - th) - Kd*P", states: {P: "(thd - P)*10"}, rate: 50}').replace(
@@ -81,9 +84,9 @@ def test_the_adjoint_equals_the_forward_method_where_controller_states_read_rate
     event time's derivative: the forward method's to 1e-10 relative (tests/test_sensitivities_states_rates.py checks
     its boom's PI of the rate and its sampled PD of a velocity likewise). Measured: the boom's filtered rate 1.8e-11
     (on a row whose derivative is ~1e-5 of the probe's others: round-off), the gimbal 2.0e-13, the PID through the
-    latch 3.8e-12, the wheel's two stops 9.2e-13, the sampled PD's stop 5.4e-13, the sampled filter's latch 2.6e-13. Without D_vᵀ the boom was 0.20 off, the latch
-    0.21, the wheel 0.24, the sampled ones 1.0; without the restart's δf⁺ transposed the latch 1.8e-2 and the wheel
-    1.3e-4; with the step after the latch started from the f before the restart, the latch 0.17."""
+    latch 3.8e-12, the wheel's two stops 9.5e-13, the sampled PD's stop 5.4e-13, the sampled filter's latch 2.6e-13.
+    Without D_vᵀ the boom was 0.20 off, the latch 0.21, the wheel 0.24, the gimbal 2.6, the sampled ones 1.0; without the restart's δf⁺ transposed the latch 1.8e-2; with the step
+    after the latch started from the f before the restart, the latch 0.17."""
     forward, adjoint = _both(text)
     assert [e["kind"] for e in adjoint.summary["event_sensitivities"]] == events
     assert _adjoint_error(forward, adjoint) <= 1e-10
@@ -113,7 +116,8 @@ def _richardson_end_error(text: str, adjoint, name: str, relative: float = 1e-4)
 
 def test_the_pid_through_the_latch_agrees_with_richardson_central_differences():
     """The adjoint's derivatives of every probe's end value and of the latch's time, by the derivative's gain and its
-    filter's constant, against whole runs differenced (``solve.tol`` 1e-12 both). Measured (steps 1e-4 relative): Kd 7.5e-10, tf 1.2e-9 (1e-3: 4.0e-11, 9.5e-11)."""
+    filter's constant, against whole runs differenced (``solve.tol`` 1e-12 both). Measured (steps 1e-4 relative):
+    Kd 7.5e-10, tf 1.2e-9 (1e-3: 4.0e-11, 9.5e-11)."""
     data = _adjoint(LATCH_PID)
     data["solve"].update(tol=1e-12, sensitivities=["Kd", "tf"])
     adjoint = latdyn.run(latdyn.load_scene(data))
@@ -139,3 +143,18 @@ def test_the_cli_equals_the_api_bit_for_bit_and_the_loop_off_writes_the_same(tmp
     python = summary_of(tmp_path / "off")
     assert python["probe_sensitivities"] == written["probe_sensitivities"]
     assert python["event_sensitivities"] == written["event_sensitivities"]
+
+
+@pytest.mark.parametrize("name", ["w", "Kp"])
+def test_a_state_reading_a_rate_beside_a_stop_agrees_with_richardson_central_differences(name):
+    """The forward method beside a rigid stop: the run keeps the states' rates f through a stop's jump
+    (restart_accelerations restarts the accelerations alone; only after a latch does the integrator take f anew), so
+    δf is the step's there too (``rates_taken_anew``). On 40bf44a the forward method took δf anew at the stops as well
+    and was 6.9e-3 (by the filter's w) and 8.9e-5 (by Kp) off these references, reported as solved. Measured (every
+    probe over its rows, relative to its largest; the stops' times too; steps 1e-4 relative, ``solve.tol`` 1e-12):
+    w 2.3e-8, Kp 3.1e-9."""
+    data = yaml.safe_load(WHEEL_RATE_STOP)
+    data["solve"].update(tol=1e-12, sensitivities=[name])
+    result = latdyn.run(latdyn.load_scene(data))
+    assert [e["kind"] for e in result.summary["events"]] == ["stop", "stop"]
+    assert _richardson_error(WHEEL_RATE_STOP, result, name) <= 1e-6

@@ -8,7 +8,7 @@ A = I − h/2 ∂f/∂S, ∂f/∂s, ∂f/∂S, ∂f/∂p at the step's end (its 
     held     = A⁻¹ (δS_n + h/2 (δf_n + ∂f/∂p))                         (``begin_step``),
     E        = ∂r/∂p + B held,   B the actuators' rows of ∂y/∂S          (``ControllerTerms.add`` with ``held``),
     z = S⁻¹(−(E + K δq⁰ + C δv⁰)) with S's K and C condensed from (S_n, f_n)   (``condensed``),
-    δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs_{n+1},   δs_{n+1} = D_s δq_{n+1}        (``after_step``, ``_sensed``),
+    δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs_{n+1},   δs_{n+1} = D_q δq_{n+1} + D_v δv_{n+1} (``after_step``, ``_sensed``),
     δf_{n+1} = ∂f/∂s δs_{n+1} + ∂f/∂S δS_{n+1} + ∂f/∂p,
 
 and δS_0 = 0, δf_0 = ∂f/∂p at the start (``start``); beside events a step whose size moves adds B by_h to its step
@@ -17,7 +17,7 @@ jump and restart (``hold``: B δS in the restart's ∂r/∂p, ∂(B δS)/∂q w 
 and f̄ beside the structure's bars and applies the transposes in reverse order, each named after its forward piece:
 
 - :meth:`StatesTransposed.after_step_transposed`: S̄ += ∂f/∂Sᵀ f̄, s̄ = ∂f/∂sᵀ f̄ + h/2 ∂f/∂sᵀ A⁻ᵀ S̄,
-  q̄ += D_sᵀ s̄, dy/dp += ∂f/∂pᵀ f̄, and held̄ = S̄;
+  q̄ += D_qᵀ s̄ (v̄ += D_vᵀ s̄ for a sensor reading a rate), dy/dp += ∂f/∂pᵀ f̄, and held̄ = S̄;
 - the structure's step as without states (its matrix taken in :meth:`StatesTransposed.condensed`, the forward
   method's own context), then :meth:`StatesTransposed.held_transposed`: held̄ −= Bᵀ w;
 - :meth:`StatesTransposed.begin_step_transposed`: ĥ = A⁻ᵀ held̄, S̄_n = ĥ, f̄_n = h/2 ĥ, dy/dp += h/2 ∂f/∂pᵀ ĥ;
@@ -27,11 +27,20 @@ and f̄ beside the structure's bars and applies the transposes in reverse order,
   ∂(B δS)/∂q w transposed (:meth:`StatesTransposed.held_stiffness_along`;
   :meth:`AdjointSensitivities._held_weights_transposed`).
 
-A controller reading a rate (δs = D_q δq + D_v δv in the forward method) is refused by the adjoint
-(sensitivities._adjoint_rate_sensor_refusal): D_v and the δf taken anew after a jump are not transposed here.
+A controller reading a rate (a hinge's or guide's rate, a point's velocity: δs = D_q δq + D_v δv in the forward
+method, D_v on the step end's δv) adds v̄ += D_vᵀ s̄ beside q̄ += D_qᵀ s̄
+(:meth:`StatesTransposed.after_step_transposed`; a sampled one's at its sample,
+:meth:`SamplesTransposed.sample_transposed`). After a latch the forward method takes its
+δf anew at the jumped rates, δf⁺ = ∂f/∂s (D_q δq + D_v δv⁺) + ∂f/∂S δS + ∂f/∂p in place of the step's
+(``ControllerStates.restarted``; after a stop the run keeps f and the step's δf stands,
+``sensitivities.rates_taken_anew``): :meth:`StatesTransposed.restarted_transposed` comes first in the event's
+reverse order (s̄ = ∂f/∂sᵀ f̄ onto q̄ and v̄ of the jumped state, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄, f̄ = 0 on those
+rows), and the step after the latch starts from the restarted (S, f) stored then
+(``AdjointSensitivities._states_before``).
 
-D_s and B are the forward method's maps (``ControllerStates._sensed``, ``ControllerTerms.add``) applied to unit
-columns — n columns of δq, P of held (P the states) — and transposed; ∂f/∂s, ∂f/∂S, ∂f/∂p are the step's compiled
+D_s (D_q, and D_v where a sensor reads a rate) and B are the forward method's maps (``ControllerStates._sensed``,
+``ControllerTerms.add``) applied to unit columns — n columns of δq (2n of [δq | δv]), P of held (P the states) — and
+transposed; ∂f/∂s, ∂f/∂S, ∂f/∂p are the step's compiled
 laws' (``ControllerStates._at``). Everything is evaluated again at the stored state with the stored (S, f) put in the
 scene's arrays (:meth:`StatesTransposed.at`): the forward pass stores the accepted (S, f) of every step
 (:meth:`StatesTransposed.stored`).
@@ -142,7 +151,8 @@ class StatesTransposed:
             v_bar += D_v.T @ s_bar
 
     def reads_rates(self) -> bool:
-        """Whether a controller with states reads a rate (its δf is taken anew after a jump: :meth:`restarted_transposed`)."""
+        """Whether a controller with states reads a rate (its δf is taken anew after a latch:
+        :meth:`restarted_transposed`)."""
         from latdyn.analyses.sensitivities import reads_rates
 
         return any(reads_rates(self.states.sensors[c.name]) for c in self.states.controllers)
@@ -151,8 +161,8 @@ class StatesTransposed:
         """The transpose of ``ControllerStates.restarted`` at the state ``state`` after an event's jump and restart:
         forward, each controller reading a rate takes δf⁺ = ∂f/∂s δs⁺ + ∂f/∂S δS + ∂f/∂p anew, δs⁺ = D_q δq + D_v δv⁺
         of the jumped rates, in place of the step's δf; so, ``bars`` [q̄, v̄, S̄, f̄] after it: s̄ = ∂f/∂sᵀ f̄,
-        q̄ += D_qᵀ s̄, v̄ += D_vᵀ s̄, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄ and f̄ = 0 on its rows (the step's δf reaches no
-        further). Returns the bars before it (new arrays); the others' f̄ passes unchanged (their δf is kept)."""
+        q̄ += D_qᵀ s̄, v̄ += D_vᵀ s̄, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄ and f̄ = 0 on its rows (the step's δf
+        reaches no further). Returns the bars before it (new arrays); the others' f̄ passes unchanged (their δf is kept)."""
         from latdyn.analyses.sensitivities import reads_rates
 
         q_bar, v_bar, S_bar, f_bar = (np.array(bar, float) for bar in bars)

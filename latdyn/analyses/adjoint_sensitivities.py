@@ -110,7 +110,8 @@ from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
-from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
+from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
+                                           rates_taken_anew)
 from latdyn.analyses.transient_sensitivities import (TransientSensitivities, _NodeRotations, _StepColumns,
                                                       friction_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
@@ -223,9 +224,10 @@ class AdjointSensitivities(TransientSensitivities):
             entry["numbering_end"] = self._numbering()
             if entry.get("event") is not None:
                 entry["after"] = new.copy()
-                states_t = self._states_transposed()
-                if states_t is not None and states_t.reads_rates():   # f taken anew at the jumped rates: the next
-                    entry["controller_restarted"] = states_t.stored()  # step's (S_n, f_n) (ControllerStates.restarted)
+                states_t = self._states_transposed()   # after a latch f taken anew at the jumped rates: the next step's
+                if (states_t is not None and states_t.reads_rates()   # (S_n, f_n) (ControllerStates.restarted)
+                        and rates_taken_anew(entry["event"][1], self.model)):
+                    entry["controller_restarted"] = states_t.stored()
         return carried
 
     # ------------------------------------------------------------------ events: what the forward pass keeps
@@ -644,7 +646,7 @@ class AdjointSensitivities(TransientSensitivities):
             if entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
                 held = states_t is not None or samples_t is not None   # δS or δy held through the event's pieces
                 with self._controllers_at(carried, i + 1):   # the states as accepted at the event (they do not jump)
-                    if states_t is not None and states_t.reads_rates():   # δf⁺ of the jumped rates, transposed
+                    if "controller_restarted" in entry:   # δf⁺ of the jumped rates (after a latch), transposed
                         self._numbered(entry["numbering_end"])
                         q_bar, v_bar, S_bar, f_bar = states_t.restarted_transposed(entry["after"],
                                                                                    [q_bar, v_bar, S_bar, f_bar],
@@ -755,8 +757,8 @@ class AdjointSensitivities(TransientSensitivities):
         start, ``gradient`` (k, m) updated in place; returns the step's w (a sampled controller's held part,
         :meth:`SamplesTransposed.held_transposed`). With continuous controllers' states (S̄, f̄ not None) the hooks of
         latdyn/analyses/adjoint_controller_states.py around it, in the forward method's reverse order: ``after_step``
-        transposed first (h̄ gains by_hᵀS̄_{n+1}), the step's matrix condensed from (S_n, f_n), the states' B by_h in the
-        step size's column, then the held part's ∂r/∂p and ``begin_step`` transposed."""
+        transposed first (h̄ gains by_hᵀS̄_{n+1}), the step's matrix condensed from (S_n, f_n), the states' B by_h in
+        the step size's column, then the held part's ∂r/∂p and ``begin_step`` transposed."""
         p, model = self.params, self.model
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old = step
