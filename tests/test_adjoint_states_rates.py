@@ -9,8 +9,8 @@ and each sample, and at each latch s̄ = ∂f/∂sᵀ f̄ onto q̄ and v̄ of th
 dy/dp += ∂f/∂pᵀ f̄, f̄ = 0 on the rows of the controllers reading a rate
 (``StatesTransposed.restarted_transposed``); the step after the latch starts from the restarted (S, f). After a stop
 the run keeps the states' rates (``sensitivities.rates_taken_anew``), and so, since this change, does the forward
-method (before, it took them anew at stops too: wrong, last test below). Each scene is genuinely 3D (hinge axes and points out of the coordinate planes) and
-typed as YAML. References: the forward method's sensitivities (≤ 1e-10 relative, every probe's end, max and min by
+method (before, it took them anew at stops too: wrong, a test below). Each scene is genuinely 3D (hinge axes and
+points out of the coordinate planes) and typed as YAML. References: the forward method's sensitivities (≤ 1e-10 relative, every probe's end, max and min by
 every parameter and every event time's derivative: tests/test_sensitivities_refusals_lifted.py ``_adjoint_error``)
 and Richardson-extrapolated central differences of whole runs (≤ 1e-6 relative to the largest over the probes, the
 perturbation varied, the time step fixed, ``solve.tol`` 1e-12). Before this change (40bf44a) every adjoint scene here
@@ -85,8 +85,9 @@ def test_the_adjoint_equals_the_forward_method_where_controller_states_read_rate
     its boom's PI of the rate and its sampled PD of a velocity likewise). Measured: the boom's filtered rate 1.8e-11
     (on a row whose derivative is ~1e-5 of the probe's others: round-off), the gimbal 2.0e-13, the PID through the
     latch 3.8e-12, the wheel's two stops 9.5e-13, the sampled PD's stop 5.4e-13, the sampled filter's latch 2.6e-13.
-    Without D_vᵀ the boom was 0.20 off, the latch 0.21, the wheel 0.24, the gimbal 2.6, the sampled ones 1.0; without the restart's δf⁺ transposed the latch 1.8e-2; with the step
-    after the latch started from the f before the restart, the latch 0.17."""
+    Without D_vᵀ the boom was 0.20 off, the latch 0.21, the wheel 0.24, the gimbal 2.6, the sampled ones 1.0; without
+    the restart's δf⁺ transposed the latch 1.8e-2; with the step after the latch started from the f before the
+    restart, the latch 0.17."""
     forward, adjoint = _both(text)
     assert [e["kind"] for e in adjoint.summary["event_sensitivities"]] == events
     assert _adjoint_error(forward, adjoint) <= 1e-10
@@ -158,3 +159,26 @@ def test_a_state_reading_a_rate_beside_a_stop_agrees_with_richardson_central_dif
     result = latdyn.run(latdyn.load_scene(data))
     assert [e["kind"] for e in result.summary["events"]] == ["stop", "stop"]
     assert _richardson_error(WHEEL_RATE_STOP, result, name) <= 1e-6
+
+
+def test_a_controller_output_naming_t_at_the_latch_s_row_seeds_the_event_time():
+    """A controller probe's output naming t, ``elbow − g t``, whose largest value is at the latch's row (no
+    ``output.every``: every step a row, the latch's among them, its time t_e moving with p): the forward method's row
+    adds ∂f/∂t δt_e = −g δt_e, which the adjoint seeds on t̄ there (refused on 40bf44a). Its max by every parameter but
+    g is −g dt_e/dp (the elbow held at 0.4 from the latch on) and the forward method's to 1e-10. Measured: 2.2e-12;
+    without the seed on t̄ 1.3e-2 (the max's derivatives by the gains 0)."""
+    data = _adjoint(LATCH_PID)
+    data["parameters"]["g"] = 0.05
+    data["controllers"]["lead"] = {"output": "elbow - g*t"}
+    data["output"]["probes"]["lead_out"] = {"controller": "lead"}
+    data["solve"]["sensitivities"].append("g")
+    del data["output"]["every"]
+    adjoint = latdyn.run(latdyn.load_scene(data))
+    data["solve"]["sensitivity_method"] = "forward"
+    forward = latdyn.run(latdyn.load_scene(data))
+    (latch,) = adjoint.summary["event_sensitivities"]
+    largest = adjoint.summary["probe_sensitivities"]["lead_out"]["max"]
+    assert forward.summary["events"][0]["t"] == latch["t"] == forward.t[int(np.argmax(forward.probes["lead_out"]))]
+    for name in ("Kp", "Kd", "tf"):
+        assert largest[name] == pytest.approx(-0.05 * latch["dt"][name], rel=1e-9, abs=0.0)
+    assert _adjoint_error(forward, adjoint) <= 1e-10

@@ -49,8 +49,9 @@ Controller probes (:func:`probe_forms`): a state S at a row seeds S̄ there; an 
 inside its limits seeds Σ ∂f/∂s (the sensor's forms, :meth:`AdjointSensitivities.output_forms`) + Σ ∂f/∂y_j (the
 earlier controller's forms) + ∂f/∂S on S̄ + ∂f/∂p explicit — the forward method's
 ``controller_probe_sensitivities._continuous_output`` as forms; clipped, 0. What the forward method adds where the
-row's time moves (∂f/∂t δt after an event, an output naming t) stays refused
-(:func:`latdyn.analyses.controller_probe_sensitivities.adjoint_refusal`). Beside events a sampled controller's held
+row's time moves (∂f/∂t δt at an event's row and the rows after it before a step lands on the grid, an output naming
+t) is seeded on t̄ at that row with the forward method's own coefficient
+(:func:`latdyn.analyses.adjoint_time.row_coefficients`; ``AdjointSensitivities.reverse``). Beside events a sampled controller's held
 δy is transposed through the event's pieces as the states' δS (:meth:`SamplesTransposed.held_stiffness_along`).
 """
 from __future__ import annotations

@@ -78,11 +78,11 @@ step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) an
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
 friction sticks (a stick and a release are events not transposed yet: refused when it sticks,
-:meth:`_refuse_a_stick`; friction while the joints slip is taken), a controller's output probe beside events where it
-names t (continuous controllers without states enter E and the matrices as in the forward method; with states and
-sampled ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held
-outputs' bars beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_step_transposed`,
-:meth:`after_sample`). Rigid links and guides
+:meth:`_refuse_a_stick`; friction while the joints slip is taken). Controllers are taken: continuous ones without
+states enter E and the matrices as in the forward method; with states and sampled ones (beside events too:
+:meth:`_held_weights_transposed`; reading rates too) and controller probes (an output naming t at a row whose time
+moves: its ∂f/∂t seeded on t̄ there, :meth:`reverse`) through the states' and held outputs' bars beside these,
+latdyn/analyses/adjoint_controller_states.py, :meth:`_step_transposed`, :meth:`after_sample`. Rigid links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
 a body frame's seeds likewise, latdyn/analyses/probe_derivatives.py ``probe_forms``, and the energies' and momenta's
@@ -103,7 +103,7 @@ import numpy as np
 from latdyn.analyses import adjoint_time
 from latdyn.analyses.adjoint_controller_states import probe_forms as controller_probe_forms
 from latdyn.analyses.adjoint_in_loop import accepted
-from latdyn.analyses.controller_probe_sensitivities import is_controller_probe
+from latdyn.analyses.controller_probe_sensitivities import is_controller_probe, names_t
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
@@ -517,26 +517,37 @@ class AdjointSensitivities(TransientSensitivities):
             # columns in the outputs' order
             forms_of, held = {}, {}   # held: a probe's forms at a state, once (its end and its max or min at one row)
             moving = {}   # stored state index -> each probe's coefficient of δt at a row whose time moves
+            timed_rows = {}   # output -> (stored state index, its coefficient of δt there): a controller's output in t
+            timed_held = {}   # the same by (probe, stored state index), as ``held``
             self._linked_parts_held = {}
             for at in sorted(range(len(outputs)), key=lambda at: rows[outputs[at][2]]):
                 probe, index = outputs[at][0], rows[outputs[at][2]]
                 if (id(probe), index) in held:
                     forms_of[at] = held[id(probe), index]
+                    if (id(probe), index) in timed_held:
+                        timed_rows[at] = timed_held[id(probe), index]
                     continue
                 if final is not None:   # the row's forms on the numbering it was recorded on
                     self._numbered(numberings[index])
                 # at the start δq_0 = 0 but for geometry parameters: a row there moves through δv_0, δv̇_0 and explicitly
                 with self._controllers_at(carried, index):
                     forms = [self.output_forms(probe, states[index])]
+                    if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self) and (
+                            index not in moving):   # the rows' coefficients of δt, the states as accepted there
+                        moving[index] = adjoint_time.row_coefficients(self, states[index])
                 if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                     forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
                 forms_of[at] = held[id(probe), index] = forms
-                if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self):
-                    # the row's time moves with p (an output row at an event): taken where the probe has no explicit
-                    # time dependence there (the forward method's row adds nothing more), else refused
-                    if index not in moving:
-                        moving[index] = adjoint_time.row_coefficients(self, states[index])
-                    if moving[index][self.probes.index(probe)] != 0.0:   # not seeded yet: no check has reached one
+                if index in moving and moving[index][self.probes.index(probe)] != 0.0:
+                    # the row's time moves with p (an output row at an event) and the probe depends on t there: a
+                    # controller's output naming t seeds t̄ at the row with its coefficient of δt (the forward method's
+                    # ∂f/∂t δt, controller_probe_sensitivities._continuous_output); any other probe is refused (no
+                    # check has reached one: a prescribed motion, a joint force's law in t, a controller reading them)
+                    if is_controller_probe(probe) and probe.state is None and names_t(
+                            self.scene, self.scene.controllers[probe.controller]):
+                        timed_rows[at] = timed_held[id(probe), index] = (
+                            index, float(moving[index][self.probes.index(probe)]))
+                    else:
                         raise SolverError(f"the adjoint sensitivities meet probe {probe.name!r} at t = "
                                           f"{states[index].t:.6g}, a row whose time moves with the parameters (an "
                                           "output row at an event beside laws in t) where the probe depends on t "
@@ -550,6 +561,8 @@ class AdjointSensitivities(TransientSensitivities):
                 columns += len(forms)
                 for column, form in zip(taken[-1], forms):
                     seeds.setdefault(rows[row], []).append((column, form))
+                if at in timed_rows:   # its ∂f/∂t δt at the row: seeded on t̄ there
+                    timings.setdefault(timed_rows[at][0], []).append((taken[-1][0], timed_rows[at][1]))
             for index, _ in events:   # an event time's column, seeded on δt there with 1
                 timings.setdefault(index, []).append((columns, 1.0))
                 columns += 1

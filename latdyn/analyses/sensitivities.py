@@ -226,8 +226,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
     elif _adjoint_geometry_refusal(scene) is not None:
         why = _adjoint_geometry_refusal(scene)
-    elif controller_probes.adjoint_refusal(scene) is not None:
-        why = controller_probes.adjoint_refusal(scene)
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
