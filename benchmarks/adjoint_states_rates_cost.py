@@ -15,7 +15,6 @@ wall. Run under ``chrt -f 10`` on a loaded machine.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -38,14 +37,8 @@ def scenes() -> dict:
             "twin: two-link boom, PI of the angle beside a latch (5 p)": BOOM_LATCH}
 
 
-def main() -> None:
-    from benchmarks.adjoint_linked_cost import compare
-
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=5)
-    compare(scenes(), parser.parse_args().repeats)
-
-
 if __name__ == "__main__":
     sys.path.append(str(ROOT))   # after PYTHONPATH: the build compared is the one it names
-    main()
+    from benchmarks.adjoint_controller_states_cost import main
+
+    main(scenes, __doc__)
