@@ -120,10 +120,12 @@ class StatesTransposed:
         return out
 
     def after_step_transposed(self, state, h: float, terms: dict, S_bar: np.ndarray, f_bar: np.ndarray,
-                              q_bar: np.ndarray, v_bar: np.ndarray, gradient: np.ndarray) -> tuple:
+                              q_bar: np.ndarray, v_bar: np.ndarray, gradient: np.ndarray,
+                              t_bar: np.ndarray | None = None) -> tuple:
         """The transpose of ``ControllerStates.after_step`` (module docstring) for the bars at the step's end:
-        q̄, v̄ (a sensor reading a rate: δs = D_q δq + D_v δv) and the gradient updated in place; returns (held̄ (P, m),
-        the adjoint of the step's δh through δS_{n+1} += by_h δh (m,))."""
+        q̄, v̄ (a sensor reading a rate: δs = D_q δq + D_v δv) and the gradient updated in place, and ``t_bar`` (where
+        the step's end moves in time: δs's ∂s/∂t δt_{n+1} along the prescribed motions, :meth:`_sensed_transposed`);
+        returns (held̄ (P, m), the adjoint of the step's δh through δS_{n+1} += by_h δh (m,))."""
         hh = 0.5 * h
         held_bar = np.zeros_like(S_bar)
         h_bar = np.zeros(S_bar.shape[1])
@@ -138,18 +140,30 @@ class StatesTransposed:
             sensed_bar[c.name] = s_bar
         for c in self.states.controllers:   # δs = D_q δq + D_v δv: the forward method's map on unit columns, transposed
             if len(self.states.sensors[c.name]):
-                self._sensed_transposed(c, state, sensed_bar[c.name], q_bar, v_bar)
+                self._sensed_transposed(c, state, sensed_bar[c.name], q_bar, v_bar, t_bar)
         return held_bar, h_bar
 
-    def _sensed_transposed(self, c, state, s_bar: np.ndarray, q_bar: np.ndarray, v_bar: np.ndarray) -> None:
+    def _sensed_transposed(self, c, state, s_bar: np.ndarray, q_bar: np.ndarray, v_bar: np.ndarray,
+                           t_bar: np.ndarray | None = None) -> None:
         """q̄ += D_qᵀ s̄ and v̄ += D_vᵀ s̄ in place: δs = D_q δq + D_v δv of ``c``'s sensors at ``state`` (D_v where one
         reads a rate, :func:`latdyn.analyses.sensitivities.reads_rates`), the forward method's
-        ``ControllerStates._sensed`` on the n unit columns of δq (and of δv) and transposed."""
+        ``ControllerStates._sensed`` on the n unit columns of δq (and of δv) and transposed; with ``t_bar`` (the
+        state's time moving with p) also t̄ += D_tᵀ s̄, D_t the same map's ∂s/∂t along the prescribed motions at fixed
+        free coordinates (``moved`` = δt = 1 on zero columns)."""
         D_q, D_v = _sensed_forms(self.owner, lambda dq, dv: self.states._sensed(c, state, dq, None, dv),
                                  self.states.sensors[c.name])
         q_bar += D_q.T @ s_bar
         if D_v is not None:
             v_bar += D_v.T @ s_bar
+        if t_bar is not None:
+            from latdyn.analyses.sensitivities import reads_rates
+
+            n, m = self.owner.model.n_dofs, len(self.states.sensors[c.name])
+            zero = np.zeros((n, 1))
+            D_t = np.asarray(self.states._sensed(c, state, zero, np.ones(1),
+                                                 zero if reads_rates(self.states.sensors[c.name]) else None),
+                             float).reshape(m)
+            t_bar += D_t @ s_bar
 
     def reads_rates(self) -> bool:
         """Whether a controller with states reads a rate (its δf is taken anew after a latch:
@@ -158,15 +172,16 @@ class StatesTransposed:
 
         return any(reads_rates(self.states.sensors[c.name]) for c in self.states.controllers)
 
-    def restarted_transposed(self, state, bars: list, gradient: np.ndarray) -> list:
+    def restarted_transposed(self, state, bars: list, gradient: np.ndarray, timed: bool = False) -> list:
         """The transpose of ``ControllerStates.restarted`` at the state ``state`` after an event's jump and restart:
         forward, each controller reading a rate takes δf⁺ = ∂f/∂s δs⁺ + ∂f/∂S δS + ∂f/∂p anew, δs⁺ = D_q δq + D_v δv⁺
-        of the jumped rates, in place of the step's δf; so, ``bars`` [q̄, v̄, S̄, f̄] after it: s̄ = ∂f/∂sᵀ f̄,
+        of the jumped rates (and, ``timed``, ∂s/∂t δt_e along the prescribed motions), in place of the step's δf; so,
+        ``bars`` [q̄, v̄, S̄, f̄, t̄] after it: s̄ = ∂f/∂sᵀ f̄, t̄ += D_tᵀ s̄,
         q̄ += D_qᵀ s̄, v̄ += D_vᵀ s̄, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄ and f̄ = 0 on its rows (the step's δf
         reaches no further). Returns the bars before it (new arrays); the others' f̄ passes unchanged (their δf is kept)."""
         from latdyn.analyses.sensitivities import reads_rates
 
-        q_bar, v_bar, S_bar, f_bar = (np.array(bar, float) for bar in bars)
+        q_bar, v_bar, S_bar, f_bar, t_bar = (np.array(bar, float) for bar in bars)
         for c in self.states.controllers:
             if not reads_rates(self.states.sensors[c.name]):
                 continue
@@ -175,9 +190,9 @@ class StatesTransposed:
             bar = f_bar[rows].copy()
             gradient += f_p.T @ bar
             S_bar[rows] += f_S.T @ bar
-            self._sensed_transposed(c, state, f_s.T @ bar, q_bar, v_bar)
+            self._sensed_transposed(c, state, f_s.T @ bar, q_bar, v_bar, t_bar if timed else None)
             f_bar[rows] = 0.0
-        return [q_bar, v_bar, S_bar, f_bar]
+        return [q_bar, v_bar, S_bar, f_bar, t_bar]
 
     def held_map(self, state) -> np.ndarray:
         """B (n, P): the forward method's ∂r/∂p of a held δS (``ControllerTerms.add`` with ``held`` the unit

@@ -661,9 +661,9 @@ class AdjointSensitivities(TransientSensitivities):
                 with self._controllers_at(carried, i + 1):   # the states as accepted at the event (they do not jump)
                     if "controller_restarted" in entry:   # δf⁺ of the jumped rates (after a latch), transposed
                         self._numbered(entry["numbering_end"])
-                        q_bar, v_bar, S_bar, f_bar = states_t.restarted_transposed(entry["after"],
-                                                                                   [q_bar, v_bar, S_bar, f_bar],
-                                                                                   gradient)
+                        q_bar, v_bar, S_bar, f_bar, t_bar = states_t.restarted_transposed(
+                            entry["after"], [q_bar, v_bar, S_bar, f_bar, t_bar], gradient,
+                            adjoint_time.moves_in_time(self))
                     self._weights_met = [] if held else None
                     q_bar, v_bar, vdot_by_restart, by_restart, t_by_restart = self._restart_transposed(
                         entry, q_bar, v_bar, vdot_bar + a_bar)
@@ -785,17 +785,25 @@ class AdjointSensitivities(TransientSensitivities):
                 before = self._states_before(carried, i)
                 terms = states_t.step_terms(new, h, before)
                 q_bar, v_bar = q_bar.copy(), v_bar.copy()
+                timed = entry.get("timed_end") and adjoint_time.moves_in_time(self)   # δs's ∂s/∂t δt_{n+1} onto t̄
+                t_bar = t_bar.copy()
                 held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, v_bar,
-                                                                       gradient)
+                                                                       gradient, t_bar if timed else None)
                 condensed = states_t.condensed(before, h)
             with condensed:
                 C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+                # ∂r/∂t through the prescribed motions with the states condensed as in the step (the forward method's
+                # step_columns), its laws' part outside
+                explicit = self.explicit_time
+                moved = (explicit.through_prescribed(new) if states_t is not None and explicit is not None
+                         and explicit.prescribed else None)
+            rate = adjoint_time.rate_at(self, new, moved) if adjoint_time.moves_in_time(self) else None
             rule = entry.get("rule")
             if rule is not None:   # the step's size moves with p: its column (the states' ∂r/∂h in it), δh transposed
                 if states_t is not None:
                     by_size = states_t.held_map(new) @ states_t.by_step_size(terms)
                 column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p,
-                                                by_size)
+                                                by_size, rate)
                 h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
                             (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
                 h_bar = h_bar + t_bar + g_bar
@@ -809,8 +817,8 @@ class AdjointSensitivities(TransientSensitivities):
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
             w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, q_bar.shape[1])
             gradient -= self.residual_transposed_product(new, w)
-            if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
-                t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
+            if entry.get("timed") and rate is not None:   # ∂r/∂t δt_n, transposed
+                t_bar = t_bar + adjoint_time.step_transposed(self, new, w, rate)
             if states_t is not None:
                 held_bar = states_t.held_transposed(new, w, held_bar)
                 S_bar, f_bar = states_t.begin_step_transposed(h, terms, held_bar, gradient)
@@ -851,20 +859,21 @@ class AdjointSensitivities(TransientSensitivities):
 
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
-                          gamma_p: float, explicit: np.ndarray | None = None) -> dict:
+                          gamma_p: float, explicit: np.ndarray | None = None, rate: np.ndarray | None = None) -> dict:
         """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step size h
         (:meth:`TransientSensitivities.step_columns`, its column k), computed as it computes it: the native
         predict and update (:class:`_StepColumns` with no parameter column: ∂(hΔq)/∂h, ∂v_{n+1}/∂h) around the
         solve with the step's exact matrix (``solve``; ``C``, ``K`` its damping and stiffness; ``rotations``: the
         step's (R, J)); beside laws in t its explicit part ∂r/∂t at the step's end, as the forward method's
-        ``_add_time_columns`` puts it in the column of h (latdyn/analyses/adjoint_time.py)."""
+        ``_add_time_columns`` puts it in the column of h (latdyn/analyses/adjoint_time.py; ``rate`` where the caller
+        evaluated it, the prescribed motions' part with the controllers' states condensed as in the step)."""
         p, model, n = self.params, self.model, self.model.n_dofs
         step = _StepColumns(self, n, 0, (entry["h"], p.alpha_m, p.alpha_f, p.gamma, p.beta), *rotations)
         none = np.zeros((n, 0))
         _, dq0, dv0 = step.predict(free_velocity(model, old), entry["a_old"], entry["a_new"], none, none, none, none)
         rhs = K @ dq0 + C @ dv0 if explicit is None else explicit.reshape(n, 1) + K @ dq0 + C @ dv0
         if adjoint_time.moves_in_time(self):
-            rhs = rhs + adjoint_time.rate_at(self, entry["state"])[:, None]
+            rhs = rhs + (adjoint_time.rate_at(self, entry["state"]) if rate is None else rate)[:, None]
         z = np.asarray(solve(-rhs)).reshape(n, 1)
         return {key: column[:, 0] for key, column in step.update(z, beta_p, gamma_p).items()}
 

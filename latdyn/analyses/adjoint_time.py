@@ -43,15 +43,17 @@ def moves_in_time(owner) -> bool:
     return owner.explicit_time is not None
 
 
-def rate_at(owner, state) -> np.ndarray:
+def rate_at(owner, state, prescribed: np.ndarray | None = None) -> np.ndarray:
     """∂r/∂t (n,) of the equations of motion at ``state`` on the free coordinates, as the forward method's step adds
-    it (``ExplicitTime.__call__``, with the prescribed motions' part)."""
-    return np.asarray(owner.explicit_time(state), float)
+    it (``ExplicitTime.__call__``, with the prescribed motions' part: ``prescribed`` where the caller evaluated it,
+    with the controllers' states condensed as in the step)."""
+    return np.asarray(owner.explicit_time(state, prescribed=prescribed), float)
 
 
-def step_transposed(owner, state, w: np.ndarray) -> np.ndarray:
-    """(m,): the step's part of t̄_n, −(∂r/∂t)ᵀ w at the step's end ``state`` (``w`` (n, m) the step's S⁻ᵀz̄)."""
-    return -(rate_at(owner, state) @ w)
+def step_transposed(owner, state, w: np.ndarray, rate: np.ndarray | None = None) -> np.ndarray:
+    """(m,): the step's part of t̄_n, −(∂r/∂t)ᵀ w at the step's end ``state`` (``w`` (n, m) the step's S⁻ᵀz̄; ``rate``
+    ∂r/∂t where the caller evaluated it, :func:`rate_at`)."""
+    return -((rate_at(owner, state) if rate is None else rate) @ w)
 
 
 def restart_transposed(owner, after, u_bar: np.ndarray) -> np.ndarray:
