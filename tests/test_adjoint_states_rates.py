@@ -10,8 +10,8 @@ dy/dp += ∂f/∂pᵀ f̄, f̄ = 0 on the rows of the controllers reading a rate
 (``StatesTransposed.restarted_transposed``); the step after the latch starts from the restarted (S, f). After a stop
 the run keeps the states' rates (``sensitivities.rates_taken_anew``), and so, since this change, does the forward
 method (before, it took them anew at stops too: wrong, a test below). Each scene is genuinely 3D (hinge axes and
-points out of the coordinate planes) and typed as YAML. References: the forward method's sensitivities (≤ 1e-10 relative, every probe's end, max and min by
-every parameter and every event time's derivative: tests/test_sensitivities_refusals_lifted.py ``_adjoint_error``)
+points out of the coordinate planes) and typed as YAML. References: the forward method's sensitivities (≤ 1e-10
+relative, every probe's end, max and min by every parameter and every event time's derivative: tests/test_sensitivities_refusals_lifted.py ``_adjoint_error``)
 and Richardson-extrapolated central differences of whole runs (≤ 1e-6 relative to the largest over the probes, the
 perturbation varied, the time step fixed, ``solve.tol`` 1e-12). Before this change (40bf44a) every adjoint scene here
 was refused (exit 2 naming solve.sensitivity_method, "reads the rate probe"), and the forward method beside the stops

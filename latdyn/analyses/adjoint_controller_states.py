@@ -51,8 +51,12 @@ earlier controller's forms) + ∂f/∂S on S̄ + ∂f/∂p explicit — the forw
 ``controller_probe_sensitivities._continuous_output`` as forms; clipped, 0. What the forward method adds where the
 row's time moves (∂f/∂t δt at an event's row and the rows after it before a step lands on the grid, an output naming
 t) is seeded on t̄ at that row with the forward method's own coefficient
-(:func:`latdyn.analyses.adjoint_time.row_coefficients`; ``AdjointSensitivities.reverse``). Beside events a sampled controller's held
-δy is transposed through the event's pieces as the states' δS (:meth:`SamplesTransposed.held_stiffness_along`).
+(:func:`latdyn.analyses.adjoint_time.row_coefficients`; ``AdjointSensitivities.reverse``). Beside events a sampled
+controller's held δy is transposed through the event's pieces as the states' δS
+(:meth:`SamplesTransposed.held_stiffness_along`). After an event each step ends at t + δt: a sensor the prescribed
+motions move at fixed free coordinates moves by ∂s/∂t δt_{n+1} in the forward method's δs (``_sensed`` with
+``moved``), transposed as t̄ += D_tᵀ s̄ (:meth:`StatesTransposed._sensed_transposed`), and ∂r/∂t's prescribed part is
+taken with the states condensed as in the step, as the forward method's (``AdjointSensitivities._step_transposed``).
 """
 from __future__ import annotations
 
@@ -178,7 +182,8 @@ class StatesTransposed:
         of the jumped rates (and, ``timed``, ∂s/∂t δt_e along the prescribed motions), in place of the step's δf; so,
         ``bars`` [q̄, v̄, S̄, f̄, t̄] after it: s̄ = ∂f/∂sᵀ f̄, t̄ += D_tᵀ s̄,
         q̄ += D_qᵀ s̄, v̄ += D_vᵀ s̄, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄ and f̄ = 0 on its rows (the step's δf
-        reaches no further). Returns the bars before it (new arrays); the others' f̄ passes unchanged (their δf is kept)."""
+        reaches no further). Returns the bars before it (new arrays); the others' f̄ passes unchanged (their δf is
+        kept)."""
         from latdyn.analyses.sensitivities import reads_rates
 
         q_bar, v_bar, S_bar, f_bar, t_bar = (np.array(bar, float) for bar in bars)
