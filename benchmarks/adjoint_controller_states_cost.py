@@ -72,12 +72,14 @@ def scenes() -> dict:
             "two-link boom, PI beside a latch (5 p)": BOOM_LATCH}
 
 
-def main() -> None:
+def main(chosen=scenes, doc: str = __doc__) -> None:
+    """``chosen()``'s scenes compared (``--repeats``; benchmarks/adjoint_linked_cost.py ``compare``), ``doc`` the
+    command's help (benchmarks/adjoint_states_rates_cost.py passes its own)."""
     from benchmarks.adjoint_linked_cost import compare
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
-    compare(scenes(), parser.parse_args().repeats)
+    compare(chosen(), parser.parse_args().repeats)
 
 
 if __name__ == "__main__":

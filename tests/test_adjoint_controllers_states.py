@@ -19,7 +19,6 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
 from tests.test_sensitivities_cables import CABLE_3D
 from tests.test_sensitivities_in_loop_controller_integral import BOOM, WHEEL_STOP
@@ -240,19 +239,17 @@ def test_the_cli_equals_the_api_bit_for_bit(tmp_path, slew_boom):
     assert written == slew_boom[1].summary["probe_sensitivities"]
 
 
-def test_what_the_adjoint_does_not_take_stays_refused(tmp_path):
-    """A controller probe's output beside an event where the controller's output names t (the row's time moves with
-    the parameters: the forward method's ∂f/∂t δt, not transposed): exit 2 naming solve.sensitivity_method and the
-    probe, never a traceback."""
+def test_a_controller_probe_naming_t_beside_a_latch_equals_the_forward_method():
+    """A controller probe's output beside an event where the controller's output names t: refused on 40bf44a (the row's
+    time moves with the parameters: the forward method's ∂f/∂t δt was not transposed), now seeded on t̄ there
+    (tests/test_adjoint_states_rates.py has one whose largest value is at the latch's row). Measured: 6.3e-13."""
     data = yaml.safe_load(_adjoint(SAMPLED_LATCH))
     data["parameters"]["g"] = 0.1
     data["controllers"]["lead"] = {"output": "0.2 + g*sin(3*t)"}
     data["output"]["probes"]["lead_out"] = {"controller": "lead"}
     data["solve"]["sensitivities"].append("g")
-    expected = r"beside events where a controller's output names t.*'lead_out'"
-    with pytest.raises(SceneError, match=expected) as refused:
-        latdyn.run(latdyn.load_scene(data))
-    assert refused.value.key == "solve.sensitivity_method"
-    completed, _ = latdyn_run(tmp_path, yaml.safe_dump(data))
-    assert completed.returncode == 2 and "solve.sensitivity_method" in completed.stderr
-    assert "Traceback" not in completed.stderr
+    adjoint = latdyn.run(latdyn.load_scene(data))
+    data["solve"]["sensitivity_method"] = "forward"
+    forward = latdyn.run(latdyn.load_scene(data))
+    assert adjoint.summary["probe_sensitivities"]["lead_out"]["end"]["g"] != 0.0
+    assert _adjoint_error(forward, adjoint) <= 1e-10

@@ -8,7 +8,7 @@ A = I − h/2 ∂f/∂S, ∂f/∂s, ∂f/∂S, ∂f/∂p at the step's end (its 
     held     = A⁻¹ (δS_n + h/2 (δf_n + ∂f/∂p))                         (``begin_step``),
     E        = ∂r/∂p + B held,   B the actuators' rows of ∂y/∂S          (``ControllerTerms.add`` with ``held``),
     z = S⁻¹(−(E + K δq⁰ + C δv⁰)) with S's K and C condensed from (S_n, f_n)   (``condensed``),
-    δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs_{n+1},   δs_{n+1} = D_s δq_{n+1}        (``after_step``, ``_sensed``),
+    δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs_{n+1},   δs_{n+1} = D_q δq_{n+1} + D_v δv_{n+1} (``after_step``, ``_sensed``),
     δf_{n+1} = ∂f/∂s δs_{n+1} + ∂f/∂S δS_{n+1} + ∂f/∂p,
 
 and δS_0 = 0, δf_0 = ∂f/∂p at the start (``start``); beside events a step whose size moves adds B by_h to its step
@@ -17,7 +17,7 @@ jump and restart (``hold``: B δS in the restart's ∂r/∂p, ∂(B δS)/∂q w 
 and f̄ beside the structure's bars and applies the transposes in reverse order, each named after its forward piece:
 
 - :meth:`StatesTransposed.after_step_transposed`: S̄ += ∂f/∂Sᵀ f̄, s̄ = ∂f/∂sᵀ f̄ + h/2 ∂f/∂sᵀ A⁻ᵀ S̄,
-  q̄ += D_sᵀ s̄, dy/dp += ∂f/∂pᵀ f̄, and held̄ = S̄;
+  q̄ += D_qᵀ s̄ (v̄ += D_vᵀ s̄ for a sensor reading a rate), dy/dp += ∂f/∂pᵀ f̄, and held̄ = S̄;
 - the structure's step as without states (its matrix taken in :meth:`StatesTransposed.condensed`, the forward
   method's own context), then :meth:`StatesTransposed.held_transposed`: held̄ −= Bᵀ w;
 - :meth:`StatesTransposed.begin_step_transposed`: ĥ = A⁻ᵀ held̄, S̄_n = ĥ, f̄_n = h/2 ĥ, dy/dp += h/2 ∂f/∂pᵀ ĥ;
@@ -27,11 +27,20 @@ and f̄ beside the structure's bars and applies the transposes in reverse order,
   ∂(B δS)/∂q w transposed (:meth:`StatesTransposed.held_stiffness_along`;
   :meth:`AdjointSensitivities._held_weights_transposed`).
 
-A controller reading a rate (δs = D_q δq + D_v δv in the forward method) is refused by the adjoint
-(sensitivities._adjoint_rate_sensor_refusal): D_v and the δf taken anew after a jump are not transposed here.
+A controller reading a rate (a hinge's or guide's rate, a point's velocity: δs = D_q δq + D_v δv in the forward
+method, D_v on the step end's δv) adds v̄ += D_vᵀ s̄ beside q̄ += D_qᵀ s̄
+(:meth:`StatesTransposed.after_step_transposed`; a sampled one's at its sample,
+:meth:`SamplesTransposed.sample_transposed`). After a latch the forward method takes its
+δf anew at the jumped rates, δf⁺ = ∂f/∂s (D_q δq + D_v δv⁺) + ∂f/∂S δS + ∂f/∂p in place of the step's
+(``ControllerStates.restarted``; after a stop the run keeps f and the step's δf stands,
+``sensitivities.rates_taken_anew``): :meth:`StatesTransposed.restarted_transposed` comes first in the event's
+reverse order (s̄ = ∂f/∂sᵀ f̄ onto q̄ and v̄ of the jumped state, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄, f̄ = 0 on those
+rows), and the step after the latch starts from the restarted (S, f) stored then
+(``AdjointSensitivities._states_before``).
 
-D_s and B are the forward method's maps (``ControllerStates._sensed``, ``ControllerTerms.add``) applied to unit
-columns — n columns of δq, P of held (P the states) — and transposed; ∂f/∂s, ∂f/∂S, ∂f/∂p are the step's compiled
+D_s (D_q, and D_v where a sensor reads a rate) and B are the forward method's maps (``ControllerStates._sensed``,
+``ControllerTerms.add``) applied to unit columns — n columns of δq (2n of [δq | δv]), P of held (P the states) — and
+transposed; ∂f/∂s, ∂f/∂S, ∂f/∂p are the step's compiled
 laws' (``ControllerStates._at``). Everything is evaluated again at the stored state with the stored (S, f) put in the
 scene's arrays (:meth:`StatesTransposed.at`): the forward pass stores the accepted (S, f) of every step
 (:meth:`StatesTransposed.stored`).
@@ -40,9 +49,14 @@ Controller probes (:func:`probe_forms`): a state S at a row seeds S̄ there; an 
 inside its limits seeds Σ ∂f/∂s (the sensor's forms, :meth:`AdjointSensitivities.output_forms`) + Σ ∂f/∂y_j (the
 earlier controller's forms) + ∂f/∂S on S̄ + ∂f/∂p explicit — the forward method's
 ``controller_probe_sensitivities._continuous_output`` as forms; clipped, 0. What the forward method adds where the
-row's time moves (∂f/∂t δt after an event, an output naming t) stays refused
-(:func:`latdyn.analyses.controller_probe_sensitivities.adjoint_refusal`). Beside events a sampled controller's held
-δy is transposed through the event's pieces as the states' δS (:meth:`SamplesTransposed.held_stiffness_along`).
+row's time moves (∂f/∂t δt at an event's row and the rows after it before a step lands on the grid, an output naming
+t) is seeded on t̄ at that row with the forward method's own coefficient
+(:func:`latdyn.analyses.adjoint_time.row_coefficients`; ``AdjointSensitivities.reverse``). Beside events a sampled
+controller's held δy is transposed through the event's pieces as the states' δS
+(:meth:`SamplesTransposed.held_stiffness_along`). After an event each step ends at t + δt: a sensor the prescribed
+motions move at fixed free coordinates moves by ∂s/∂t δt_{n+1} in the forward method's δs (``_sensed`` with
+``moved``), transposed as t̄ += D_tᵀ s̄ (:meth:`StatesTransposed._sensed_transposed`), and ∂r/∂t's prescribed part is
+taken with the states condensed as in the step, as the forward method's (``AdjointSensitivities._step_transposed``).
 """
 from __future__ import annotations
 
@@ -110,10 +124,12 @@ class StatesTransposed:
         return out
 
     def after_step_transposed(self, state, h: float, terms: dict, S_bar: np.ndarray, f_bar: np.ndarray,
-                              q_bar: np.ndarray, gradient: np.ndarray) -> np.ndarray:
+                              q_bar: np.ndarray, v_bar: np.ndarray, gradient: np.ndarray,
+                              t_bar: np.ndarray | None = None) -> tuple:
         """The transpose of ``ControllerStates.after_step`` (module docstring) for the bars at the step's end:
-        q̄ and the gradient updated in place; returns (held̄ (P, m), the adjoint of the step's δh through
-        δS_{n+1} += by_h δh (m,))."""
+        q̄, v̄ (a sensor reading a rate: δs = D_q δq + D_v δv) and the gradient updated in place, and ``t_bar`` (where
+        the step's end moves in time: δs's ∂s/∂t δt_{n+1} along the prescribed motions, :meth:`_sensed_transposed`);
+        returns (held̄ (P, m), the adjoint of the step's δh through δS_{n+1} += by_h δh (m,))."""
         hh = 0.5 * h
         held_bar = np.zeros_like(S_bar)
         h_bar = np.zeros(S_bar.shape[1])
@@ -126,13 +142,62 @@ class StatesTransposed:
             held_bar[rows] = S_next_bar                               # δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs
             h_bar += by_h @ S_next_bar                                #            + by_h δh
             sensed_bar[c.name] = s_bar
-        n = self.owner.model.n_dofs
-        units = np.eye(n)
-        for c in self.states.controllers:   # δs = D_s δq: the forward method's map on the unit columns, transposed
+        for c in self.states.controllers:   # δs = D_q δq + D_v δv: the forward method's map on unit columns, transposed
             if len(self.states.sensors[c.name]):
-                D_s = np.asarray(self.states._sensed(c, state, units), float).reshape(-1, n)
-                q_bar += D_s.T @ sensed_bar[c.name]
+                self._sensed_transposed(c, state, sensed_bar[c.name], q_bar, v_bar, t_bar)
         return held_bar, h_bar
+
+    def _sensed_transposed(self, c, state, s_bar: np.ndarray, q_bar: np.ndarray, v_bar: np.ndarray,
+                           t_bar: np.ndarray | None = None) -> None:
+        """q̄ += D_qᵀ s̄ and v̄ += D_vᵀ s̄ in place: δs = D_q δq + D_v δv of ``c``'s sensors at ``state`` (D_v where one
+        reads a rate, :func:`latdyn.analyses.sensitivities.reads_rates`), the forward method's
+        ``ControllerStates._sensed`` on the n unit columns of δq (and of δv) and transposed; with ``t_bar`` (the
+        state's time moving with p) also t̄ += D_tᵀ s̄, D_t the same map's ∂s/∂t along the prescribed motions at fixed
+        free coordinates (``moved`` = δt = 1 on zero columns)."""
+        D_q, D_v = _sensed_forms(self.owner, lambda dq, dv: self.states._sensed(c, state, dq, None, dv),
+                                 self.states.sensors[c.name])
+        q_bar += D_q.T @ s_bar
+        if D_v is not None:
+            v_bar += D_v.T @ s_bar
+        if t_bar is not None:
+            from latdyn.analyses.sensitivities import reads_rates
+
+            n, m = self.owner.model.n_dofs, len(self.states.sensors[c.name])
+            zero = np.zeros((n, 1))
+            D_t = np.asarray(self.states._sensed(c, state, zero, np.ones(1),
+                                                 zero if reads_rates(self.states.sensors[c.name]) else None),
+                             float).reshape(m)
+            t_bar += D_t @ s_bar
+
+    def reads_rates(self) -> bool:
+        """Whether a controller with states reads a rate (its δf is taken anew after a latch:
+        :meth:`restarted_transposed`)."""
+        from latdyn.analyses.sensitivities import reads_rates
+
+        return any(reads_rates(self.states.sensors[c.name]) for c in self.states.controllers)
+
+    def restarted_transposed(self, state, bars: list, gradient: np.ndarray, timed: bool = False) -> list:
+        """The transpose of ``ControllerStates.restarted`` at the state ``state`` after an event's jump and restart:
+        forward, each controller reading a rate takes δf⁺ = ∂f/∂s δs⁺ + ∂f/∂S δS + ∂f/∂p anew, δs⁺ = D_q δq + D_v δv⁺
+        of the jumped rates (and, ``timed``, ∂s/∂t δt_e along the prescribed motions), in place of the step's δf; so,
+        ``bars`` [q̄, v̄, S̄, f̄, t̄] after it: s̄ = ∂f/∂sᵀ f̄, t̄ += D_tᵀ s̄,
+        q̄ += D_qᵀ s̄, v̄ += D_vᵀ s̄, S̄ += ∂f/∂Sᵀ f̄, dy/dp += ∂f/∂pᵀ f̄ and f̄ = 0 on its rows (the step's δf
+        reaches no further). Returns the bars before it (new arrays); the others' f̄ passes unchanged (their δf is
+        kept)."""
+        from latdyn.analyses.sensitivities import reads_rates
+
+        q_bar, v_bar, S_bar, f_bar, t_bar = (np.array(bar, float) for bar in bars)
+        for c in self.states.controllers:
+            if not reads_rates(self.states.sensors[c.name]):
+                continue
+            rows = slice(self.states.first[c.name], self.states.first[c.name] + len(c.states))
+            _, f_s, f_S, f_p = self.states._at(c, state)
+            bar = f_bar[rows].copy()
+            gradient += f_p.T @ bar
+            S_bar[rows] += f_S.T @ bar
+            self._sensed_transposed(c, state, f_s.T @ bar, q_bar, v_bar, t_bar if timed else None)
+            f_bar[rows] = 0.0
+        return [q_bar, v_bar, S_bar, f_bar, t_bar]
 
     def held_map(self, state) -> np.ndarray:
         """B (n, P): the forward method's ∂r/∂p of a held δS (``ControllerTerms.add`` with ``held`` the unit
@@ -255,6 +320,20 @@ def _output_forms(owner, name: str, state, done: dict) -> tuple:
     return done[name]
 
 
+def _sensed_forms(owner, sensed, probes: list) -> tuple:
+    """(D_q (m, n), D_v (m, n) or None): δs = D_q δq + D_v δv of the sensors ``probes`` from the forward method's map
+    ``sensed(dq, dv)`` on unit columns: the n of δq alone where no sensor reads a rate (``dv`` None), else the 2n of
+    [δq | δv] in one call."""
+    from latdyn.analyses.sensitivities import reads_rates
+
+    n, m = owner.model.n_dofs, len(probes)
+    if not reads_rates(probes):
+        return np.asarray(sensed(np.eye(n), None), float).reshape(m, n), None
+    eye, zero = np.eye(n), np.zeros((n, n))
+    both = np.asarray(sensed(np.hstack([eye, zero]), np.hstack([zero, eye])), float).reshape(m, 2 * n)
+    return both[:, :n], both[:, n:]
+
+
 def _held_map_along(owner, held_map, columns: int, state, w: np.ndarray) -> np.ndarray:
     """(n, ``columns``): ∂(``held_map`` x)/∂q along ``w`` for the unit columns of x, the forward method's
     ``_terms_beside_stiffness_along`` central difference (step WEIGHT_STEP ℓ/|w|_∞) of the held part alone."""
@@ -346,14 +425,14 @@ class SamplesTransposed:
                    np.zeros_like(a_bar)]
         return y_bar, u_bar
 
-    def sample_transposed(self, state, due: list, S_before: np.ndarray, q_bar: np.ndarray, y_bar: np.ndarray,
-                          S_bar: np.ndarray, gradient: np.ndarray) -> tuple:
+    def sample_transposed(self, state, due: list, S_before: np.ndarray, q_bar: np.ndarray, v_bar: np.ndarray,
+                          y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray) -> tuple:
         """The sample of the controllers ``due`` at ``state`` (their states ``S_before`` before it) transposed
-        (class docstring): q̄ and ``gradient`` updated in place; returns (ȳ, S̄) before the sample."""
+        (class docstring; a sensor reading a rate: δs = D_q δq + D_v δv, δv the sample's state's, v̄ += D_vᵀ s̄): q̄, v̄
+        and ``gradient`` updated in place; returns (ȳ, S̄) before the sample."""
         from latdyn.analyses.sensitivities import _sensor_derivatives
 
         sampled, owner = self.sampled, self.owner
-        n = owner.model.n_dofs
         values = dict(zip(sampled.terms.sensors.names, sampled.terms.sensors.values(state)))
         y_bar, S_bar = y_bar.copy(), S_bar.copy()
         for c in sampled.controllers:
@@ -367,9 +446,13 @@ class SamplesTransposed:
             gradient += np.outer(y_p, out_bar) + g_p.T @ by_rate
             S_bar[rows] = S_bar[rows] + g_S.T @ by_rate + np.outer(y_S, out_bar)
             y_bar[i] = 0.0
-            if len(c.reads):
-                D_s = _sensor_derivatives(owner, sampled.sensors[c.name], state, np.eye(n)).reshape(len(c.reads), n)
-                q_bar += D_s.T @ s_bar
+            if len(c.reads):   # the forward method's SampledTerms.sample: δs = D_q δq + D_v δv
+                D_q, D_v = _sensed_forms(owner, lambda dq, dv: _sensor_derivatives(owner, sampled.sensors[c.name],
+                                                                                   state, dq, None, dv),
+                                         sampled.sensors[c.name])
+                q_bar += D_q.T @ s_bar
+                if D_v is not None:
+                    v_bar += D_v.T @ s_bar
         return y_bar, S_bar
 
     def start_transposed(self, state, y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray) -> None:

@@ -82,12 +82,12 @@ joints' angles and rates (refused when it sticks, :meth:`_refuse_a_stick`; frict
 releases otherwise, are taken: the forward method's stick — a stop's impulse with restitution 0, the held angle's
 δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
 its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
-bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`), a controller's output
-probe beside events where it
-names t (continuous controllers without states enter E and the matrices as in the forward method; with states and
-sampled ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held
-outputs' bars beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`,
-:meth:`after_sample`). Rigid links and guides
+bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`). Controllers are taken:
+continuous ones without states enter E and the matrices as in the forward method; with states and sampled ones
+(beside events too: :meth:`_held_weights_transposed`; reading rates too) and controller probes (an output naming t at
+a row whose time moves: its ∂f/∂t seeded on t̄ there, :meth:`reverse`) through the states' and held outputs' bars
+beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_step_transposed`, :meth:`after_sample`. Rigid
+links and guides
 are taken: the matrices are the reduced step's, a probe on a node that follows them has its output gradient on the
 coordinates it moves with (:func:`latdyn.analyses.link_sensitivities.columns_moving`; a section force's, a cable's and
 a body frame's seeds likewise, latdyn/analyses/probe_derivatives.py ``probe_forms``, and the energies' and momenta's
@@ -98,6 +98,7 @@ forward method's ``rates``), are transposed along all three (:meth:`_linked_weig
 """
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
@@ -107,14 +108,15 @@ import numpy as np
 from latdyn.analyses import adjoint_time
 from latdyn.analyses.adjoint_controller_states import probe_forms as controller_probe_forms
 from latdyn.analyses.adjoint_in_loop import accepted
-from latdyn.analyses.controller_probe_sensitivities import is_controller_probe
+from latdyn.analyses.controller_probe_sensitivities import is_controller_probe, names_t
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
-from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
+from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
+                                           rates_taken_anew)
 from latdyn.analyses.transient_sensitivities import (WEIGHT_STEP, TransientSensitivities, _NodeRotations,
                                                       _StepColumns, friction_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
@@ -256,6 +258,10 @@ class AdjointSensitivities(TransientSensitivities):
             entry["numbering_end"] = self._numbering()
             if entry.get("event") is not None:
                 entry["after"] = new.copy()
+                states_t = self._states_transposed()   # after a latch f taken anew at the jumped rates: the next step's
+                if (states_t is not None and states_t.reads_rates()   # (S_n, f_n) (ControllerStates.restarted)
+                        and rates_taken_anew(entry["event"][1], self.model)):
+                    entry["controller_restarted"] = states_t.stored()
         if self._may_stick() and carried["trajectory"]:
             self._stick_or_release_stored(carried["trajectory"][-1], new)
         return carried
@@ -569,28 +575,39 @@ class AdjointSensitivities(TransientSensitivities):
             # columns in the outputs' order
             forms_of, held = {}, {}   # held: a probe's forms at a state, once (its end and its max or min at one row)
             moving = {}   # stored state index -> each probe's coefficient of δt at a row whose time moves
+            timed_rows = {}   # output -> (stored state index, its coefficient of δt there): a controller's output in t
+            timed_held = {}   # the same by (probe, stored state index), as ``held``
             self._linked_parts_held = {}
             for at in sorted(range(len(outputs)), key=lambda at: rows[outputs[at][2]]):
                 probe, index = outputs[at][0], rows[outputs[at][2]]
                 if (id(probe), index) in held:
                     forms_of[at] = held[id(probe), index]
+                    if (id(probe), index) in timed_held:
+                        timed_rows[at] = timed_held[id(probe), index]
                     continue
                 if final is not None:   # the row's forms on the numbering it was recorded on
                     self._numbered(numberings[index])
                 # at the start δq_0 = 0 but for geometry parameters: a row there moves through δv_0, δv̇_0 and explicitly
                 with self._controllers_at(carried, index):
                     forms = [self.output_forms(probe, states[index])]
+                    if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self) and (
+                            index not in moving):   # the rows' coefficients of δt, the states as accepted there
+                        moving[index] = adjoint_time.row_coefficients(self, states[index])
                 if _norm_at_zero(probe, forms[0]):   # |·| at 0 (:meth:`_at_a_zero_norm`)
                     forms = [self.output_forms(replace(probe, component=axis), states[index]) for axis in "xyz"]
                 forms_of[at] = held[id(probe), index] = forms
                 if final is not None and self.model.stuck.any():   # a joint friction holds: its angle's δθ
                     held["theta", id(probe), index] = self._held_forms(probe, states[index])
-                if index and trajectory[index - 1].get("timed_end") and adjoint_time.moves_in_time(self):
-                    # the row's time moves with p (an output row at an event): taken where the probe has no explicit
-                    # time dependence there (the forward method's row adds nothing more), else refused
-                    if index not in moving:
-                        moving[index] = adjoint_time.row_coefficients(self, states[index])
-                    if moving[index][self.probes.index(probe)] != 0.0:   # not seeded yet: no check has reached one
+                if index in moving and moving[index][self.probes.index(probe)] != 0.0:
+                    # the row's time moves with p (an output row at an event) and the probe depends on t there: a
+                    # controller's output naming t seeds t̄ at the row with its coefficient of δt (the forward method's
+                    # ∂f/∂t δt, controller_probe_sensitivities._continuous_output); any other probe is refused (no
+                    # check has reached one: a prescribed motion, a joint force's law in t, a controller reading them)
+                    if is_controller_probe(probe) and probe.state is None and names_t(
+                            self.scene, self.scene.controllers[probe.controller]):
+                        timed_rows[at] = timed_held[id(probe), index] = (
+                            index, float(moving[index][self.probes.index(probe)]))
+                    else:
                         raise SolverError(f"the adjoint sensitivities meet probe {probe.name!r} at t = "
                                           f"{states[index].t:.6g}, a row whose time moves with the parameters (an "
                                           "output row at an event beside laws in t) where the probe depends on t "
@@ -607,6 +624,8 @@ class AdjointSensitivities(TransientSensitivities):
                 c_theta = held.get(("theta", id(outputs[at][0]), rows[row]))
                 if c_theta is not None:
                     held_seeds.setdefault(rows[row], []).append((taken[-1][0], c_theta))
+                if at in timed_rows:   # its ∂f/∂t δt at the row: seeded on t̄ there
+                    timings.setdefault(timed_rows[at][0], []).append((taken[-1][0], timed_rows[at][1]))
             for index, _ in events:   # an event time's column, seeded on δt there with 1
                 timings.setdefault(index, []).append((columns, 1.0))
                 columns += 1
@@ -700,9 +719,9 @@ class AdjointSensitivities(TransientSensitivities):
                     if states_t is not None:   # the continuous states held through the restart (ControllerStates.hold)
                         S_bar = S_bar + states_t.held_map(sample["state"]).T @ u_bar
                 q_bar, v_bar, vdot_bar, a_bar = bars
-                q_bar = q_bar.copy()
+                q_bar, v_bar = q_bar.copy(), v_bar.copy()
                 y_bar, sampled_bar = samples_t.sample_transposed(sample["state"], sample["due"], sample["S"], q_bar,
-                                                                 y_bar, sampled_bar, gradient)
+                                                                 v_bar, y_bar, sampled_bar, gradient)
             if samples_t is not None:   # the held outputs the step was taken with
                 outputs[:] = entry["outputs"]
             if entry.get("friction") is not None:   # a stick's or release's restart, renumbering (and jump)
@@ -713,6 +732,11 @@ class AdjointSensitivities(TransientSensitivities):
             elif entry.get("after") is not None:   # the event's restart, renumbering and jump, transposed
                 held = states_t is not None or samples_t is not None   # δS or δy held through the event's pieces
                 with self._controllers_at(carried, i + 1):   # the states as accepted at the event (they do not jump)
+                    if "controller_restarted" in entry:   # δf⁺ of the jumped rates (after a latch), transposed
+                        self._numbered(entry["numbering_end"])
+                        q_bar, v_bar, S_bar, f_bar, t_bar = states_t.restarted_transposed(
+                            entry["after"], [q_bar, v_bar, S_bar, f_bar, t_bar], gradient,
+                            adjoint_time.moves_in_time(self))
                     self._weights_met = [] if held else None
                     q_bar, v_bar, vdot_by_restart, by_restart, t_by_restart = self._restart_transposed(
                         entry, q_bar, v_bar, vdot_bar + a_bar)
@@ -751,17 +775,9 @@ class AdjointSensitivities(TransientSensitivities):
             turn, tangent = self._rotation_operators(increment)
             turn_t, tangent_t = _transposed_rotations(self, turn), _transposed_rotations(self, tangent)
             rule = entry.get("rule")
-            if states_t is not None:   # the states' recurrence transposed around the step
-                bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar]
-                w = self._states_step_transposed(carried, i, (new, h, turn, turn_t, tangent, tangent_t, beta_p,
-                                                              gamma_p, old), bars, gradient)
-                q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
-                if samples_t is not None:
-                    y_bar = samples_t.held_transposed(new, w, y_bar)
-                continue
-            if rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below in one call, w
-                bars = [q_bar, v_bar, vdot_bar, a_bar]  # returned for ∂r/∂p's contraction
-                w = native.step(new, h, (tangent, tangent_t, turn_t), bars)
+            if states_t is None and rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below
+                bars = [q_bar, v_bar, vdot_bar, a_bar]                     # in one call, w returned for ∂r/∂p's
+                w = native.step(new, h, (tangent, tangent_t, turn_t), bars)  # contraction
                 if w is not None:
                     g_bar = np.zeros(m)
                     gradient -= self.residual_transposed_product(new, w)
@@ -770,32 +786,12 @@ class AdjointSensitivities(TransientSensitivities):
                     q_bar, v_bar, vdot_bar, a_bar = bars
                     theta_bar = self._held_step_transposed(new, w, theta_bar)
                     continue
-            C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
-            if rule is not None:   # the step's size moves with p: its column, and δh's functional transposed
-                column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p)
-                h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
-                            (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
-                h_bar = h_bar + t_bar + g_bar
-                q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
-                                                                                 q_bar, v_bar, t_bar)
-                gradient += by_size
-            else:
-                g_bar = np.zeros(m)
-            z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
-            w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, m)
-            gradient -= self.residual_transposed_product(new, w)
-            if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
-                t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
-            if samples_t is not None:
+            bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar]
+            w = self._step_transposed(carried, i, (new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old),
+                                      bars, gradient)
+            q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
+            if samples_t is not None:   # the held δy's part of the step's ∂r/∂p
                 y_bar = samples_t.held_transposed(new, w, y_bar)
-            dq0_bar = q_bar - K_t @ w
-            dv0_bar = v_bar - C_t @ w
-            du0_bar = tangent_t(dq0_bar)
-            da0_bar = a_bar + h * gamma * dv0_bar + h * h * beta * du0_bar
-            q_bar = turn_t(dq0_bar)
-            v_bar = dv0_bar + h * du0_bar
-            a_bar = h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar
-            vdot_bar = af / (1 - am) * da0_bar
             theta_bar = self._held_step_transposed(new, w, theta_bar)
         if carried.get("numbering_start") is not None and (self._with_events() or self._may_stick()):
             self._numbered(carried["numbering_start"])
@@ -836,43 +832,58 @@ class AdjointSensitivities(TransientSensitivities):
     def _controllers_at(self, carried: dict, index: int):
         """A context in which the scene's arrays hold the controllers' accepted (S, f) of the stored state
         ``index`` (0: the start), or a null context without controller states."""
-        from contextlib import nullcontext
-
         states_t = self._states_transposed()
         if states_t is None:
             return nullcontext()
         return states_t.at(carried["controller_start"] if index == 0 else
                            carried["trajectory"][index - 1]["controller"])
 
-    def _states_step_transposed(self, carried: dict, i: int, step: tuple, bars: list,
-                                gradient: np.ndarray) -> np.ndarray:
-        """Step ``i`` of the reverse pass with the continuous controllers' states (``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄,
-        ḡ] at its end replaced by those at its start, ``gradient`` (k, m) updated in place): the forward method's
-        ``ControllerStates.after_step`` transposed, the structure's step as :meth:`_reverse_columns` takes it with
-        its matrix condensed from (S_n, f_n) and the held part's ∂r/∂p transposed, then ``begin_step`` transposed
-        (latdyn/analyses/adjoint_controller_states.py). Returns the step's w (a sampled controller's held part,
-        :meth:`SamplesTransposed.held_transposed`)."""
+    def _step_transposed(self, carried: dict, i: int, step: tuple, bars: list, gradient: np.ndarray) -> np.ndarray:
+        """Step ``i`` of the reverse pass from Python (module docstring: z̄, w, the bars' update; where its size moves
+        with p the step size's column and δh's functional transposed, :meth:`_step_size_column`,
+        :meth:`_step_size_transposed`): ``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄, ḡ] at its end replaced by those at its
+        start, ``gradient`` (k, m) updated in place; returns the step's w (a sampled controller's held part,
+        :meth:`SamplesTransposed.held_transposed`). With continuous controllers' states (S̄, f̄ not None) the hooks of
+        latdyn/analyses/adjoint_controller_states.py around it, in the forward method's reverse order: ``after_step``
+        transposed first (h̄ gains by_hᵀS̄_{n+1}), the step's matrix condensed from (S_n, f_n), the states' B by_h in
+        the step size's column, then the held part's ∂r/∂p and ``begin_step`` transposed."""
         p, model = self.params, self.model
         am, af, gamma, beta = p.alpha_m, p.alpha_f, p.gamma, p.beta
         new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old = step
         states_t = self._states_transposed()
         q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
         entry = carried["trajectory"][i]
-        before = (carried["controller_start"] if i == 0 else carried["trajectory"][i - 1]["controller"])
         with self._controllers_at(carried, i + 1):
-            terms = states_t.step_terms(new, h, before)
-            q_bar = q_bar.copy()
-            held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, gradient)
-            with states_t.condensed(before, h):
+            if states_t is None:
+                condensed, by_size, h_by_states = nullcontext(), None, None
+            else:
+                before = self._states_before(carried, i)
+                terms = states_t.step_terms(new, h, before)
+                q_bar, v_bar = q_bar.copy(), v_bar.copy()
+                timed = entry.get("timed_end") and adjoint_time.moves_in_time(self)   # δs's ∂s/∂t δt_{n+1} onto t̄
+                t_bar = t_bar.copy()
+                held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, v_bar,
+                                                                       gradient, t_bar if timed else None)
+                condensed = states_t.condensed(before, h)
+            with condensed:
                 C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
+                # ∂r/∂t through the prescribed motions with the states condensed as in the step (the forward method's
+                # step_columns), its laws' part outside
+                explicit = self.explicit_time
+                moved = (explicit.through_prescribed(new) if states_t is not None and explicit is not None
+                         and explicit.prescribed else None)
+            rate = adjoint_time.rate_at(self, new, moved) if adjoint_time.moves_in_time(self) else None
             rule = entry.get("rule")
             if rule is not None:   # the step's size moves with p: its column (the states' ∂r/∂h in it), δh transposed
-                by_size = states_t.held_map(new) @ states_t.by_step_size(terms)
+                if states_t is not None:
+                    by_size = states_t.held_map(new) @ states_t.by_step_size(terms)
                 column = self._step_size_column(entry, old, C_t.T, K_t.T, solve, (turn, tangent), beta_p, gamma_p,
-                                                by_size)
+                                                by_size, rate)
                 h_bar = sum(np.einsum("i,im->m", column[key], bar) for key, bar in
                             (("dq", q_bar), ("dv", v_bar), ("dvdot", vdot_bar), ("da", a_bar)))
-                h_bar = h_bar + t_bar + g_bar + h_by_states
+                h_bar = h_bar + t_bar + g_bar
+                if h_by_states is not None:
+                    h_bar = h_bar + h_by_states
                 q_bar, v_bar, t_bar, g_bar, by_size = self._step_size_transposed(entry, rule, column, h_bar,
                                                                                  q_bar, v_bar, t_bar)
                 gradient += by_size
@@ -881,10 +892,11 @@ class AdjointSensitivities(TransientSensitivities):
             z_bar = tangent_t(q_bar) + gamma_p * v_bar + beta_p * vdot_bar + (1 - af) / (1 - am) * beta_p * a_bar
             w = np.asarray(solve_transposed(z_bar)).reshape(model.n_dofs, q_bar.shape[1])
             gradient -= self.residual_transposed_product(new, w)
-            if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
-                t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
-            held_bar = states_t.held_transposed(new, w, held_bar)
-            S_bar, f_bar = states_t.begin_step_transposed(h, terms, held_bar, gradient)
+            if entry.get("timed") and rate is not None:   # ∂r/∂t δt_n, transposed
+                t_bar = t_bar + adjoint_time.step_transposed(self, new, w, rate)
+            if states_t is not None:
+                held_bar = states_t.held_transposed(new, w, held_bar)
+                S_bar, f_bar = states_t.begin_step_transposed(h, terms, held_bar, gradient)
         dq0_bar = q_bar - K_t @ w
         dv0_bar = v_bar - C_t @ w
         du0_bar = tangent_t(dq0_bar)
@@ -894,6 +906,16 @@ class AdjointSensitivities(TransientSensitivities):
                    h * (1 - gamma) * dv0_bar + h * h * (0.5 - beta) * du0_bar - am / (1 - am) * da0_bar, S_bar, f_bar,
                    t_bar, g_bar]
         return w
+
+    @staticmethod
+    def _states_before(carried: dict, i: int) -> tuple:
+        """(S_n, f_n) the forward method's step ``i`` starts from (``ControllerStates.begin_step``, ``condensed``): the
+        accepted (S, f) of the step before, or after its event's restart where the states' rates were taken anew there
+        (``ControllerStates.restarted``: a controller reading a rate; :meth:`after_events`)."""
+        if i == 0:
+            return carried["controller_start"]
+        entry = carried["trajectory"][i - 1]
+        return entry.get("controller_restarted", entry["controller"])
 
     def _held_weights_transposed(self, carried: dict, i: int, S_bar: np.ndarray, sign: float, held,
                                  restart: bool = False) -> np.ndarray:
@@ -1008,20 +1030,21 @@ class AdjointSensitivities(TransientSensitivities):
 
     # ------------------------------------------------------------------ events transposed
     def _step_size_column(self, entry: dict, old, C, K, solve, rotations: tuple, beta_p: float,
-                          gamma_p: float, explicit: np.ndarray | None = None) -> dict:
+                          gamma_p: float, explicit: np.ndarray | None = None, rate: np.ndarray | None = None) -> dict:
         """{dq, dv, dvdot, da} (n,): the forward method's column of a unit change of the step size h
         (:meth:`TransientSensitivities.step_columns`, its column k), computed as it computes it: the native
         predict and update (:class:`_StepColumns` with no parameter column: ∂(hΔq)/∂h, ∂v_{n+1}/∂h) around the
         solve with the step's exact matrix (``solve``; ``C``, ``K`` its damping and stiffness; ``rotations``: the
         step's (R, J)); beside laws in t its explicit part ∂r/∂t at the step's end, as the forward method's
-        ``_add_time_columns`` puts it in the column of h (latdyn/analyses/adjoint_time.py)."""
+        ``_add_time_columns`` puts it in the column of h (latdyn/analyses/adjoint_time.py; ``rate`` where the caller
+        evaluated it, the prescribed motions' part with the controllers' states condensed as in the step)."""
         p, model, n = self.params, self.model, self.model.n_dofs
         step = _StepColumns(self, n, 0, (entry["h"], p.alpha_m, p.alpha_f, p.gamma, p.beta), *rotations)
         none = np.zeros((n, 0))
         _, dq0, dv0 = step.predict(free_velocity(model, old), entry["a_old"], entry["a_new"], none, none, none, none)
         rhs = K @ dq0 + C @ dv0 if explicit is None else explicit.reshape(n, 1) + K @ dq0 + C @ dv0
         if adjoint_time.moves_in_time(self):
-            rhs = rhs + adjoint_time.rate_at(self, entry["state"])[:, None]
+            rhs = rhs + (adjoint_time.rate_at(self, entry["state"]) if rate is None else rate)[:, None]
         z = np.asarray(solve(-rhs)).reshape(n, 1)
         return {key: column[:, 0] for key, column in step.update(z, beta_p, gamma_p).items()}
 

@@ -18,7 +18,8 @@ in the restart's ∂r/∂p, and in the weight's (∂K/∂p) w and ∂M/∂p w th
 - a row whose time moves (an output row at an event, before a step lands on the grid): the forward method's row adds
   each probe's explicit time dependence times δt (a prescribed point's or angle's motion, a joint force's law in t or
   its reaction's ∂r_d/∂t: ``TransientSensitivities.record``); :func:`row_coefficients` reads that coefficient, and
-  the adjoint takes such a row where it is 0 and refuses it otherwise (no check has reached a non-zero one yet);
+  the adjoint takes such a row where it is 0, seeds t̄ there with it for a controller's output naming t (its ∂f/∂t,
+  ``controller_probe_sensitivities._continuous_output``), and refuses it otherwise (no check has reached one);
 - the weight's derivative (:func:`weight_transposed`): the forward's δ(W w) holds scale·(∂K/∂t w) δt_e and, with the
   mass, (∂r/∂t at the accelerations w less at rest) δt_e; the first is the forward method's own
   ``_stiffness_derivative`` (with rigid links or guides ``_geometric_derivative`` too) evaluated at two time shifts
@@ -42,15 +43,17 @@ def moves_in_time(owner) -> bool:
     return owner.explicit_time is not None
 
 
-def rate_at(owner, state) -> np.ndarray:
+def rate_at(owner, state, prescribed: np.ndarray | None = None) -> np.ndarray:
     """∂r/∂t (n,) of the equations of motion at ``state`` on the free coordinates, as the forward method's step adds
-    it (``ExplicitTime.__call__``, with the prescribed motions' part)."""
-    return np.asarray(owner.explicit_time(state), float)
+    it (``ExplicitTime.__call__``, with the prescribed motions' part: ``prescribed`` where the caller evaluated it,
+    with the controllers' states condensed as in the step)."""
+    return np.asarray(owner.explicit_time(state, prescribed=prescribed), float)
 
 
-def step_transposed(owner, state, w: np.ndarray) -> np.ndarray:
-    """(m,): the step's part of t̄_n, −(∂r/∂t)ᵀ w at the step's end ``state`` (``w`` (n, m) the step's S⁻ᵀz̄)."""
-    return -(rate_at(owner, state) @ w)
+def step_transposed(owner, state, w: np.ndarray, rate: np.ndarray | None = None) -> np.ndarray:
+    """(m,): the step's part of t̄_n, −(∂r/∂t)ᵀ w at the step's end ``state`` (``w`` (n, m) the step's S⁻ᵀz̄; ``rate``
+    ∂r/∂t where the caller evaluated it, :func:`rate_at`)."""
+    return -((rate_at(owner, state) if rate is None else rate) @ w)
 
 
 def restart_transposed(owner, after, u_bar: np.ndarray) -> np.ndarray:
@@ -89,13 +92,22 @@ def weight_transposed(owner, state, w: np.ndarray, u_bar: np.ndarray, scale: flo
 
 def row_coefficients(owner, state) -> np.ndarray:
     """(probes,): each probe's coefficient of δt in the forward method's row at ``state`` (its explicit time
-    dependence: ``TransientSensitivities.record`` with δq = δv = δv̇ = 0, at δt = 1 less at δt = 0, the first
-    parameter's column; every column takes the same coefficient times its δt)."""
+    dependence: ``TransientSensitivities.record`` with δq = δv = δv̇ = 0 and the controllers' δS, δy 0, at δt = 1 less
+    at δt = 0, the first parameter's column; every column takes the same coefficient times its δt; a controller's
+    output naming t its ∂f/∂t, with the scene's arrays holding the row's accepted states)."""
     from latdyn.analyses.transient_sensitivities import TransientSensitivities
 
     n, k = owner.model.n_dofs, len(owner.names)
     rows = []
+    held = {}   # the controllers' carried δS and held δy, zero (a controller probe's row reads them)
+    terms = owner.controllers
+    if terms is not None and terms.states is not None:
+        held["controller_dS"] = np.zeros((len(terms.states.slots), k))
+    if terms is not None and terms.sampled is not None:
+        held["sampled_dy"] = np.zeros((len(terms.sampled.controllers), k))
+        held["sampled_dS"] = np.zeros((int(sum(len(c.states) for c in terms.sampled.controllers)), k))
     for moved in (np.ones(k), np.zeros(k)):
-        still = {"dq": np.zeros((n, k)), "dv": np.zeros((n, k)), "dvdot": np.zeros((n, k)), "dt": moved, "rows": []}
+        still = {"dq": np.zeros((n, k)), "dv": np.zeros((n, k)), "dvdot": np.zeros((n, k)), "dt": moved, "rows": [],
+                 **held}
         rows.append(np.asarray(TransientSensitivities.record(owner, still, state)["rows"][0][1:], float))
     return (rows[0] - rows[1]).reshape(len(owner.probes), k)[:, 0]

@@ -22,15 +22,15 @@ Transient runs, forward method, from what the step already carries for the resid
 
 Refused (:func:`refusal`, exit 2 naming ``solve.sensitivities``): controller probes of static paths.
 The discrete adjoint is seeded by a controller's output and states, continuous or sampled
-(latdyn/analyses/adjoint_controller_states.py ``probe_forms``; what it is not seeded by: :func:`adjoint_refusal`,
-naming ``solve.sensitivity_method``).
+(latdyn/analyses/adjoint_controller_states.py ``probe_forms``), beside events too: at a row whose time moves with p an
+output naming t seeds t̄ there with its ∂f/∂t (latdyn/analyses/adjoint_time.py ``row_coefficients``).
 """
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["is_controller_probe", "describe", "refusal", "adjoint_refusal", "controller_arguments",
-           "output_and_gradient", "probe_derivatives"]
+__all__ = ["is_controller_probe", "describe", "refusal", "names_t", "controller_arguments", "output_and_gradient",
+           "probe_derivatives"]
 
 
 def is_controller_probe(probe) -> bool:
@@ -51,28 +51,11 @@ def refusal(scene, probe) -> str | None:
     return None
 
 
-def adjoint_refusal(scene) -> str | None:
-    """Why the discrete adjoint is not seeded by the scene's controller probes, or None: seeded by a controller's
-    output and states, continuous or sampled (latdyn/analyses/adjoint_controller_states.py ``probe_forms``), not by
-    an output whose expression names t beside events (the row's time moves with p there: the forward method's
-    ∂f/∂t δt, not transposed)."""
-    from latdyn.analyses.parameter_keys import has_events
-
-    for probe in scene.output.probes:
-        if not is_controller_probe(probe):
-            continue
-        c = scene.controllers[probe.controller]
-        if probe.state is None and has_events(scene) and not c.sampled and _names_t(scene, c):
-            return (f"the adjoint is not seeded by controller probes beside events where a controller's output names "
-                    f"t yet (probe {probe.name!r}: {describe(probe)}, its output or one it reads names t); the forward "
-                    "method differentiates them")
-    return None
-
-
-def _names_t(scene, c) -> bool:
+def names_t(scene, c) -> bool:
     """Whether the continuous controller ``c``'s output names t, or that of a continuous controller it reads (the
-    chain :func:`_continuous_output` adds ∂f/∂t δt along)."""
-    return c.output_names_t or any(_names_t(scene, scene.controllers[r]) for r in c.reads
+    chain :func:`_continuous_output` adds ∂f/∂t δt along at a row whose time moves; the adjoint seeds it on t̄ there,
+    AdjointSensitivities.reverse)."""
+    return c.output_names_t or any(names_t(scene, scene.controllers[r]) for r in c.reads
                                    if r in scene.controllers and not scene.controllers[r].sampled)
 
 

@@ -211,20 +211,6 @@ def refusal(scene) -> SceneError | None:
     return None
 
 
-def _adjoint_rate_sensor_refusal(scene) -> str | None:
-    """Why the adjoint refuses ``scene`` for a controller with states or a sampled one reading a rate (a hinge's or a
-    guide's rate, a point's velocity), or None: the forward method's δs = D_q δq + D_v δv (:func:`_sensor_derivatives`)
-    has its D_q transposed in latdyn/analyses/adjoint_controller_states.py, its D_v not yet."""
-    rates = {p.name for p in scene.output.probes if p.quantity in ("rate", "velocity")}
-    for c in scene.controllers.values():
-        read = sorted(rates & set(c.reads))
-        if read and (c.states or c.sampled):
-            return (f"controller {c.name!r} reads the rate probe {read[0]!r} and "
-                    f"{'is sampled' if c.sampled else 'has states'}: the adjoint does not transpose its sensors' "
-                    "derivative by the rates (D_v of δs = D_q δq + D_v δv) yet")
-    return None
-
-
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops, compliant stops' onsets (a hinge's or a
@@ -241,10 +227,6 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
     elif _adjoint_geometry_refusal(scene) is not None:
         why = _adjoint_geometry_refusal(scene)
-    elif controller_probes.adjoint_refusal(scene) is not None:
-        why = controller_probes.adjoint_refusal(scene)
-    elif _adjoint_rate_sensor_refusal(scene) is not None:
-        why = _adjoint_rate_sensor_refusal(scene)
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
@@ -1790,12 +1772,13 @@ class ControllerStates:
         return {"S": self.values[self.slots].copy(), "f": self.rates[self.rate_index].copy()}
 
     def restarted(self, carried: dict, state) -> dict:
-        """``carried`` after the step's events at ``state``: the integrator restarts there and takes the states'
-        rates f at the state after the events' jumps (latdyn.step.compiled ``start``: S kept, f taken anew), so for
-        the controllers that read a rate (whose sensor jumps with v: a latch, a stop, a stick) δf = ∂f/∂s δs⁺ +
-        ∂f/∂S δS + ∂f/∂p with δs⁺ = D_q δq + D_v δv⁺ of the jumped rates (:meth:`_sensed`); called after a jump only
-        (TransientSensitivities.after_events with an event pending), elsewhere after_step's δf stands. The others'
-        δf is kept (their sensors do not jump)."""
+        """``carried`` after the step's events at ``state`` where the integrator restarts there and takes the states'
+        rates f at the state after the events' jumps (latdyn.step.compiled ``start``: S kept, f taken anew; after a
+        latch, :func:`rates_taken_anew`), so for the controllers that read a rate (whose sensor jumps with v)
+        δf = ∂f/∂s δs⁺ + ∂f/∂S δS + ∂f/∂p with δs⁺ = D_q δq + D_v δv⁺ of the jumped rates (:meth:`_sensed`); called
+        after such a jump only (TransientSensitivities.after_events), elsewhere after_step's δf stands (after a stop
+        the run keeps f: restart_accelerations restarts the accelerations alone). The others' δf is kept (their
+        sensors do not jump)."""
         rated = [c for c in self.controllers if reads_rates(self.sensors[c.name])]
         if not rated or "controller_df" not in carried:
             return carried
@@ -2005,6 +1988,16 @@ def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np
         owner._prescribed_in_time(state, np.asarray(moved, float), dx, dpi, dtheta, rates)
     return np.array([owner._probe_derivatives(probe, state, dx, dpi, dtheta, rates) for probe in probes],
                     float).reshape(len(probes), dq.shape[1])
+
+
+def rates_taken_anew(kind: str, model) -> bool:
+    """Whether the time loop takes the continuous controllers' states' rates f anew after an event of ``kind``
+    ("latch"; "stop": a stop's, a stick's or a release's jump), ``model`` on the numbering after it: after a latch, or
+    where nothing is left free, the integrator restarts (``integrator.start``, latdyn/timeloop/events.py
+    ``latch_hinges``, ``_renumber``) and takes f at the jumped rates; after a stop, a stick or a release that leaves
+    coordinates free it restarts the accelerations alone (``restart_accelerations``) and keeps f, the step's
+    (:meth:`ControllerStates.restarted`)."""
+    return kind == "latch" or model.n_dofs == 0
 
 
 def reads_rates(probes: list) -> bool:

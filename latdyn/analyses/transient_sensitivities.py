@@ -136,7 +136,8 @@ from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exa
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
-                                           _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives)
+                                           _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives,
+                                           rates_taken_anew)
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
 from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight,
@@ -1196,8 +1197,11 @@ class TransientSensitivities(ParameterDerivatives):
             self.time_shift = None
             if states is not None:
                 self.controllers.held = {}
-        # the states' rates taken anew after the jump (a rate sensor's δs⁺: ControllerStates.restarted)
-        return carried if states is None else states.restarted(carried, new)
+        # the states' rates taken anew after a latch's jump (a rate sensor's δs⁺: ControllerStates.restarted); after a
+        # stop the run keeps them (rates_taken_anew)
+        if states is None or not rates_taken_anew(pending["kind"], self.model):
+            return carried
+        return states.restarted(carried, new)
 
     # ------------------------------------------------------------------ sticking by friction
     def _held(self, carried: dict) -> np.ndarray:
