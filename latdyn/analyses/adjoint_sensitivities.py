@@ -114,6 +114,7 @@ from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_for
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
 from latdyn.analyses.link_sensitivities import columns_moving
+from latdyn.analyses.parameter_stiffness import held_angles_along
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
                                            rates_taken_anew)
@@ -983,26 +984,37 @@ class AdjointSensitivities(TransientSensitivities):
             theta_bar[stuck] -= weight.T @ u_bar
         return q_bar + q_by_jump, v_bar, vdot_by_jump, theta_bar, gradient + by_jump
 
-    def _held_columns(self, state, stuck: np.ndarray, inertia: bool) -> np.ndarray:
+    def _held_columns(self, state, stuck: np.ndarray, inertia: bool, element_gravity: bool = True) -> np.ndarray:
         """(n, s): the forward method's held forces (:meth:`TransientSensitivities._held_forces`: K's column of each
-        held angle, with ``inertia`` the inertia tangent's too, at ``state``) of a unit δθ of each joint of ``stuck``,
-        on the free coordinates: ∂r/∂p's held part is these times δθ."""
-        unit = np.zeros((len(self.model.hinges), len(stuck)))
-        unit[stuck, np.arange(len(stuck))] = 1.0
-        saved, self.held = self.held, unit
+        held angle, with ``inertia`` the inertia tangent's too, without ``element_gravity`` W's K, at ``state``) of a
+        unit δθ of each joint of ``stuck``, on the free coordinates: ∂r/∂p's held part is these times δθ."""
+        saved, self.held = self.held, self._unit_held(stuck)
         try:
-            return self._on_free_coordinates(state, self._held_forces(state, inertia))
+            return self._on_free_coordinates(state, self._held_forces(state, inertia, element_gravity))
         finally:
             self.held = saved
 
+    def _unit_held(self, stuck: np.ndarray) -> np.ndarray:
+        """(n_hinges, s): a unit δθ of each joint of ``stuck``, as the forward method's :attr:`held`."""
+        unit = np.zeros((len(self.model.hinges), len(stuck)))
+        unit[stuck, np.arange(len(stuck))] = 1.0
+        return unit
+
     def _held_stiffness_columns(self, state, w: np.ndarray, stuck: np.ndarray) -> np.ndarray:
-        """(n, s): the held angles' part of the forward method's (∂K/∂p) w (:meth:`_stiffness_derivative`,
-        :meth:`_terms_beside_stiffness_along`: the held forces differenced along w, step WEIGHT_STEP ℓ/|w|_∞) for a
-        unit δθ of each joint of ``stuck``: the same difference of :meth:`_held_columns`."""
+        """(n, s): the held angles' part of the forward method's (∂K/∂p) w (:meth:`_terms_beside_stiffness_along`) for
+        a unit δθ of each joint of ``stuck``: the generated ``held_angles_along`` where it forms it, else the same
+        difference of W's K's held columns along w (step WEIGHT_STEP ℓ/|w|_∞)."""
+        saved, self.held = self.held, self._unit_held(stuck)
+        try:
+            exact = held_angles_along(self, state, w)
+        finally:
+            self.held = saved
+        if exact is not None:
+            return self._on_free_coordinates(state, exact)
         eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
         advance = self.assembler.advance
-        return (self._held_columns(advance(state, eta * w), stuck, False)
-                - self._held_columns(advance(state, -eta * w), stuck, False)) / (2 * eta)
+        return (self._held_columns(advance(state, eta * w), stuck, False, False)
+                - self._held_columns(advance(state, -eta * w), stuck, False, False)) / (2 * eta)
 
     def _held_step_transposed(self, new, w: np.ndarray, theta_bar: np.ndarray) -> np.ndarray:
         """θ̄ before a step taken while joints were held by friction: the step's ∂r/∂p holds K's columns of their

@@ -634,9 +634,9 @@ def held_angles_along(owner, state, w: np.ndarray):
 
     held = owner.held
     model, assembler = owner.model, owner.assembler
-    total = np.zeros((model.n_total + 1, len(owner.names)))
     if held is None or not np.any(held):
-        return total
+        return np.zeros((model.n_total + 1, len(owner.names)))
+    total = np.zeros((model.n_total + 1, held.shape[1]))   # held's columns: the parameters' (the adjoint's unit δθ)
     if model.links is not None:
         return None
     control = assembler.control
