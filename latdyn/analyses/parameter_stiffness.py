@@ -40,7 +40,15 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   reference data's first variation, as ``beam_internal_force_D_reference``'s), which holds the variation's turn with
   the end too (:func:`_geometry`); a load at a moved offset, affine in its offset, by ``point_load_stiffness_D_q`` at
   the moved offset less at none. A moved hinge axis is not (its frame's turn T_j θ J(θa) δa moves with θ along w);
-* initial velocities: no ∂r/∂p.
+* initial velocities: no ∂r/∂p;
+* the event's time shift δt_e (an impulse or restart taken at t_e + δt_e adds ∂r/∂t δt_e to ∂r/∂p): along w
+  ∂(∂r/∂t)/∂q w δt_e (:func:`time_stiffness_along`) — the loads' and hinges' laws in t through the kernels above with
+  their rates in t in the parameter's place; a reel (a cable's rest length L0(t)), whose ∂r/∂t is ∂F/∂L0 · share ·
+  L0′(t), by ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 · share · L0′(t) (:func:`_reels_along`); a continuous
+  controller's output naming t, whose ∂r/∂t is its ∂y/∂t through its actuators, by :func:`controller_parameter_along`
+  of that one column t (below). Not a prescribed motion: its ∂r/∂t, K_·p q̇_p + C_·p q̈_p of the static residual,
+  moves along w with the blocks' second derivatives by a free and a prescribed coordinate, which no kernel forms
+  (:func:`time_generated` False: every parameter the difference).
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
@@ -64,8 +72,9 @@ added exactly (``TransientSensitivities._linked_stiffness_along``). Not generate
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter that moves a hinge axis,
 or any in a variant generated before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a controller (its value is
 the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
-every parameter of a run whose state an event moved in time through a prescribed motion, a reel or a controller's
-output in t (:func:`time_generated`), and with rigid links or guides every parameter beside
+every parameter of a run whose state an event moved in time through a prescribed motion, or a controller's output in
+t whose second derivatives along q are not generated (:func:`time_generated`; a reel and the other controllers in t
+are generated since timehand, 40bf44a differenced them), and with rigid links or guides every parameter beside
 controllers, held angles or a time shift (their terms through the reduction are not separated).
 
 The weight's move along the rates, ∂(K w)/∂v δv, is not a parameter's part: latdyn/analyses/weight_derivative.py
@@ -109,8 +118,9 @@ def _geometry_generated(owner, key: str) -> bool:
     ``beam_stiffness_D_reference``, the model has no rigid links or guides, and the key is no hinge axis (a moved
     axis's turn T_j θ J(θa) δa of the nodal frame moves with θ along w: not generated, the difference)."""
     info = getattr(owner.kernels, "info", None) or {}
+    axis = GEOMETRY_KEY.match(key)["hinge"] is not None
     return ("beam_stiffness_D_reference" in info and owner.model.links is None
-            and GEOMETRY_KEY.match(key)["hinge"] is None)
+            and (not axis or "reference_variation_at_state_D_angle" in info))
 
 
 def _slopes_known(law) -> bool:
@@ -146,22 +156,76 @@ def exact_parameters(owner) -> np.ndarray:
 def time_generated(owner) -> bool:
     """Whether the event's time shift's part, ∂(∂r/∂t)/∂q w δt_e, is generated (:func:`time_stiffness_along`): the
     scene's laws in t are loads' and hinges' (or guides') whose rates in t have their slopes (:func:`_generated_use`
-    of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), no prescribed motion, reel or
-    controller's output in t. Found once."""
+    of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), reels (a cable's rest length L0(t),
+    :func:`_reels_along`) and continuous controllers' outputs naming t whose output's second derivatives along q are
+    generated (:func:`_controllers_in_time_generated`); no prescribed motion (its K_·p q̇_p + C_·p q̈_p moving along w
+    has no kernel: the difference). The laws' and motions' part found once, the controllers' per call (their
+    wiring is renumbered at a latch; :func:`latdyn.analyses.weight_derivative._exact_controllers` keeps it per
+    wiring)."""
     found = owner.__dict__.get("_time_stiffness_exact")
     if found is None:
         timed = owner.explicit_time
         laws = timed.laws
-        found = (not timed.prescribed and not timed.reels and laws.controllers is None
+        found = (not timed.prescribed
                  and all(_generated_use(laws, key, by) for key, by in laws.derivatives.items()))
         owner._time_stiffness_exact = found
-    return found
+    return found and _controllers_in_time_generated(owner)
+
+
+def _controllers_in_time_generated(owner) -> bool:
+    """Whether the continuous controllers' explicit ∂y/∂t (ExplicitTime's one-column ControllerTerms, t its column)
+    moves along w exactly (:func:`controller_parameter_along` forms it): none names t, or every controller's second
+    derivatives along q are generated and no sampled controller or sensed force's law is in the terms."""
+    from latdyn.analyses.weight_derivative import _exact_controllers
+
+    terms = owner.explicit_time.laws.controllers
+    if terms is None:
+        return True
+    return terms.sampled is None and not any(terms.forces_read.values()) and all(_exact_controllers(owner.assembler))
 
 
 def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     """∂(∂r/∂t)/∂q w (n_total + 1,) of the static residual, where :func:`time_generated`: :func:`stiffness_along` of
-    the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them)."""
-    return stiffness_along(owner.explicit_time.laws, state, w, cables=False)[:, 0]
+    the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them),
+    the reels' (:func:`_reels_along`) and the continuous controllers' outputs' ∂y/∂t through their actuators
+    (:func:`controller_parameter_along` of ExplicitTime's ControllerTerms: SymPy's mixed second derivatives of ∂f/∂t
+    by the reads that move along q, times the sensors' generated gradients, chained)."""
+    timed = owner.explicit_time
+    out = stiffness_along(timed.laws, state, w, cables=False)[:, 0]
+    if timed.reels:
+        full = np.zeros(owner.model.n_total + 1)
+        full[:owner.model.n_dofs] = w
+        _reels_along(owner, state, full, out)
+    if timed.laws.controllers is not None:
+        out = out + controller_parameter_along(owner, state, w, terms=timed.laws.controllers)[:, 0]
+    return out
+
+
+def _reels_along(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """A reel's part of ∂(∂r/∂t)/∂q w into ``total`` (n_total + 1,): ∂r/∂t is ∂F/∂L0 · share · L0′(t) on the elements
+    taut at the state (:meth:`latdyn.analyses.cable_sensitivities.CableSensitivities.reel_forces`), so along w
+    ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 · share · L0′(t), as a rest length parameter's (:func:`_cables`)
+    with L0′(t) for ∂L0/∂p."""
+    cables = getattr(owner, "cables", None)
+    if cables is None:
+        return
+    taut = None
+    for k, rest in enumerate(cables.cables.rest_length):
+        if rest.is_constant:
+            continue
+        rate = rest.rate(state.t)
+        if rate == 0.0:
+            continue
+        taut = cables.taut(state) if taut is None else taut
+        for e in np.flatnonzero((cables.cables.cable == k) & taut):
+            rows = cables._rows(e)
+            along = full[rows]
+            if not np.any(along):
+                continue
+            inputs = cables.inputs(state, e)
+            out = rate * cables.cables.share[e] * np.asarray(owner.kernels.cable_stiffness_D_rest_length(
+                *(np.ascontiguousarray(a[None]) for a in inputs), np.ascontiguousarray(along[None]))[0])
+            np.add.at(total, rows, np.asarray(out).reshape(12))
 
 
 def stiffness_along(owner, state, w: np.ndarray, cables: bool = True) -> np.ndarray:
@@ -289,6 +353,7 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
             np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, WIDTH)))[1]).reshape(k, m, 14)
         for column in range(k):
             np.add.at(total[:, column], model.element_dofs[elements], forces[column])
+        _axes_along_angle(owner, state, full, elements, at, total)
     for index, node, offset in geometry.moved_loads:
         frame_node = geometry.load_frame_node(index)
         direction = np.zeros(6)
@@ -304,6 +369,57 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
         out = np.asarray(owner.kernels.point_load_stiffness_D_q(rows(state.T[node]), arms, rows(values), rows(frame),
                                                                rows(direction))[0]).reshape(k + 1, 6)
         total[model.node_dofs[node]] += (out[1:] - out[0]).T
+
+
+def _axes_along_angle(owner, state, full: np.ndarray, elements: np.ndarray, at: np.ndarray,
+                      total: np.ndarray) -> None:
+    """A moved hinge axis's part of :func:`_geometry`: the static ∂r/∂p holds ∂F_e/∂X · V_e(q) whose ψ at a hinged
+    end carries ψ₂ = T_j θ J(θa) δa, which moves with θ beyond the end's turn ω = Δπ + Δθ T_j a that
+    ``beam_stiffness_D_reference``'s second variation gives it, so along w the elements' internal force along that
+    move, Σ_e ∂F_e/∂X · (Δθ_j ∂V_e/∂θ): ``reference_variation_at_state_D_angle`` (codegen/joints.py: ∂ψ₂/∂θ −
+    (T_j a) × ψ₂) times w's Δθ_j, through ``beam_internal_force_D_reference``. Nothing where no parameter moves an
+    axis, or w moves no such end's angle."""
+    if "reference_variation_at_state_D_angle" not in (getattr(owner.kernels, "info", None) or {}):
+        return   # a variant generated before the kernel: an axis's column is the caller's difference
+    geometry = owner.geometry
+    model, k = owner.model, geometry.k
+    rows, ends, swing = [], [], []
+    for end in (0, 1):
+        hinge = model.element_hinges[elements, end]
+        axis_moves = np.any(geometry.variations[elements, 19 + 3 * end:22 + 3 * end] != 0.0, axis=(1, 2))
+        on = np.flatnonzero((hinge >= 0) & axis_moves)
+        if not len(on):
+            continue
+        angle = full[_scattered(model.hinge_dofs[hinge[on]], model.n_total)]
+        on, angle = on[angle != 0.0], angle[angle != 0.0]
+        rows += list(on)
+        ends += [end] * len(on)
+        swing += list(angle)
+    if not rows:
+        return
+    rows, ends, swing = np.array(rows), np.array(ends), np.array(swing)
+    m = len(rows)
+    moved = np.zeros((m, WIDTH, k))
+    for end in (0, 1):
+        pick = np.flatnonzero(ends == end)
+        if not len(pick):
+            continue
+        inputs = geometry.end_inputs(state, elements[rows[pick]], at[rows[pick]], end)
+        variation = geometry.variations[elements[rows[pick]]]
+        held = np.concatenate([variation[:, 12 + 3 * end:15 + 3 * end], variation[:, 6 + 3 * end:9 + 3 * end],
+                               variation[:, 19 + 3 * end:22 + 3 * end]], axis=1)               # (p, 9, k)
+        held = np.ascontiguousarray(held.transpose(2, 0, 1).reshape(k * len(pick), 9))
+        tiled = [np.ascontiguousarray(np.tile(a, (k, 1))) for a in inputs[2:]]
+        out = np.asarray(owner.kernels.reference_variation_at_state_D_angle(*tiled, held)[0])
+        out = out.reshape(k, len(pick), 9).transpose(1, 2, 0)                                    # (p, 9, k)
+        moved[pick, 12 + 3 * end:15 + 3 * end] = out[:, 0:3] * swing[pick, None, None]
+    chosen = elements[rows]
+    forces = np.asarray(owner.kernels.beam_internal_force_D_reference(
+        np.ascontiguousarray(np.tile(at[rows], (k, 1))),
+        np.ascontiguousarray(np.tile(model.element_sections[chosen], (k, 1))),
+        np.ascontiguousarray(moved.transpose(2, 0, 1).reshape(k * m, WIDTH)))[1]).reshape(k, m, 14)
+    for column in range(k):
+        np.add.at(total[:, column], model.element_dofs[chosen], forces[column])
 
 
 def _bodies(owner, state, full: np.ndarray, total: np.ndarray) -> None:
