@@ -39,7 +39,10 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   ∂(K_e w_e)/∂X · V_e (codegen/derivation.py: the forward-mode program of the lowered product K v seeded with the
   reference data's first variation, as ``beam_internal_force_D_reference``'s), which holds the variation's turn with
   the end too (:func:`_geometry`); a load at a moved offset, affine in its offset, by ``point_load_stiffness_D_q`` at
-  the moved offset less at none. A moved hinge axis is not (its frame's turn T_j θ J(θa) δa moves with θ along w);
+  the moved offset less at none. A moved hinge axis too: its frame's turn T_j θ J(θa) δa moves with θ along w, and
+  the kernel's product holds that move — 40bf44a took it for not generated and differenced the axis's column;
+  measured since, the generated column is 4.7e-13 and 1.5e-13 off Richardson differences on the knee and the
+  latching boom where the difference was 1.1e-9 and 6e-10 (tests/test_sensitivities_time_shift_exact.py);
 * initial velocities: no ∂r/∂p;
 * the event's time shift δt_e (an impulse or restart taken at t_e + δt_e adds ∂r/∂t δt_e to ∂r/∂p): along w
   ∂(∂r/∂t)/∂q w δt_e (:func:`time_stiffness_along`) — the loads' and hinges' laws in t through the kernels above with
@@ -69,9 +72,9 @@ With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the ge
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
 stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
 added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
-differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter that moves a hinge axis,
-or any in a variant generated before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a controller (its value is
-the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
+differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
+before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
+controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
 every parameter of a run whose state an event moved in time through a prescribed motion, or a controller's output in
 t whose second derivatives along q are not generated (:func:`time_generated`; a reel and the other controllers in t
 are generated since timehand, 40bf44a differenced them), and with rigid links or guides every parameter beside
@@ -115,12 +118,10 @@ def _generated_use(owner, key: str, laws: dict) -> bool:
 
 def _geometry_generated(owner, key: str) -> bool:
     """Whether a geometry use ``key`` has its (∂K/∂p) w generated (:func:`_geometry`): the variant holds
-    ``beam_stiffness_D_reference``, the model has no rigid links or guides, and the key is no hinge axis (a moved
-    axis's turn T_j θ J(θa) δa of the nodal frame moves with θ along w: not generated, the difference)."""
+    ``beam_stiffness_D_reference`` and the model has no rigid links or guides (a hinge axis's key too: its nodal
+    frame's turn T_j θ J(θa) δa moving with θ is in the kernel's second variation, measured against Richardson)."""
     info = getattr(owner.kernels, "info", None) or {}
-    axis = GEOMETRY_KEY.match(key)["hinge"] is not None
-    return ("beam_stiffness_D_reference" in info and owner.model.links is None
-            and (not axis or "reference_variation_at_state_D_angle" in info))
+    return "beam_stiffness_D_reference" in info and owner.model.links is None
 
 
 def _slopes_known(law) -> bool:
@@ -332,9 +333,12 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     ``geometry_first_variation``, ``reference_first_variation``) each depend on the block the other moves, and the
     kernel's second variation along V_e of the configuration's seed — skew(ω) skew(ψ) T_e, Δπ × δo, Δπ × δh — is
     what the static ∂r/∂p's seed turning with the end (its ψ by ω, its δo and δh by Δπ) gives along w, skew(ψ) skew(ω)
-    T_e + skew(ω × ψ) T_e the same. A moved hinge axis's term T_j θ J(θa) δa moves otherwise with θ: not generated
-    (:func:`_geometry_generated`). The loads: the generated ``point_load_stiffness_D_q`` at the moved offset δr less
-    at none (the load is affine in its offset, its K_l w too)."""
+    T_e + skew(ω × ψ) T_e the same. A moved hinge axis's term T_j θ J(θa) δa, which moves with θ beyond the end's
+    turn, is held too — measured, not derived here: the axis's columns ≤ 4.7e-13 off Richardson differences of the
+    static ∂r/∂p along w (tests/test_sensitivities_time_shift_exact.py; the end's frame turns by Δθ about the axis
+    that the reference's δh moves, a term of the kernel's second variation, is the likely reason). The loads: the
+    generated ``point_load_stiffness_D_q`` at the moved offset δr less at none (the load is affine in its offset, its
+    K_l w too)."""
     geometry = getattr(owner, "geometry", None)
     if geometry is None or "beam_stiffness_D_reference" not in (getattr(owner.kernels, "info", None) or {}):
         return   # a variant generated before the kernel: every geometry column is the caller's difference
@@ -353,7 +357,6 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
             np.ascontiguousarray(variation.transpose(2, 0, 1).reshape(k * m, WIDTH)))[1]).reshape(k, m, 14)
         for column in range(k):
             np.add.at(total[:, column], model.element_dofs[elements], forces[column])
-        _axes_along_angle(owner, state, full, elements, at, total)
     for index, node, offset in geometry.moved_loads:
         frame_node = geometry.load_frame_node(index)
         direction = np.zeros(6)
@@ -369,57 +372,6 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
         out = np.asarray(owner.kernels.point_load_stiffness_D_q(rows(state.T[node]), arms, rows(values), rows(frame),
                                                                rows(direction))[0]).reshape(k + 1, 6)
         total[model.node_dofs[node]] += (out[1:] - out[0]).T
-
-
-def _axes_along_angle(owner, state, full: np.ndarray, elements: np.ndarray, at: np.ndarray,
-                      total: np.ndarray) -> None:
-    """A moved hinge axis's part of :func:`_geometry`: the static ∂r/∂p holds ∂F_e/∂X · V_e(q) whose ψ at a hinged
-    end carries ψ₂ = T_j θ J(θa) δa, which moves with θ beyond the end's turn ω = Δπ + Δθ T_j a that
-    ``beam_stiffness_D_reference``'s second variation gives it, so along w the elements' internal force along that
-    move, Σ_e ∂F_e/∂X · (Δθ_j ∂V_e/∂θ): ``reference_variation_at_state_D_angle`` (codegen/joints.py: ∂ψ₂/∂θ −
-    (T_j a) × ψ₂) times w's Δθ_j, through ``beam_internal_force_D_reference``. Nothing where no parameter moves an
-    axis, or w moves no such end's angle."""
-    if "reference_variation_at_state_D_angle" not in (getattr(owner.kernels, "info", None) or {}):
-        return   # a variant generated before the kernel: an axis's column is the caller's difference
-    geometry = owner.geometry
-    model, k = owner.model, geometry.k
-    rows, ends, swing = [], [], []
-    for end in (0, 1):
-        hinge = model.element_hinges[elements, end]
-        axis_moves = np.any(geometry.variations[elements, 19 + 3 * end:22 + 3 * end] != 0.0, axis=(1, 2))
-        on = np.flatnonzero((hinge >= 0) & axis_moves)
-        if not len(on):
-            continue
-        angle = full[_scattered(model.hinge_dofs[hinge[on]], model.n_total)]
-        on, angle = on[angle != 0.0], angle[angle != 0.0]
-        rows += list(on)
-        ends += [end] * len(on)
-        swing += list(angle)
-    if not rows:
-        return
-    rows, ends, swing = np.array(rows), np.array(ends), np.array(swing)
-    m = len(rows)
-    moved = np.zeros((m, WIDTH, k))
-    for end in (0, 1):
-        pick = np.flatnonzero(ends == end)
-        if not len(pick):
-            continue
-        inputs = geometry.end_inputs(state, elements[rows[pick]], at[rows[pick]], end)
-        variation = geometry.variations[elements[rows[pick]]]
-        held = np.concatenate([variation[:, 12 + 3 * end:15 + 3 * end], variation[:, 6 + 3 * end:9 + 3 * end],
-                               variation[:, 19 + 3 * end:22 + 3 * end]], axis=1)               # (p, 9, k)
-        held = np.ascontiguousarray(held.transpose(2, 0, 1).reshape(k * len(pick), 9))
-        tiled = [np.ascontiguousarray(np.tile(a, (k, 1))) for a in inputs[2:]]
-        out = np.asarray(owner.kernels.reference_variation_at_state_D_angle(*tiled, held)[0])
-        out = out.reshape(k, len(pick), 9).transpose(1, 2, 0)                                    # (p, 9, k)
-        moved[pick, 12 + 3 * end:15 + 3 * end] = out[:, 0:3] * swing[pick, None, None]
-    chosen = elements[rows]
-    forces = np.asarray(owner.kernels.beam_internal_force_D_reference(
-        np.ascontiguousarray(np.tile(at[rows], (k, 1))),
-        np.ascontiguousarray(np.tile(model.element_sections[chosen], (k, 1))),
-        np.ascontiguousarray(moved.transpose(2, 0, 1).reshape(k * m, WIDTH)))[1]).reshape(k, m, 14)
-    for column in range(k):
-        np.add.at(total[:, column], model.element_dofs[chosen], forces[column])
 
 
 def _bodies(owner, state, full: np.ndarray, total: np.ndarray) -> None:

@@ -937,7 +937,7 @@ class TransientSensitivities(ParameterDerivatives):
         continuous controllers' exact, the held angles' and the rest differenced), and for the others a central
         difference along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element
         forces and without the elements' gravity load (``sections``, ``element_gravity`` of
-        :meth:`residual_derivatives`): a geometry parameter moving a hinge axis, a hinge law naming an input, and all
+        :meth:`residual_derivatives`): a hinge law naming an input, and all
         of them where a prescribed motion moves the state in time (a reel's and a continuous controller's output in
         t are generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With rigid
         links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`) where no controller,
