@@ -39,8 +39,19 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   ∂(K_e w_e)/∂X · V_e (codegen/derivation.py: the forward-mode program of the lowered product K v seeded with the
   reference data's first variation, as ``beam_internal_force_D_reference``'s), which holds the variation's turn with
   the end too (:func:`_geometry`); a load at a moved offset, affine in its offset, by ``point_load_stiffness_D_q`` at
-  the moved offset less at none. A moved hinge axis is not (its frame's turn T_j θ J(θa) δa moves with θ along w);
-* initial velocities: no ∂r/∂p.
+  the moved offset less at none. A moved hinge axis too: its frame's turn T_j θ J(θa) δa moves with θ along w, and
+  the kernel's product holds that move — 40bf44a took it for not generated and differenced the axis's column;
+  measured since, the generated column is 4.7e-13 and 1.5e-13 off Richardson differences on the knee and the
+  latching boom where the difference was 1.1e-9 and 6e-10 (tests/test_sensitivities_time_shift_exact.py);
+* initial velocities: no ∂r/∂p;
+* the event's time shift δt_e (an impulse or restart taken at t_e + δt_e adds ∂r/∂t δt_e to ∂r/∂p): along w
+  ∂(∂r/∂t)/∂q w δt_e (:func:`time_stiffness_along`) — the loads' and hinges' laws in t through the kernels above with
+  their rates in t in the parameter's place; a reel (a cable's rest length L0(t)), whose ∂r/∂t is ∂F/∂L0 · share ·
+  L0′(t), by ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 · share · L0′(t) (:func:`_reels_along`); a continuous
+  controller's output naming t, whose ∂r/∂t is its ∂y/∂t through its actuators, by :func:`controller_parameter_along`
+  of that one column t (below). Not a prescribed motion: its ∂r/∂t, K_·p q̇_p + C_·p q̈_p of the static residual,
+  moves along w with the blocks' second derivatives by a free and a prescribed coordinate, which no kernel forms
+  (:func:`time_generated` False: every parameter the difference).
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
@@ -79,11 +90,12 @@ With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the ge
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
 stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
 added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
-differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter that moves a hinge axis,
-or any in a variant generated before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a controller (its value is
-the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
-every parameter of a run whose state an event moved in time through a prescribed motion, a reel or a controller's
-output in t (:func:`time_generated`), and with rigid links or guides every parameter beside
+differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
+before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
+controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
+every parameter of a run whose state an event moved in time through a prescribed motion, or a controller's output in
+t whose second derivatives along q are not generated (:func:`time_generated`; a reel and the other controllers in t
+are generated since timehand, 40bf44a differenced them), and with rigid links or guides every parameter beside
 controllers, held angles or a time shift (their terms through the reduction are not separated).
 
 The weight's move along the rates, ∂(K w)/∂v δv, is not a parameter's part: latdyn/analyses/weight_derivative.py
@@ -124,11 +136,10 @@ def _generated_use(owner, key: str, laws: dict) -> bool:
 
 def _geometry_generated(owner, key: str) -> bool:
     """Whether a geometry use ``key`` has its (∂K/∂p) w generated (:func:`_geometry`): the variant holds
-    ``beam_stiffness_D_reference``, the model has no rigid links or guides, and the key is no hinge axis (a moved
-    axis's turn T_j θ J(θa) δa of the nodal frame moves with θ along w: not generated, the difference)."""
+    ``beam_stiffness_D_reference`` and the model has no rigid links or guides (a hinge axis's key too: its nodal
+    frame's turn T_j θ J(θa) δa moving with θ is in the kernel's second variation, measured against Richardson)."""
     info = getattr(owner.kernels, "info", None) or {}
-    return ("beam_stiffness_D_reference" in info and owner.model.links is None
-            and GEOMETRY_KEY.match(key)["hinge"] is None)
+    return "beam_stiffness_D_reference" in info and owner.model.links is None
 
 
 def _slopes_known(law) -> bool:
@@ -164,22 +175,76 @@ def exact_parameters(owner) -> np.ndarray:
 def time_generated(owner) -> bool:
     """Whether the event's time shift's part, ∂(∂r/∂t)/∂q w δt_e, is generated (:func:`time_stiffness_along`): the
     scene's laws in t are loads' and hinges' (or guides') whose rates in t have their slopes (:func:`_generated_use`
-    of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), no prescribed motion, reel or
-    controller's output in t. Found once."""
+    of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), reels (a cable's rest length L0(t),
+    :func:`_reels_along`) and continuous controllers' outputs naming t whose output's second derivatives along q are
+    generated (:func:`_controllers_in_time_generated`); no prescribed motion (its K_·p q̇_p + C_·p q̈_p moving along w
+    has no kernel: the difference). The laws' and motions' part found once, the controllers' per call (their
+    wiring is renumbered at a latch; :func:`latdyn.analyses.weight_derivative._exact_controllers` keeps it per
+    wiring)."""
     found = owner.__dict__.get("_time_stiffness_exact")
     if found is None:
         timed = owner.explicit_time
         laws = timed.laws
-        found = (not timed.prescribed and not timed.reels and laws.controllers is None
+        found = (not timed.prescribed
                  and all(_generated_use(laws, key, by) for key, by in laws.derivatives.items()))
         owner._time_stiffness_exact = found
-    return found
+    return found and _controllers_in_time_generated(owner)
+
+
+def _controllers_in_time_generated(owner) -> bool:
+    """Whether the continuous controllers' explicit ∂y/∂t (ExplicitTime's one-column ControllerTerms, t its column)
+    moves along w exactly (:func:`controller_parameter_along` forms it): none names t, or every controller's second
+    derivatives along q are generated and no sampled controller or sensed force's law is in the terms."""
+    from latdyn.analyses.weight_derivative import _exact_controllers
+
+    terms = owner.explicit_time.laws.controllers
+    if terms is None:
+        return True
+    return terms.sampled is None and not any(terms.forces_read.values()) and all(_exact_controllers(owner.assembler))
 
 
 def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     """∂(∂r/∂t)/∂q w (n_total + 1,) of the static residual, where :func:`time_generated`: :func:`stiffness_along` of
-    the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them)."""
-    return stiffness_along(owner.explicit_time.laws, state, w, cables=False)[:, 0]
+    the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them),
+    the reels' (:func:`_reels_along`) and the continuous controllers' outputs' ∂y/∂t through their actuators
+    (:func:`controller_parameter_along` of ExplicitTime's ControllerTerms: SymPy's mixed second derivatives of ∂f/∂t
+    by the reads that move along q, times the sensors' generated gradients, chained)."""
+    timed = owner.explicit_time
+    out = stiffness_along(timed.laws, state, w, cables=False)[:, 0]
+    if timed.reels:
+        full = np.zeros(owner.model.n_total + 1)
+        full[:owner.model.n_dofs] = w
+        _reels_along(owner, state, full, out)
+    if timed.laws.controllers is not None:
+        out = out + controller_parameter_along(owner, state, w, terms=timed.laws.controllers)[:, 0]
+    return out
+
+
+def _reels_along(owner, state, full: np.ndarray, total: np.ndarray) -> None:
+    """A reel's part of ∂(∂r/∂t)/∂q w into ``total`` (n_total + 1,): ∂r/∂t is ∂F/∂L0 · share · L0′(t) on the elements
+    taut at the state (:meth:`latdyn.analyses.cable_sensitivities.CableSensitivities.reel_forces`), so along w
+    ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 · share · L0′(t), as a rest length parameter's (:func:`_cables`)
+    with L0′(t) for ∂L0/∂p."""
+    cables = getattr(owner, "cables", None)
+    if cables is None:
+        return
+    taut = None
+    for k, rest in enumerate(cables.cables.rest_length):
+        if rest.is_constant:
+            continue
+        rate = rest.rate(state.t)
+        if rate == 0.0:
+            continue
+        taut = cables.taut(state) if taut is None else taut
+        for e in np.flatnonzero((cables.cables.cable == k) & taut):
+            rows = cables._rows(e)
+            along = full[rows]
+            if not np.any(along):
+                continue
+            inputs = cables.inputs(state, e)
+            out = rate * cables.cables.share[e] * np.asarray(owner.kernels.cable_stiffness_D_rest_length(
+                *(np.ascontiguousarray(a[None]) for a in inputs), np.ascontiguousarray(along[None]))[0])
+            np.add.at(total, rows, np.asarray(out).reshape(12))
 
 
 def stiffness_along(owner, state, w: np.ndarray, cables: bool = True) -> np.ndarray:
@@ -286,9 +351,12 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     ``geometry_first_variation``, ``reference_first_variation``) each depend on the block the other moves, and the
     kernel's second variation along V_e of the configuration's seed — skew(ω) skew(ψ) T_e, Δπ × δo, Δπ × δh — is
     what the static ∂r/∂p's seed turning with the end (its ψ by ω, its δo and δh by Δπ) gives along w, skew(ψ) skew(ω)
-    T_e + skew(ω × ψ) T_e the same. A moved hinge axis's term T_j θ J(θa) δa moves otherwise with θ: not generated
-    (:func:`_geometry_generated`). The loads: the generated ``point_load_stiffness_D_q`` at the moved offset δr less
-    at none (the load is affine in its offset, its K_l w too)."""
+    T_e + skew(ω × ψ) T_e the same. A moved hinge axis's term T_j θ J(θa) δa, which moves with θ beyond the end's
+    turn, is held too — measured, not derived here: the axis's columns ≤ 4.7e-13 off Richardson differences of the
+    static ∂r/∂p along w (tests/test_sensitivities_time_shift_exact.py; the end's frame turns by Δθ about the axis
+    that the reference's δh moves, a term of the kernel's second variation, is the likely reason). The loads: the
+    generated ``point_load_stiffness_D_q`` at the moved offset δr less at none (the load is affine in its offset, its
+    K_l w too)."""
     geometry = getattr(owner, "geometry", None)
     if geometry is None or "beam_stiffness_D_reference" not in (getattr(owner.kernels, "info", None) or {}):
         return   # a variant generated before the kernel: every geometry column is the caller's difference

@@ -932,14 +932,16 @@ class TransientSensitivities(ParameterDerivatives):
         not in it: csrc/evaluate.c holds it in the inertia tangent). Without rigid links or guides: the section
         values' part generated for every parameter (``beam_stiffness_D_section``, :meth:`_section_stiffness_along`),
         the hinges', loads', joint bodies', cables' (EA, damping, rest length, ρA), compliant stops', friction's and
-        geometry parameters' parts (and the event's time shift's through loads' and hinges' laws in t) generated for
+        geometry parameters' parts (and the event's time shift's through loads' and hinges' laws in t, reels and
+        continuous controllers' outputs in t) generated for
         the parameters whose every use has one (latdyn/analyses/parameter_stiffness.py ``exact_parameters``), beside
         controllers and held angles with their terms of ∂r/∂p taken apart (:meth:`_terms_beside_stiffness_along`: the
         continuous controllers' exact, the held angles' and the rest differenced), and for the others a central
         difference along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element
         forces and without the elements' gravity load (``sections``, ``element_gravity`` of
-        :meth:`residual_derivatives`): a geometry parameter moving a hinge axis, a hinge law naming an input, and all
-        of them where a prescribed motion, a reel or a controller's output in t moves the state in time. With rigid
+        :meth:`residual_derivatives`): a hinge law naming an input, and all
+        of them where a prescribed motion moves the state in time (a reel's and a continuous controller's output in
+        t are generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With rigid
         links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`) where no controller,
         held angle or time shift adds terms, else the difference of the static ∂r/∂p without the elements' gravity
         load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia
