@@ -526,8 +526,7 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
     exact = _exact_controllers(assembler)
     if not all(exact):
         return None
-    with owner._controller_outputs_at(state):   # the compiled partials read chained outputs from the scene's array
-        return _controller_parameter_along(owner, terms, state, w, exact, total)
+    return _controller_parameter_along(owner, terms, state, w, exact, total)   # chained outputs: the laws' arguments
 
 
 def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
