@@ -40,7 +40,7 @@ def _owners_at_events(monkeypatch, text: str) -> list:
 def test_a_compiled_law_at_a_moved_state_reads_its_arguments_not_the_stale_array(monkeypatch, text):
     """pd's compiled output, ∂pd/∂(lead, angle) and ∂pd/∂Kp at arguments other than the step's, the scene's array
     deliberately stale (lead's entry 10³): equal to SymPy's lambdas of the same arguments to 1e-14 relative (measured
-    ≤ 2e-16). Before, the compiled law read lead = 10³ from the array: off by 10³ in the output and in ∂pd/∂Kp = lead −
+    equal, 0.0). Before, the compiled law read lead = 10³ from the array: off by 10³ in the output and in ∂pd/∂Kp = lead −
     angle (fails before)."""
     seen = _owners_at_events(monkeypatch, text)
     owner, state = seen[0]
@@ -89,3 +89,60 @@ def test_the_chained_set_point_at_stops_agrees_with_richardson_without_refilling
     monkeypatch.undo()
     assert [e["kind"] for e in result.summary["events"]] == ["stop"] * 2
     assert _richardson_error(KP_IN_TORQUE, result, "Kp") <= 1e-8
+
+
+# ------------------------------------------------------------------ the adjoint's weight: the time shift's term alone
+def _shift_terms(monkeypatch, text: str) -> list:
+    """The adjoint run of ``text`` (tests/test_adjoint_events_more.py's), recording at each weighing of
+    ``adjoint_time.weight_transposed``: the forward method's ``_stiffness_derivative`` evaluations it took, its
+    ``shift_stiffness_along`` and Richardson-extrapolated central differences of the static ∂r/∂t along w (steps 1e-3
+    and 5e-4 ℓ/|w|_∞) on the free coordinates."""
+    from latdyn.analyses import adjoint_time
+    from tests.test_adjoint_events_more import _adjoint, _run
+
+    seen, original = [], adjoint_time.weight_transposed
+
+    def spy(owner, state, w, u_bar, scale, mass):
+        calls, derivative = [], TransientSensitivities._stiffness_derivative
+
+        def counted(self, *args, **kwargs):
+            calls.append(1)
+            return derivative(self, *args, **kwargs)
+
+        monkeypatch.setattr(TransientSensitivities, "_stiffness_derivative", counted)
+        try:
+            out = original(owner, state, w, u_bar, scale, mass)
+        finally:
+            monkeypatch.setattr(TransientSensitivities, "_stiffness_derivative", derivative)
+        if np.any(w):
+            def rate(eta):
+                ahead, behind = owner.assembler.advance(state, eta * w), owner.assembler.advance(state, -eta * w)
+                return (np.asarray(owner.explicit_time(ahead, inertia=False), float)
+                        - np.asarray(owner.explicit_time(behind, inertia=False), float)) / (2 * eta)
+
+            eta = 1e-3 * (owner.length or 1.0) / float(np.max(np.abs(w)))
+            reference = (4 * rate(eta / 2) - rate(eta)) / 3
+            shift = getattr(adjoint_time, "shift_stiffness_along", None)   # (not on 40bf44a: counted there)
+            seen.append((len(calls), None if shift is None else shift(owner, state, w), reference))
+        return out
+
+    monkeypatch.setattr(adjoint_time, "weight_transposed", spy)
+    _run(_adjoint(text))
+    monkeypatch.undo()
+    return seen
+
+
+def test_the_adjoints_time_shift_term_is_one_evaluation_against_richardson(monkeypatch):
+    """The slewing arm's stop (a load in sin(2t), tests/test_adjoint_events_more.py SLEWING_STOP): the adjoint's
+    weight reads the time shift's term alone (``adjoint_time.shift_stiffness_along``: the laws' rates in t generated,
+    ``time_stiffness_along``), no evaluation of the forward method's whole (∂K/∂p) w (two before, at δt_e = 1 and 2,
+    the first parameter's column: fails before), and it agrees with Richardson differences of the static ∂r/∂t along w
+    to 1e-8 of its largest (measured 2.4e-11 and 2.6e-10 at its two weighings)."""
+    from tests.test_adjoint_events_more import SLEWING_STOP
+
+    seen = _shift_terms(monkeypatch, SLEWING_STOP)
+    assert seen
+    for calls, term, reference in seen:
+        assert calls == 0
+        assert np.abs(reference).max() > 0
+        assert np.abs(term - reference).max() <= 1e-8 * np.abs(reference).max()
