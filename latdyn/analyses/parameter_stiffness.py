@@ -530,7 +530,8 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
 
 
 def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
-    """:func:`controller_parameter_along`'s chain and actuators, the scene's controller outputs those at ``state``."""
+    """:func:`controller_parameter_along`'s chain and actuators (the chained outputs the compiled partials' arguments,
+    computed at ``state``: codegen/laws.py ``_block``)."""
     from latdyn.analyses.weight_derivative import (_controller_curvatures, _controller_reads, _MOVING_SENSORS,
                                                    _sensor_dofs, _sensor_kinematics)
     from latdyn.assembly.control import CONTROLLER
