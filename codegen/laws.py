@@ -179,9 +179,22 @@ def _hinge_block(law: HingeLawC, inputs: dict | None = None) -> dict:
 
 
 def _controller_block(law: ControllerLawC | SampledLawC, inputs: dict) -> dict:
+    """A controller law of its arguments ``s`` (module docstring). An argument that is an earlier controller's output
+    is read from ``s`` into a local named as the array's entry ``latdyn_controllers[k]`` was printed, with ``_`` for
+    the brackets (``latdyn_controllers_k_``, which sorts among the law's symbols as that name did): SymPy orders a
+    sum's terms by their symbols' names, so the printed arithmetic is the one the array's read printed, and where the
+    argument is that entry's value (the time step's, csrc/evaluate.c ``controller_outputs``) the bits are too."""
     t, *sensors = law.variables
-    variables = {t: sp.Symbol("t"), **{v: sp.Symbol(f"s[{m}]") for m, v in enumerate(sensors)}}
-    return {"text": _comment_text(law.text), "lines": _block(variables, law.expressions, "out", 0, inputs)}
+    variables, aliases = {t: sp.Symbol("t")}, []
+    for m, v in enumerate(sensors):
+        entry = inputs.get(v.name, "")
+        if entry.startswith("latdyn_controllers["):
+            local = entry.replace("[", "_").replace("]", "_")
+            aliases.append(f"const double {local} = s[{m}];")
+            variables[v] = sp.Symbol(local)
+        else:
+            variables[v] = sp.Symbol(f"s[{m}]")
+    return {"text": _comment_text(law.text), "lines": aliases + _block(variables, law.expressions, "out", 0, inputs)}
 
 
 def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC], inputs: tuple = (),
