@@ -31,7 +31,9 @@ The unit's two functions (the ABI :mod:`latdyn.assembly.compiled_laws` and ``lat
     the scene's inputs (SCENE.md ``inputs``; :mod:`latdyn.scene.inputs`) and its controllers'
     outputs: a law that names input i reads ``inputs[i]`` at each call, one that names controller k
     ``controllers[k]``, arrays the runtime owns (inputs set from outside, outputs held by the time
-    loop). They are constant between settings: they add nothing to the time derivatives.
+    loop). They are constant between settings: they add nothing to the time derivatives. A
+    controller law that reads another controller's output takes it as an argument (``s``), not
+    from ``controllers``: its caller passes the output at the state it evaluates.
 
 Laws are plain data here (:class:`TimeLaw`, :class:`HingeLawC`), so that this module does
 not import the runtime. A table in t is linear between its points and constant beyond them,
@@ -106,12 +108,18 @@ class _LawPrinter(CPrinter):
 
 def _block(variables: dict, expressions, out: str, first: int, signals: dict | None = None) -> list[str]:
     """C statements of one law: CSE temporaries, then ``out[first + i] = ...``; a symbol named
-    like a signal of ``signals`` (name -> the C text that reads it) reads it."""
+    like a signal of ``signals`` (name -> the C text that reads it) reads it, unless it is one of
+    the law's arguments ``variables`` (symbol -> its C name): an argument is read from its argument. A controller law that reads an
+    earlier controller's output y_j takes it as its argument ``s[m]``, the value at the state its
+    caller evaluates, not the scene's array, which holds y_j at the step's state (before, a
+    variable named like a controller read that array: evaluated at a moved state, a chained law
+    read a stale y_j)."""
     printer = _LawPrinter()
     signals = signals or {}
-    variables = {s: v for s, v in variables.items() if s.name not in signals}
     renamed = [sp.sympify(e).xreplace(variables) for e in expressions]
-    named = {s: sp.Symbol(signals[s.name]) for e in renamed for s in e.free_symbols if s.name in signals}
+    arguments = set(variables.values())
+    named = {s: sp.Symbol(signals[s.name]) for e in renamed for s in e.free_symbols
+             if s.name in signals and s not in arguments}
     renamed = [e.xreplace(named) for e in renamed]
     for e in renamed:
         strangers = e.free_symbols - set(variables.values()) - set(named.values())
@@ -134,9 +142,10 @@ def _one_line(text: str) -> str:
     return " ".join(text.split())
 
 
-def _c_names(symbols) -> dict:
-    """The law's SymPy symbols mapped to plain symbols with the C names (assumptions dropped)."""
-    return {s: sp.Symbol(s.name) for s in symbols}
+def _c_names(symbols, signals: dict | None = None) -> dict:
+    """The law's SymPy symbols mapped to plain symbols with the C names (assumptions dropped), but for
+    those named like a signal of ``signals``: a law of θ, θ̇, t reads those from the runtime's arrays."""
+    return {s: sp.Symbol(s.name) for s in symbols if s.name not in (signals or {})}
 
 
 def _time_block(law: TimeLaw, out: str, first: int, inputs: dict | None = None) -> dict:
@@ -151,7 +160,7 @@ def _time_block(law: TimeLaw, out: str, first: int, inputs: dict | None = None) 
                  f"latdyn_table(t, {n}, times, values, {out} + {first});",
                  f"{out}[{first + 2}] = 0.0;"]
     elif law.kind == "expression":
-        lines = _block(_c_names([law.variable]), law.expressions, out, first, inputs)
+        lines = _block(_c_names([law.variable], inputs), law.expressions, out, first, inputs)
     else:
         raise EmitError(f"unknown kind of law {law.kind!r}")
     return {"text": _comment_text(law.text), "lines": lines}
@@ -166,13 +175,26 @@ def _hinge_block(law: HingeLawC, inputs: dict | None = None) -> dict:
         block["text"] = _comment_text(law.text)
         return block
     return {"text": _comment_text(law.text),
-            "lines": _block(_c_names(law.variables), law.expressions, "out", 0, inputs)}
+            "lines": _block(_c_names(law.variables, inputs), law.expressions, "out", 0, inputs)}
 
 
 def _controller_block(law: ControllerLawC | SampledLawC, inputs: dict) -> dict:
+    """A controller law of its arguments ``s`` (module docstring). An argument that is an earlier controller's output
+    is read from ``s`` into a local named as the array's entry ``latdyn_controllers[k]`` was printed, with ``_`` for
+    the brackets (``latdyn_controllers_k_``, which sorts among the law's symbols as that name did): SymPy orders a
+    sum's terms by their symbols' names, so the printed arithmetic is the one the array's read printed, and where the
+    argument is that entry's value (the time step's, csrc/evaluate.c ``controller_outputs``) the bits are too."""
     t, *sensors = law.variables
-    variables = {t: sp.Symbol("t"), **{v: sp.Symbol(f"s[{m}]") for m, v in enumerate(sensors)}}
-    return {"text": _comment_text(law.text), "lines": _block(variables, law.expressions, "out", 0, inputs)}
+    variables, aliases = {t: sp.Symbol("t")}, []
+    for m, v in enumerate(sensors):
+        entry = inputs.get(v.name, "")
+        if entry.startswith("latdyn_controllers["):
+            local = entry.replace("[", "_").replace("]", "_")
+            aliases.append(f"const double {local} = s[{m}];")
+            variables[v] = sp.Symbol(local)
+        else:
+            variables[v] = sp.Symbol(f"s[{m}]")
+    return {"text": _comment_text(law.text), "lines": aliases + _block(variables, law.expressions, "out", 0, inputs)}
 
 
 def laws_source(time_laws: list[TimeLaw], hinge_laws: list[HingeLawC], inputs: tuple = (),

@@ -4,12 +4,12 @@ The wheel on a hinge out of the coordinate planes (tests/test_sensitivities_cont
 ``lead = a0 + 0.3*angle`` read by ``pd = Kp*(lead - angle) - ...``, the hinge's torque ``Kt*pd + 0.1*Kt*Kt``, a
 rigid stop at 0.2 rad (e = 0.8) hit twice. At each impact the forward method differences the static ∂r/∂p along the
 jump's w (latdyn/analyses/transient_sensitivities.py ``_terms_beside_stiffness_along``): ∂pd/∂Kp = lead - angle, the
-compiled partial (latdyn/analyses/derivative_laws.py ``ControllerPartials``) reads lead from the scene's controller
+compiled partial (latdyn/analyses/derivative_laws.py ``ControllerPartials``) read lead from the scene's controller
 outputs (codegen/laws.py ``_block``: a symbol named like a controller reads its output), which were left at the step's
 values while the states moved: lead's move 0.3 ∂angle/∂q w was lost, and Kp was 1.3e-6 off Richardson differences
 (fwdrefusals found it the same at difference steps 1e-4 and 1e-5, and on main 86d57d9), while the same physics
-written without the chain, ``Kp*(a0 - 0.7*angle)``, was 1.6e-10 off. The difference now moves the outputs with the
-states (``TransientSensitivities._controller_outputs_at``)."""
+written without the chain, ``Kp*(a0 - 0.7*angle)``, was 1.6e-10 off. The compiled partials now take lead as their
+argument, its value at the state they are evaluated at (tests/test_controller_outputs_as_arguments.py)."""
 from __future__ import annotations
 
 import json

@@ -21,10 +21,10 @@ in the restart's ∂r/∂p, and in the weight's (∂K/∂p) w and ∂M/∂p w th
   the adjoint takes such a row where it is 0, seeds t̄ there with it for a controller's output naming t (its ∂f/∂t,
   ``controller_probe_sensitivities._continuous_output``), and refuses it otherwise (no check has reached one);
 - the weight's derivative (:func:`weight_transposed`): the forward's δ(W w) holds scale·(∂K/∂t w) δt_e and, with the
-  mass, (∂r/∂t at the accelerations w less at rest) δt_e; the first is the forward method's own
-  ``_stiffness_derivative`` (with rigid links or guides ``_geometric_derivative`` too) evaluated at two time shifts
-  δt_e = 1 and 2 (it is affine in the shift, every parameter's column the same path as the forward method's at
-  its event), their difference the column that multiplies δt_e; the second ExplicitTime's ∂r/∂t itself.
+  mass, (∂r/∂t at the accelerations w less at rest) δt_e; the first is the static residual's ∂(∂r/∂t)/∂q w alone
+  (:func:`shift_stiffness_along`: the forward method's ``_stiffness_derivative`` path for the time shift, generated
+  where the laws' rates in t are, else its difference along w, with rigid links or guides ``_geometric_derivative``'s
+  terms in δt_e), one evaluation, the same for every parameter; the second ExplicitTime's ∂r/∂t itself.
 
 None of these differentiates anything new: each is the forward method's map at the event or step, read as the
 coefficient of δt, transposed onto the adjoint's columns.
@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["moves_in_time", "rate_at", "restart_transposed", "row_coefficients", "step_transposed",
-           "weight_transposed"]
+__all__ = ["moves_in_time", "rate_at", "restart_transposed", "row_coefficients", "shift_stiffness_along",
+           "step_transposed", "weight_transposed"]
 
 
 def moves_in_time(owner) -> bool:
@@ -67,26 +67,50 @@ def weight_transposed(owner, state, w: np.ndarray, u_bar: np.ndarray, scale: flo
     scale·K (module docstring). Zeros where w is 0 (the forward method adds no parameter part then)."""
     if not np.any(w):
         return np.zeros(u_bar.shape[1])
-    k = len(owner.names)
-    linked = owner.model.links is not None
-
-    def stiffness(shift: float) -> np.ndarray:
-        owner.time_shift = np.full(k, shift)
-        try:
-            out = owner._stiffness_derivative(state, w)   # noqa: SLF001 - the forward method's own map
-            if linked:
-                out = out + owner._geometric_derivative(state, w)   # noqa: SLF001
-            return out
-        finally:
-            owner.time_shift = None
-
-    column = (stiffness(2.0) - stiffness(1.0))[:, 0]
-    out = scale * (column @ u_bar)
+    out = scale * (shift_stiffness_along(owner, state, w) @ u_bar)
     if mass:
         at_rest, accelerated = owner._at_rest_and_accelerated(state, w)   # noqa: SLF001
         moved = (np.asarray(owner.explicit_time(accelerated, inertia=True), float)
                  - np.asarray(owner.explicit_time(at_rest, inertia=True), float))
         out = out + moved @ u_bar
+    return out
+
+
+def shift_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
+    """(n,): the coefficient of the event's time shift δt_e in the forward method's (∂K/∂p) w at ``state``
+    (``TransientSensitivities._stiffness_derivative``, with rigid links or guides ``_geometric_derivative`` too), the
+    static residual's ∂(∂r/∂t)/∂q w alone, by the forward method's own path: where the laws' rates in t are generated
+    (latdyn/analyses/parameter_stiffness.py ``time_generated``; no rigid links or guides) their
+    ``time_stiffness_along``; else the central difference of ∂r/∂t along w that the forward method's difference of
+    the static ∂r/∂p holds (its step, :data:`WEIGHT_STEP` ℓ/|w|_∞), with rigid links or guides the reduction's
+    geometric term of the inertia forces' ∂r_all/∂t and P's move with the prescribed coordinates. One evaluation of
+    the terms in t; before, the whole (∂K/∂p) w at two shifts and its first parameter's column (a parameter whose
+    uses are differenced and one whose are generated took the other path)."""
+    from latdyn.analyses.parameter_stiffness import time_generated, time_stiffness_along
+    from latdyn.analyses.transient_sensitivities import WEIGHT_STEP
+    from latdyn.analyses.weight_derivative import geometric_product
+
+    model, assembler = owner.model, owner.assembler
+    linked = model.links is not None
+    if not linked and time_generated(owner):
+        return owner._on_free_coordinates(state, time_stiffness_along(owner, state, w)[:, None])[:, 0]   # noqa: SLF001
+    eta = WEIGHT_STEP * (owner.length or 1.0) / float(np.max(np.abs(w)))
+    ahead, behind = assembler.advance(state, eta * w), assembler.advance(state, -eta * w)
+    out = (np.asarray(owner.explicit_time(ahead, inertia=False), float)
+           - np.asarray(owner.explicit_time(behind, inertia=False), float)) / (2 * eta)
+    if linked:   # _geometric_derivative's terms in δt_e
+        k = len(owner.names)
+        held, owner.time_shift = owner.time_shift, np.ones(k)
+        try:
+            out = out + owner._geometric_rate_in_time(state, w)[:, 0]   # noqa: SLF001
+        finally:
+            owner.time_shift = held
+        n_asm = model.n_assembled
+        inertial = (np.asarray(owner.explicit_time(state, inertia=True, on_all=True), float)
+                    - np.asarray(owner.explicit_time(state, inertia=False, on_all=True), float))[:n_asm]
+        if np.any(inertial):
+            assembler.complete_links(state)   # J of the state in the links' buffers
+            out = out + geometric_product(assembler, state, inertial, w)
     return out
 
 

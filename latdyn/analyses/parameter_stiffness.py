@@ -620,8 +620,7 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
     exact = _exact_controllers(assembler)
     if not all(exact):
         return None
-    with owner._controller_outputs_at(state):   # the compiled partials read chained outputs from the scene's array
-        return _controller_parameter_along(owner, terms, state, w, exact, total)
+    return _controller_parameter_along(owner, terms, state, w, exact, total)   # chained outputs: the laws' arguments
 
 
 def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray) -> np.ndarray:
@@ -747,7 +746,8 @@ def held_angles_along(owner, state, w: np.ndarray):
 
 
 def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
-    """:func:`controller_parameter_along`'s chain and actuators, the scene's controller outputs those at ``state``."""
+    """:func:`controller_parameter_along`'s chain and actuators (the chained outputs the compiled partials' arguments,
+    computed at ``state``: codegen/laws.py ``_block``)."""
     from latdyn.analyses.weight_derivative import (_controller_curvatures, _controller_reads, _MOVING_SENSORS,
                                                    _sensor_dofs, _sensor_kinematics)
     from latdyn.assembly.control import CONTROLLER

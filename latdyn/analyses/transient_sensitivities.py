@@ -980,17 +980,14 @@ class TransientSensitivities(ParameterDerivatives):
         (``latdyn_controller_outputs_at``), put back after it, where a parameter's derivative law names a controller
         (a hinge torque or guide force ``Kt*pd``: ∂τ/∂p = pd at fixed output, whose move along w, ∂y/∂q w, the
         difference of the static ∂r/∂p in :meth:`_stiffness_derivative` then holds; left at the step's outputs it
-        was 1.8e-7 of the angle off Richardson differences after a rigid stop), or where a continuous controller reads
-        another and the output partials are compiled (``ControllerPartials``: a law reads an earlier controller's
-        output from the scene's array, codegen/laws.py ``_block``; ``pd: "Kp*(lead - angle)"`` with ``lead: "a0 +
-        0.3*angle"`` lost lead's move along w in :meth:`_terms_beside_stiffness_along`, and Kp was 1.3e-6 off
-        Richardson differences through the wheel's two rigid stops, tests/test_controller_stop_sensitivities.py)."""
+        was 1.8e-7 of the angle off Richardson differences after a rigid stop). A hinge law reads a controller's
+        output from the scene's array (its arguments are θ, θ̇, t), so the array is filled at the state the law is
+        evaluated at. A controller law reading an earlier controller's output takes it as an argument (codegen/laws.py
+        ``_block``): the compiled partials (``ControllerPartials``) need no refill."""
         outputs = getattr(self.scene, "controller_outputs", None)
         named = set(outputs.names) if outputs is not None else set()
-        chained = self.controllers is not None and self.controllers.compiled is not None and any(
-            self.controllers.chained.values())
-        if not named or not (chained or any(named & set(getattr(law, "input_names", ()))
-                                            for laws in self.derivatives.values() for law in laws.values())):
+        if not named or not any(named & set(getattr(law, "input_names", ()))
+                                for laws in self.derivatives.values() for law in laws.values()):
             yield
             return
         held = outputs.values.copy()
@@ -1058,8 +1055,7 @@ class TransientSensitivities(ParameterDerivatives):
         def beside(moved):
             total = np.zeros((model.n_total + 1, len(self.names)))
             if differenced:
-                with self._controller_outputs_at(moved):   # a chained output the compiled partials read moves
-                    self.controllers.add(moved, total)
+                self.controllers.add(moved, total)   # a chained output is the compiled partials' argument
             held = self._held_forces(moved, False, False) if held_differenced else None
             if held is not None:
                 total += held
