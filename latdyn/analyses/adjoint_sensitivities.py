@@ -111,7 +111,7 @@ from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import _BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE
 from latdyn.analyses.transient_sensitivities import (TransientSensitivities, _NodeRotations, _StepColumns,
-                                                      friction_key)
+                                                      friction_key, stop_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
@@ -180,6 +180,20 @@ class AdjointSensitivities(TransientSensitivities):
                          "while the joints slip, not a stick or a release yet; expected solve.sensitivity_method: "
                          "forward (the default), which does (docs/parameters.md, \"Friction\")")
 
+    def _refuse_a_rest(self, new, hinge: int | None = None) -> None:
+        """SolverError (exit 1: the rows before it keep their derivatives) where a hinge rests on its rigid stop at
+        ``new``, naming its ``limits``: the forward method differentiates its coming to rest (an impact with
+        restitution 0 and the restart on the locked model), the steps it rests and its release
+        (:meth:`TransientSensitivities._settle_or_release`); the reverse pass does not transpose them yet."""
+        resting = np.flatnonzero(self.model.resting) if hinge is None else [hinge]
+        if not len(resting):
+            return
+        joint = self.model.hinges[int(resting[0])]
+        raise SolverError(f"the sensitivities at t = {float(new.t):.6g} meet a hinge resting on its stop "
+                          f"({stop_key(joint)}): the discrete adjoint does not transpose its coming to rest, the "
+                          "steps it rests and its release yet; expected solve.sensitivity_method: forward (the "
+                          "default), which differentiates them (docs/parameters.md, \"The discrete adjoint\")")
+
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,
              lands: bool = True) -> dict:
         """The accepted step ``old`` → ``new`` stored (its end state before the events, size and algorithmic
@@ -194,6 +208,8 @@ class AdjointSensitivities(TransientSensitivities):
             entry["outputs"] = self.scene.controller_outputs.values.copy()
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
+            if event is not None and event[1] == "rest":   # put back on its stop at the step's end: not transposed
+                self._refuse_a_rest(new, event[0])
             cable = self._cable_event(old, new, event)
             # a compliant stop's onset: no jump, its time through the landing step's size (the forward method's
             # ``event or self._contact_onset(old, new)``)
@@ -215,6 +231,7 @@ class AdjointSensitivities(TransientSensitivities):
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
         pass transposes the restart, :meth:`_restart_transposed`)."""
         self._refuse_a_stick(new)
+        self._refuse_a_rest(new)
         if carried["trajectory"]:
             carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:
