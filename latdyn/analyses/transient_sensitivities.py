@@ -74,6 +74,13 @@ angle's δθ is carried (``held``) and enters the residual through the exact K's
 coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
 what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction").
 
+A hinge resting on its rigid stop (locked there after landing with restitution 0, released at a step's end where its
+reaction would pull it off; or put back on it at the end of a step it started on the stop and ended beyond):
+its coming to rest as a stop's impulse with e = 0 and a restart on the locked model, its δθ 0 while it rests, the
+release as a stop's restart, the projection at a step's end with its term δ[X(NᵀX)⁻¹](θ − stop)
+(:meth:`TransientSensitivities._settle_or_release`, :meth:`TransientSensitivities._projected`; docs/parameters.md,
+"A hinge resting on its stop").
+
 Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescribed motions or a reel depend on
 t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
 the grid), and the step's derivative adds ∂r/∂t δt_{n+1}: ∂r/∂t δt_n in the parameters' columns and ∂r/∂t in
@@ -496,6 +503,7 @@ class TransientSensitivities(ParameterDerivatives):
         if k == 0:
             return {**carried, "h": h}
         if n == 0:   # nothing free (all latched): no event can end the step; the step's time still moves with p
+            self._release_candidates(carried, new)   # a hinge resting on its stop may be released there
             dh = -carried["dt"] if lands else np.zeros(k)   # landing on the grid, or the nominal step after a restart
             # the work accounts still move: a prescribed motion's drive reaction with its ∂r_d/∂p
             return external_work_step(self, carried, {**carried, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh,
