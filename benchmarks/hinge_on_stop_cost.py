@@ -4,23 +4,14 @@ five rounds, medians of process time and wall time (one process, the kernels cac
 Run from the repository root: ``PYTHONPATH=. chrt -f 10 python benchmarks/hinge_on_stop_cost.py``."""
 from __future__ import annotations
 
-import yaml
-
-from benchmarks.forward_refusals_lifted_cost import measure
+from benchmarks.forward_refusals_lifted_cost import forward_against_without
 from tests.test_sensitivities_hinge_on_stop import BOOM, GIMBAL, REBOUND, RELEASE
 
 SCENES = {"boom-rests": BOOM, "boom-released": RELEASE, "boom-rebound-projected": REBOUND, "gimbal-ring-rests": GIMBAL}
-KINDS = ("without", "forward")
 
 
 def main() -> None:
-    for name, text in SCENES.items():
-        med = measure(text, kinds=KINDS)
-        k = len(yaml.safe_load(text)["solve"]["sensitivities"])
-        without, forward = (med[kind] for kind in KINDS)
-        print(f"{name} ({k} parameters): without {without[0] * 1e3:.0f} ms CPU ({without[1] * 1e3:.0f} wall); "
-              f"forward {forward[0] * 1e3:.0f} ({forward[1] * 1e3:.0f}) = {forward[0] / without[0]:.2f} x CPU, "
-              f"{forward[1] / without[1]:.2f} x wall", flush=True)
+    forward_against_without(SCENES)
 
 
 if __name__ == "__main__":
