@@ -28,6 +28,7 @@ from latdyn.errors import SolverError
 from tests.cli_runs import latdyn_run
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import _agree, _run
+from tests.test_sensitivities_guides import STOP_3D as GUIDE_STOP
 
 #: a flexible boom deploying about a skew hinge at its root (axis (1, −2, 0.5)), driven by its spring and a torque
 #: onto its rigid stop at 0.6 rad with restitution 0 (at 0.839 s), where its spring and torque hold it to the end
@@ -192,3 +193,15 @@ def test_the_adjoint_refuses_a_hinge_resting_on_its_stop():
     data["solve"].update({"sensitivity_method": "adjoint", "sensitivities": ["k"]})
     with pytest.raises(SolverError, match=r"beams\.boom\.start\.hinge\.limits.*sensitivity_method: forward"):
         latdyn.run(latdyn.load_scene(data))
+
+
+def test_a_guide_coming_to_rest_on_its_stop_is_refused_naming_its_limits(tmp_path):
+    """A guided slider landing on its rigid stop with restitution 0 (at 0.240 s) comes to rest in a model with guides,
+    whose reduction's restart is not differentiated there: ``latdyn run`` exits 2 naming the guide's ``limits`` and
+    the file (exit 1, a SolverError naming neither, on 40bf44a)."""
+    text = GUIDE_STOP.replace("restitution: 0.5", "restitution: 0.0")
+    assert text != GUIDE_STOP
+    completed, _ = latdyn_run(tmp_path, text, quiet=True)
+    assert completed.returncode == 2, completed.stderr
+    assert "scene.yaml" in completed.stderr and "bodies.slider.guide.limits" in completed.stderr
+    assert "guides or rigid links" in completed.stderr and "Traceback" not in completed.stderr

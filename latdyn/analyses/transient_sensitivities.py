@@ -1404,7 +1404,7 @@ class TransientSensitivities(ParameterDerivatives):
         if len(changed) > 1:
             self._refuse_resting(new, j, "several hinges come to rest on their stops or leave them at one instant")
         if model.links is not None:
-            self._refuse_resting(new, j, "a hinge comes to rest on its stop or leaves it in a model with guides or "
+            self._refuse_resting(new, j, "a joint comes to rest on its stop or leaves it in a model with guides or "
                                          "rigid links (their reduction's restart is not differentiated there yet)")
         pending = carried.get("pending")
         if model.resting[j]:   # settled after its impact with restitution 0: the restart on the locked model
@@ -1423,7 +1423,7 @@ class TransientSensitivities(ParameterDerivatives):
         or its release is not differentiated here (docs/parameters.md, "Sensitivities through events")."""
         raise SceneError(self.scene.file, stop_key(self.model.hinges[j]),
                          f"at t = {float(new.t):.6g} {why}: solve.sensitivities differentiates a hinge that lands on "
-                         "its rigid stop with restitution 0, rests there and is released at a step's end, one at a "
+                         "its rigid stop with restitution 0 (without guides or rigid links), rests there and is released at a step's end, one at a "
                          "time, not this; expected a run without it, or no solve.sensitivities (docs/parameters.md, "
                          "\"Sensitivities through events\")")
 
