@@ -26,6 +26,7 @@ import yaml
 import latdyn
 from latdyn.errors import SolverError
 from tests.cli_runs import latdyn_run
+from tests.resumed_runs import interrupted_and_whole
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_sensitivities_events import _agree, _run
 from tests.test_sensitivities_guides import STOP_3D as GUIDE_STOP
@@ -207,3 +208,16 @@ def test_a_guide_coming_to_rest_on_its_stop_is_refused_naming_its_limits(tmp_pat
     assert completed.returncode == 2, completed.stderr
     assert "scene.yaml" in completed.stderr and "bodies.slider.guide.limits" in completed.stderr
     assert "guides or rigid links" in completed.stderr and "Traceback" not in completed.stderr
+
+
+def test_a_run_interrupted_while_the_hinge_rests_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):
+    """Interrupted (Ctrl-C) at 1.1 s, the hinge resting on its stop (locked there: the checkpoint keeps
+    ``resting``), and resumed: sensitivities.csv byte for byte and summary.json's probe and event sensitivities
+    those of the run uninterrupted, through the release at ≈ 1.3 s."""
+    scene = yaml.safe_load(RELEASE)
+    scene["solve"]["sensitivities"] = ["k", "zt"]
+    out, whole = interrupted_and_whole(scene, tmp_path, monkeypatch, 1.1)
+    assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
+    resumed, uninterrupted = (json.loads((path / "summary.json").read_text()) for path in (out, whole))
+    assert resumed["probe_sensitivities"] == uninterrupted["probe_sensitivities"]
+    assert resumed["event_sensitivities"] == uninterrupted["event_sensitivities"]
