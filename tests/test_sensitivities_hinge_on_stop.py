@@ -7,8 +7,9 @@ started a step on the stop and ends it beyond is put back on it at that step's e
 q⁺ = q ∘ exp(−X(NᵀX)⁻¹(θ − stop)). Differentiated (latdyn/analyses/transient_sensitivities.py
 ``_settle_or_release``, ``_projected``): the landing and its impulse as a stop's with e = 0, the restart on the
 locked model, the locked angle's δθ = 0, the release's restart at a step's end (δt 0), and the projection's
-δ[X(NᵀX)⁻¹](θ − stop) through the impulse weight's derivative. Each case was refused on 40bf44a (SolverError "meet a
-hinge resting on its stop", exit 1), checked by running this file there.
+δ[X(NᵀX)⁻¹](θ − stop) through the impulse weight's derivative. Every test here fails on 40bf44a, where each scene
+was refused (SolverError "meet a hinge resting on its stop", exit 1, naming no key), checked by running this file
+there.
 
 Against Richardson-extrapolated central differences of whole runs (the perturbation 1e-4 and 5e-5 relative, not the
 time step; ``solve.tol`` 1e-12 in the scenes, so the references' Newton tolerance does not show; the reference runs

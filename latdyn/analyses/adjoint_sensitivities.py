@@ -78,7 +78,9 @@ step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) an
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
 friction sticks (a stick and a release are events not transposed yet: refused when it sticks,
-:meth:`_refuse_a_stick`; friction while the joints slip is taken), a controller's output probe beside events where it
+:meth:`_refuse_a_stick`; friction while the joints slip is taken), a hinge resting on its rigid stop (its coming to
+rest, the steps it rests, its release and its projection back onto the stop, which the forward method differentiates:
+exit 1 when it happens, :meth:`_refuse_a_rest`), a controller's output probe beside events where it
 names t (continuous controllers without states enter E and the matrices as in the forward method; with states and
 sampled ones (beside events too: :meth:`_held_weights_transposed`) and controller probes: the states' and held
 outputs' bars beside these, latdyn/analyses/adjoint_controller_states.py, :meth:`_states_step_transposed`,
