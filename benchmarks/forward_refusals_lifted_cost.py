@@ -45,6 +45,19 @@ def measure(text: str, rounds: int = 5, kinds: tuple = KINDS) -> dict:
     return {kind: (statistics.median(c), statistics.median(w)) for kind, (c, w) in times.items()}
 
 
+def forward_against_without(scenes: dict) -> None:
+    """Print, for each of ``scenes`` ({name: YAML text}), the run without sensitivities and the forward method
+    (:func:`measure` of the two kinds): medians of CPU and wall time and the forward method's × the run without."""
+    kinds = ("without", "forward")
+    for name, text in scenes.items():
+        med = measure(text, kinds=kinds)
+        k = len(yaml.safe_load(text)["solve"]["sensitivities"])
+        without, forward = (med[kind] for kind in kinds)
+        print(f"{name} ({k} parameters): without {without[0] * 1e3:.0f} ms CPU ({without[1] * 1e3:.0f} wall); "
+              f"forward {forward[0] * 1e3:.0f} ({forward[1] * 1e3:.0f}) = {forward[0] / without[0]:.2f} x CPU, "
+              f"{forward[1] / without[1]:.2f} x wall", flush=True)
+
+
 def main() -> None:
     for name, text in SCENES.items():
         med = measure(text)

@@ -4,24 +4,16 @@ alternating, five rounds, medians of process time and wall time (one process, th
 each first). Run from the repository root: ``PYTHONPATH=. chrt -f 10 python benchmarks/states_rates_cost.py``."""
 from __future__ import annotations
 
-import yaml
-
-from benchmarks.forward_refusals_lifted_cost import measure
+from benchmarks.forward_refusals_lifted_cost import forward_against_without
 from tests.test_sensitivities_states_rates import GIMBAL_RATE, LATCH_RATE, SAMPLED_STOP, SAMPLED_VELOCITY, SLEW_RATE
 
 SCENES = {"slewing-boom-PI-of-the-rate": SLEW_RATE, "gimbal-filtered-rate-PIDs": GIMBAL_RATE,
           "sampled-PD-of-a-velocity": SAMPLED_VELOCITY, "sampled-PD-beside-a-stop": SAMPLED_STOP,
           "PI-of-a-rate-beside-a-latch": LATCH_RATE}
-KINDS = ("without", "forward")   # benchmarks/forward_refusals_lifted_cost.py's measure and variant, no adjoint
 
 
-def main() -> None:
-    for name, text in SCENES.items():
-        med = measure(text, kinds=KINDS)
-        k = len(yaml.safe_load(text)["solve"]["sensitivities"])
-        without, forward = (med[kind] for kind in KINDS)
-        print(f"{name} ({k} parameters): without {without[0] * 1e3:.0f} ms CPU ({without[1] * 1e3:.0f} wall); "
-              f"forward {forward[0] * 1e3:.0f} ({forward[1] * 1e3:.0f}) = {forward[0] / without[0]:.2f} x", flush=True)
+def main() -> None:   # benchmarks/forward_refusals_lifted_cost.py's measure of the two kinds, no adjoint
+    forward_against_without(SCENES)
 
 
 if __name__ == "__main__":

@@ -221,20 +221,27 @@ def test_the_cli_takes_a_compliant_stop_with_the_adjoint_as_the_forward_method(t
 
 
 def test_a_run_failing_in_its_events_ends_with_the_solver_message_and_the_forward_methods_derivatives(tmp_path):
-    """A rigid stop with restitution 0 leaves the hinge resting on it, which the sensitivities refuse inside the
-    accepted step's events (SolverError, exit 1), after the adjoint stored that step: the CLI reports the solver's
-    failure, not an internal error, and summary.json holds the derivatives of the rows recorded up to the failure as
-    the forward method's (the step it failed in left out; measured 1.3e-11 of each output's largest)."""
+    """A rigid stop with restitution 0 leaves the hinge resting on it, which the adjoint refuses inside the accepted
+    step's events (SolverError, exit 1, naming the stop's key and the forward method), after it stored that step: the
+    CLI reports the solver's failure, not an internal error, and summary.json holds the derivatives of the rows recorded
+    up to the failure as the forward method's run to the last of them (the step it failed in left out; measured
+    1.3e-11 of each output's largest on 40bf44a, where the forward method refused the rest too;
+    tests/test_sensitivities_hinge_on_stop.py differentiates it)."""
     text = STOP_PLANAR.replace("restitution: 0.5", "restitution: 0.0")
-    summaries = []
-    for scene, folder in ((text, "forward"), (_adjoint(text), "adjoint")):
-        (tmp_path / folder).mkdir()
-        completed, out = latdyn_run(tmp_path / folder, scene, quiet=True)
-        assert completed.returncode == 1, completed.stderr
-        assert "the solver failed" in completed.stderr and "resting on its stop" in completed.stderr
-        assert "internal error" not in completed.stderr and "Traceback" not in completed.stderr
-        summaries.append(json.loads((out / "summary.json").read_text()))
-    forward, adjoint = summaries
+    (tmp_path / "adjoint").mkdir()
+    completed, out = latdyn_run(tmp_path / "adjoint", _adjoint(text), quiet=True)
+    assert completed.returncode == 1, completed.stderr
+    assert "the solver failed" in completed.stderr and "resting on its stop" in completed.stderr
+    assert "hinge.limits" in completed.stderr and "sensitivity_method: forward" in completed.stderr
+    assert "internal error" not in completed.stderr and "Traceback" not in completed.stderr
+    adjoint = json.loads((out / "summary.json").read_text())
+    last = float((out / "probes.csv").read_text().splitlines()[-1].split(",")[0])
+    (tmp_path / "forward").mkdir()
+    cut = yaml.safe_load(text)
+    cut["solve"]["t_end"] = last
+    completed, out = latdyn_run(tmp_path / "forward", yaml.safe_dump(cut), quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    forward = json.loads((out / "summary.json").read_text())
     assert forward["probe_sensitivities"].keys() == adjoint["probe_sensitivities"].keys()
     assert abs(forward["probe_sensitivities"]["tip_y"]["end"]["m"]) > 1e-5
     for probe, by in forward["probe_sensitivities"].items():

@@ -62,7 +62,8 @@ output:
     mid_z: {{point: "arm.node[1]", quantity: displacement, component: z}}
 """
 LATCH_3D = WHEEL_3D.format(what="its latch", event="lock_at: 0.5", t_end=1.1, every=0.02)
-#: ends before the wheel comes back onto the stop (1.072 s): a joint resting on its stop is refused
+#: ends before the wheel comes back onto the stop (1.072 s), where it would rest on it
+#: (tests/test_sensitivities_hinge_on_stop.py differentiates that)
 STOP_3D = WHEEL_3D.format(what="a stop", event="limits: [-10, 0.5], restitution: 0.5", t_end=1.07, every=0.01)
 
 

@@ -82,7 +82,9 @@ joints' angles and rates (refused when it sticks, :meth:`_refuse_a_stick`; frict
 releases otherwise, are taken: the forward method's stick — a stop's impulse with restitution 0, the held angle's
 δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
 its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
-bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`). Controllers are taken:
+bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`), a hinge resting on
+its rigid stop (its coming to rest, the steps it rests, its release and its projection back onto the stop, which the
+forward method differentiates: exit 1 when it happens, :meth:`_refuse_a_rest`). Controllers are taken:
 continuous ones without states enter E and the matrices as in the forward method; with states and sampled ones
 (beside events too: :meth:`_held_weights_transposed`; reading rates too) and controller probes (an output naming t at
 a row whose time moves: its ∂f/∂t seeded on t̄ there, :meth:`reverse`) through the states' and held outputs' bars
@@ -119,7 +121,7 @@ from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
                                            rates_taken_anew)
 from latdyn.analyses.transient_sensitivities import (WEIGHT_STEP, TransientSensitivities, _NodeRotations,
-                                                      _StepColumns, friction_key)
+                                                      _StepColumns, friction_key, stop_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
@@ -216,6 +218,20 @@ class AdjointSensitivities(TransientSensitivities):
                                     for h in self.model.hinges)
         return self._sticks_here
 
+    def _refuse_a_rest(self, new, hinge: int | None = None) -> None:
+        """SolverError (exit 1: the rows before it keep their derivatives) where a hinge rests on its rigid stop at
+        ``new``, naming its ``limits``: the forward method differentiates its coming to rest (an impact with
+        restitution 0 and the restart on the locked model), the steps it rests and its release
+        (:meth:`TransientSensitivities._settle_or_release`); the reverse pass does not transpose them yet."""
+        resting = np.flatnonzero(self.model.resting) if hinge is None else [hinge]
+        if not len(resting):
+            return
+        joint = self.model.hinges[int(resting[0])]
+        raise SolverError(f"the sensitivities at t = {float(new.t):.6g} meet a hinge resting on its stop "
+                          f"({stop_key(joint)}): the discrete adjoint does not transpose its coming to rest, the "
+                          "steps it rests and its release yet; expected solve.sensitivity_method: forward (the "
+                          "default), which differentiates them (docs/parameters.md, \"The discrete adjoint\")")
+
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,
              lands: bool = True) -> dict:
         """The accepted step ``old`` → ``new`` stored (its end state before the events, size and algorithmic
@@ -230,6 +246,8 @@ class AdjointSensitivities(TransientSensitivities):
             entry["outputs"] = self.scene.controller_outputs.values.copy()
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
+            if event is not None and event[1] == "rest":   # put back on its stop at the step's end: not transposed
+                self._refuse_a_rest(new, event[0])
             cable = self._cable_event(old, new, event)
             # a compliant stop's onset: no jump, its time through the landing step's size (the forward method's
             # ``event or self._contact_onset(old, new)``)
@@ -252,6 +270,7 @@ class AdjointSensitivities(TransientSensitivities):
         """After the events of the step just stored: the numbering and cables' sides the rows and the next
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
         pass transposes the restart, :meth:`_restart_transposed`)."""
+        self._refuse_a_rest(new)
         if carried["trajectory"]:
             carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:

@@ -74,6 +74,13 @@ angle's δθ is carried (``held``) and enters the residual through the exact K's
 coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
 what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction").
 
+A hinge resting on its rigid stop (locked there after landing with restitution 0, released at a step's end where its
+reaction would pull it off; or put back on it at the end of a step it started on the stop and ended beyond):
+its coming to rest as a stop's impulse with e = 0 and a restart on the locked model, its δθ 0 while it rests, the
+release as a stop's restart, the projection at a step's end with its term δ[X(NᵀX)⁻¹](θ − stop)
+(:meth:`TransientSensitivities._settle_or_release`, :meth:`TransientSensitivities._projected`; docs/parameters.md,
+"A hinge resting on its stop").
+
 Laws in time (:class:`ExplicitTime`): where loads, hinge or guide laws, prescribed motions or a reel depend on
 t, a step's end t_{n+1} = t_n + h moves with δt_{n+1} = δt_n + δh (δt_e after an event, until a step lands on
 the grid), and the step's derivative adds ∂r/∂t δt_{n+1}: ∂r/∂t δt_n in the parameters' columns and ∂r/∂t in
@@ -194,6 +201,12 @@ def friction_key(joint) -> str:
             else f"beams.{joint.beam}.{joint.end}.hinge.friction")
 
 
+def stop_key(joint) -> str:
+    """The scene key of a joint's stops: a guide's (``bodies.NAME.guide.limits``) or a hinge's."""
+    return (f"bodies.{joint.beam}.guide.limits" if joint.end == "guide"
+            else f"beams.{joint.beam}.{joint.end}.hinge.limits")
+
+
 class TransientSensitivities(ParameterDerivatives):
     """The sensitivities of a transient run (module docstring). The time loop calls :meth:`start` at
     t = 0, :meth:`step` per accepted step, :meth:`record` per recorded row and :meth:`finish` at the
@@ -218,6 +231,9 @@ class TransientSensitivities(ParameterDerivatives):
         #: the stuck joints at the step's start, and the jumps of those that may stick or be released at its end
         #: (:meth:`_stick_candidates`), for :meth:`after_events`
         self._stuck_before, self._candidates = None, {}
+        #: the hinges resting on their rigid stops at the step's start (``model.resting``), and the restarts of
+        #: those the step's end may release (:meth:`_release_candidates`), for :meth:`after_events`
+        self._resting_before, self._releases = None, {}
 
     def bind(self, integrator) -> None:
         """The integrator's parameters (α_m, α_f, γ, β) and length scale (the inertia tangent's steps); the
@@ -484,10 +500,12 @@ class TransientSensitivities(ParameterDerivatives):
         model = self.model
         n, k = model.n_dofs, len(self.names)
         self._stuck_before, self._candidates = model.stuck.copy(), {}
+        self._resting_before, self._releases = model.resting.copy(), {}
         self.held = self._held(carried)
         if k == 0:
             return {**carried, "h": h}
         if n == 0:   # nothing free (all latched): no event can end the step; the step's time still moves with p
+            self._release_candidates(carried, new)   # a hinge resting on its stop may be released there
             dh = -carried["dt"] if lands else np.zeros(k)   # landing on the grid, or the nominal step after a restart
             # the work accounts still move: a prescribed motion's drive reaction with its ∂r_d/∂p
             return external_work_step(self, carried, {**carried, "dt": carried["dt"] + dh, "dh": dh, "dh_step": dh,
@@ -495,8 +513,9 @@ class TransientSensitivities(ParameterDerivatives):
         columns, states = self.step_columns(carried, old, new, h, a_old, a_new)
         event = self._event(old, new)
         cable = self._cable_event(old, new, event)
-        if cable is None:
-            dh = self._step_size_derivative(carried, h, lands, event or self._contact_onset(old, new), columns["dq"])
+        if cable is None:   # a rest's projection comes at the step's end, whose size is the step control's
+            landed = None if event is not None and event[1] == "rest" else event
+            dh = self._step_size_derivative(carried, h, lands, landed or self._contact_onset(old, new), columns["dq"])
         else:
             dh = self.cables.step_size_derivative(new, cable[0], columns["dq"], columns["dv"], k,
                                                   started=carried["dt"])
@@ -514,6 +533,7 @@ class TransientSensitivities(ParameterDerivatives):
             return self._after_cable_event(carried, new, *cable)
         if event is None:
             self._stick_candidates(carried, old, new)
+            self._release_candidates(carried, new)
             return carried
         self.time_shift = carried["dt"]   # the impulse's weight at the event, moved in time by δt_e
         if states is not None:   # the states kept through the jump: δS held in ∂r/∂p there
@@ -686,12 +706,15 @@ class TransientSensitivities(ParameterDerivatives):
         hits, _, restitution, rests = stop_hits(self.assembler, new, old)
         if not latched and not hits:
             return None
-        if any(rests) or len(latched) + len(hits) > 1:
-            what = "a hinge resting on its stop" if any(rests) else "several hinge events at one instant"
-            raise SolverError(f"the sensitivities at t = {new.t:.6g} meet {what}, whose derivative is not that of "
-                              "one event (docs/parameters.md, \"Sensitivities through events\")")
+        if len(latched) + len(hits) > 1:
+            raise SolverError(f"the sensitivities at t = {new.t:.6g} meet several hinge events at one instant, whose "
+                              "derivative is not that of one event (docs/parameters.md, \"Sensitivities through "
+                              "events\")")
         if latched:
             return int(latched[0]), "latch", 0.0
+        if rests[0]:   # started the step on its stop, ends it beyond: projected back at the step's end (_projected)
+            self._refuse_what_a_rest_moves(new, int(hits[0]))
+            return int(hits[0]), "rest", 0.0
         return int(hits[0]), "stop", float(restitution[0])
 
     def _contact_onset(self, old, new):
@@ -762,6 +785,12 @@ class TransientSensitivities(ParameterDerivatives):
         and hinges until :meth:`after_events`."""
         model = self.model
         dv_plus = self._impulse(carried, new, hinge, restitution)
+        if kind == "rest":   # no event of the run's (nor its time): the projection's δq, the impulse's δv, a restart
+            return {**carried, "pending": {"kind": "stop", "hinge": hinge,
+                                           "dq": self._on_nodes(self._projected(carried, new, hinge)),
+                                           "dv": self._on_nodes(dv_plus),
+                                           "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
+                                           "dvdot": carried["dvdot"]}}
         dt_event = carried["dt"]
         record = {"joint": model.hinges[hinge].name, "kind": kind, "t": float(new.t),
                   "dt": {name: float(dt_event[c]) for c, name in enumerate(self.names)}}
@@ -772,8 +801,10 @@ class TransientSensitivities(ParameterDerivatives):
             carried = {**carried, "missed": carried.get("missed", []) + [(record["joint"], record["t"], miss)]}
         # the accelerations before the events and their derivative: the stop's restart weighs with W at them
         return {**carried, "events": carried["events"] + [record],
-                "pending": {"kind": kind, "dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(dv_plus),
-                            "vdot": free_acceleration(model, new), "dvdot": carried["dvdot"]}}
+                "pending": {"kind": kind, "hinge": hinge, "dq": self._on_nodes(carried["dq"]),
+                            "dv": self._on_nodes(dv_plus),
+                            "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
+                            "dvdot": carried["dvdot"]}}
 
     def _impulse(self, carried: dict, new, hinge: int, restitution: float) -> np.ndarray:
         """δv⁺ (n, k) through the impulse on ``hinge`` at ``new`` (before the jump; :meth:`_jump`'s formula)."""
@@ -791,6 +822,45 @@ class TransientSensitivities(ParameterDerivatives):
         w = dv_minus - np.asarray(solve_linear(W, weight))
         w = w.reshape(dv_minus.shape)
         return w + X @ np.linalg.solve(NtX, -restitution * (N.T @ dv_minus) - N.T @ w)
+
+    def _projected(self, carried: dict, new, hinge: int) -> np.ndarray:
+        """δq⁺ (n, k) of the projection that puts ``hinge``, resting on its rigid stop, back on it at the end of a
+        step it started on the stop and ended beyond (latdyn/timeloop/events.py ``hinge_stops``; no landing: the
+        overshoot d = θ − stop is not 0). The run moves q⁺ = q ∘ exp(Δ), Δ = −X μ, μ = (NᵀX)⁻¹ d, X = W⁻¹N,
+        W = M + dt²K at the step's end (the impulse's). Differentiated, with δX μ = −W⁻¹ δ(W)(Xμ) (the impulse
+        weight's derivative along (δq, δp), :meth:`_weight_derivative`) and δd = Nᵀδq:
+
+            δΔ = −(I − X(NᵀX)⁻¹Nᵀ) δX μ − X(NᵀX)⁻¹ Nᵀδq,     δq⁺ = R δq + J δΔ,
+
+        R = exp(skew Δπ), J = dexp(Δπ) on the rotation coordinates (the step's update, :meth:`_rotation_operators`),
+        so that Nᵀδq⁺ = 0: the hinge's angle is the stop's (the term δ[X(NᵀX)⁻¹](θ − stop) is δX μ's)."""
+        model, dt = self.model, self.scene.solve.dt
+        scale = dt * dt
+        N = hinge_directions(model, [hinge])
+        W = self.assembler.evaluate(new, matrices=True).combined(1.0, 0.0, scale)
+        X = np.asarray(solve_linear(W, N)).reshape(N.shape)
+        NtX = N.T @ X
+        stop = min(model.hinges[hinge].limits, key=lambda at: abs(new.theta[hinge] - at))
+        moved = (X @ np.linalg.solve(NtX, np.array([new.theta[hinge] - stop]))).reshape(-1)   # X μ = −Δ
+        dq = carried["dq"]
+        weight = self._weight_derivative(new, moved, dq, scale, rates=(carried["dv"], carried["dvdot"]))
+        dX_mu = -np.asarray(solve_linear(W, weight)).reshape(dq.shape)
+        d_delta = -dX_mu + X @ np.linalg.solve(NtX, N.T @ dX_mu) - X @ np.linalg.solve(NtX, N.T @ dq)
+        turn, tangent = self._rotation_operators(-moved)
+        return turn(dq) + tangent(d_delta)
+
+    def _refuse_what_a_rest_moves(self, new, j: int) -> None:
+        """The models and probes where a projection onto a stop at a step's end (:meth:`_projected`) is not
+        differentiated: refused (:meth:`_refuse_resting`)."""
+        if self.model.links is not None:
+            self._refuse_resting(new, j, "a hinge that rests on its stop is put back on it at a step's end in a model "
+                                         "with guides or rigid links (the projection through their reduction is not "
+                                         "differentiated yet)")
+        if any(is_energy_or_momentum(probe) for probe in self.probes) or self._controller_states() is not None \
+                or self._sampled_controllers() is not None:
+            self._refuse_resting(new, j, "a hinge that rests on its stop is put back on it at a step's end beside "
+                                         "energy or momentum probes or controllers with states or sampled ones "
+                                         "(their terms of the projection are not carried)")
 
     def _on_nodes(self, columns: np.ndarray) -> list:
         """Free-coordinate columns as (node translations, node rotations, hinge angles), one per column."""
@@ -1180,7 +1250,7 @@ class TransientSensitivities(ParameterDerivatives):
         latch the consistent accelerations, M δv̇ = −(∂r/∂p + K δq + C δv); after a stop those of
         :func:`latdyn.timeloop.events.restart_accelerations`, W v̇ = −r(q, v, 0), so
         W δv̇ = −(∂r/∂p + K δq + C δv + dt² δ(K)v̇) (K exact, at the restarted v̇); δa = δv̇."""
-        carried = self._stick_or_release(carried, new)
+        carried = self._settle_or_release(self._stick_or_release(carried, new), new)
         pending = carried.get("pending")
         states = self._controller_states()
         if pending is None:   # no jump (a latch's, a stop's, a stick's or release's: each leaves one pending)
@@ -1283,8 +1353,8 @@ class TransientSensitivities(ParameterDerivatives):
         held[j] = candidate["held"]
         self.held = held
         n, k = model.n_dofs, len(self.names)
-        pending = {"kind": "stop", "dq": candidate["dq"], "dv": candidate["dv"],
-                   "vdot": pack(model, *candidate["vdot"])[:n], "dvdot": np.zeros((n, k))}
+        pending = {"kind": "stop", "dq": candidate["dq"], "dv": candidate["dv"], "vdot": candidate["vdot"],
+                   "dvdot": np.zeros((n, k))}
         return {**carried, "held": held, "pending": pending}
 
     def _refuse_what_a_held_angle_moves(self, new) -> None:
@@ -1312,6 +1382,66 @@ class TransientSensitivities(ParameterDerivatives):
                          "sticking and release by friction, not this; expected a run without it, or no "
                          "solve.sensitivities (docs/parameters.md, \"Friction\")")
 
+    # ------------------------------------------------------------------ resting on a rigid stop
+    def _release_candidates(self, carried: dict, new) -> None:
+        """For each hinge resting on its rigid stop (``model.resting``: locked there, latdyn/timeloop/events.py
+        "resting on a stop"), what :meth:`after_events` needs if the step's end releases it (its reaction would pull
+        it off), on the nodes and hinges (the coordinates are renumbered then): δq with the hinge's δθ 0 (it landed
+        on the stop exactly, δθ_p + δθ_h δh = 0, and stayed there: a stop angle is no parameter), δv with its rate's
+        0 (a locked hinge's rate is 0), and the accelerations before the restart (:meth:`_restart`; the release's
+        time is the step's end, on the grid: δt 0, as a release by friction)."""
+        model = self.model
+        for j in np.flatnonzero(model.resting):
+            self._releases[int(j)] = {"dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(carried["dv"]),
+                                      "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0]}
+
+    def _settle_or_release(self, carried: dict, new) -> dict:
+        """``carried`` after the events of the step ended at ``new`` where a hinge came to rest on its rigid stop or
+        was released from it (latdyn/timeloop/events.py ``settle_on_stops``, ``release_from_stops``). Settling
+        follows the impact that left it on the stop without rate (restitution 0, landed on exactly: :meth:`_jump`
+        with e = 0); the run then locks it and restarts the accelerations on the locked model,
+        (M + dt²K) v̇ = −r(q, v, 0) on the coordinates left, which :meth:`_restart` differentiates on the new
+        numbering: the restart the impact's own (on the free model) left is replaced, and r(q, v, 0) does not read
+        the accelerations it was taken at, nor does W without rigid links or guides. While locked, its angle is
+        the stop's (δθ = 0) and it is no coordinate, as a latched hinge. A release at a step's end restarts as a
+        stop does, its δθ (0) and rate (0) back among the free coordinates (:meth:`_release_candidates`).
+        Refused (:meth:`_refuse_resting`) where that is not what the run did: several at one instant, a release
+        beside another event, a model with guides or rigid links (the reduction's W moves with the accelerations
+        it is taken at)."""
+        before, self._resting_before = self._resting_before, None
+        model = self.model
+        if before is None or not len(self.names):
+            return carried
+        changed = [int(j) for j in np.flatnonzero(before != model.resting)]
+        if not changed:
+            return carried
+        j = changed[0]
+        if len(changed) > 1:
+            self._refuse_resting(new, j, "several hinges come to rest on their stops or leave them at one instant")
+        if model.links is not None:
+            self._refuse_resting(new, j, "a joint comes to rest on its stop or leaves it in a model with guides or "
+                                         "rigid links (their reduction's restart is not differentiated there yet)")
+        pending = carried.get("pending")
+        if model.resting[j]:   # settled after its impact with restitution 0: the restart on the locked model
+            if pending is None or pending.get("hinge") != j or pending["kind"] != "stop":
+                self._refuse_resting(new, j, "a hinge comes to rest on its stop without an impact landed on it")
+            return carried
+        if pending is not None or j not in self._releases:
+            self._refuse_resting(new, j, "a hinge leaves its stop beside another event at one instant")
+        release = self._releases[j]
+        n, k = model.n_dofs, len(self.names)
+        return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
+                                       "vdot": release["vdot"], "dvdot": np.zeros((n, k))}}
+
+    def _refuse_resting(self, new, j: int, why: str) -> None:
+        """SceneError (exit 2) naming the rigid stop (``limits``) of hinge j: ``why`` its coming to rest on the stop
+        or its release is not differentiated here (docs/parameters.md, "Sensitivities through events")."""
+        raise SceneError(self.scene.file, stop_key(self.model.hinges[j]),
+                         f"at t = {float(new.t):.6g} {why}: solve.sensitivities differentiates a hinge that lands on "
+                         "its rigid stop with restitution 0 (without guides or rigid links), rests there and is released at a step's end, one at a "
+                         "time, not this; expected a run without it, or no solve.sensitivities (docs/parameters.md, "
+                         "\"Sensitivities through events\")")
+
     def _restart(self, carried: dict, new, pending: dict) -> dict:
         """:meth:`after_events` at the event's time (``time_shift`` set: ∂r/∂t δt_e in ∂r/∂p)."""
         model, k = self.model, len(self.names)
@@ -1331,7 +1461,7 @@ class TransientSensitivities(ParameterDerivatives):
         else:   # the restart's W is evaluated at the accelerations before it (the same without guides)
             scale = self.scene.solve.dt ** 2
             before = new.copy()
-            unpack_free(model, pending["vdot"], before.a, before.alpha, before.theta_ddot)
+            unpack_free(model, pack(model, *pending["vdot"])[:n], before.a, before.alpha, before.theta_ddot)
             self.assembler.complete_links(before)
             matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
             rhs = rhs + self._weight_derivative(before, free_acceleration(model, new), dq, scale, mass=False,

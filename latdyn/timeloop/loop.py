@@ -731,10 +731,6 @@ class TimeLoop:
         events = hinge_events(self.prepared, integrator, progress.state, new, h)
         if not events.any and model.hinges:
             progress.note_rate_turns(self.assembler.native(), progress.state, new, h)
-        if self.sensitivities is not None and model.resting.any():  # locked on its stop until released
-            raise SolverError(f"the sensitivities at t = {new.t:.6g} meet a hinge resting on its stop, whose "
-                              "derivative is not that of one event (docs/parameters.md, \"Sensitivities through "
-                              "events\")")
         if events.log:
             progress.events = progress.events + [{"joint": joint, "kind": kind, "t": float(new.t)}
                                                  for joint, kind in events.log]
