@@ -66,7 +66,11 @@ or any in a variant generated before ``beam_stiffness_D_reference`` or beside ri
 the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
 every parameter of a run whose state an event moved in time through a prescribed motion, a reel or a controller's
 output in t (:func:`time_generated`), and with rigid links or guides every parameter beside
-controllers, held angles or a time shift (their terms through the reduction are not separated).
+controllers, held angles or a time shift (their terms through the reduction are not separated). That difference
+moves the configuration with every assembled rate held, the dependent nodes' too
+(``TransientSensitivities._advanced_at_held_rates``: K_red is ∂r/∂q at the assembled rates held; completed at each
+moved configuration, a gain of a dependent node's velocity read took Pᵀ (∂C_all/∂p) ∂(J v)/∂q w with it, 2.7e-4 off
+Richardson differences of whole runs on the gimbal, tests/test_sensitivities_linked_controller_latch.py).
 
 The weight's move along the rates, ∂(K w)/∂v δv, is not a parameter's part: latdyn/analyses/weight_derivative.py
 "Along the rates" (the hinges' ∂²f/∂θ∂θ̇, controllers' couplings and loads of angles and rates, damped cables).

@@ -7,7 +7,9 @@ sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp
 (latdyn/analyses/transient_sensitivities.py ``_weight_derivative``, latdyn/analyses/adjoint_sensitivities.py
 ``_weight_derivative_transposed``); (∂W/∂p) w is latdyn/analyses/parameter_stiffness.py's (the parameters' own
 uses, and beside them the continuous controllers' terms of ∂r/∂p exact, ``controller_parameter_along``; the held
-angles' and sampled or force-reading controllers' terms a central difference). H is assembled once per event as an
+angles' and sampled or force-reading controllers' terms a central difference; with rigid links or guides beside
+controllers, held angles or a time shift the whole static ∂r/∂p a central difference along w, at the assembled rates
+held, ``TransientSensitivities._advanced_at_held_rates``). H is assembled once per event as an
 n × n sparse matrix on the free coordinates, so one matrix serves both:
 
     H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
