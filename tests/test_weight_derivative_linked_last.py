@@ -77,9 +77,10 @@ assert BEAD_PD.count("push") == 4 and "Kc, k, m" in BEAD_PD
 assert "contact: {stiffness: 400.0" in CHAIN_FORCE and '"drive", lock_at' in CHAIN_FORCE and "t1: {hinge" in CHAIN_FORCE
 assert "t_end: 0.1," in CHAIN_FORCE and "Kp, Ki, k, m" in CHAIN_FORCE
 
-#: {name: (scene, its events, the parameter whose whole runs are compared with Richardson)}: the gimbal's by k1 (its
-#: gain Kp is 2.7e-4 off Richardson on 40bf44a and here alike: not the weight's H, docs/performance.md)
-SCENES = {"the gimbal's PD of a point's velocities": (GIMBAL_VELOCITY, ["latch"], "k1"),
+#: {name: (scene, its events, the parameter whose whole runs are compared with Richardson)}: the gimbal's by its gain
+#: Kp (2.7e-4 off Richardson on 40bf44a and f3ab00e: the event's (∂K/∂p) w completed the dependent nodes' rates along
+#: w, not the weight's H; tests/test_sensitivities_linked_controller_latch.py)
+SCENES = {"the gimbal's PD of a point's velocities": (GIMBAL_VELOCITY, ["latch"], "Kp"),
           "the guided mass's driven loads": (BEAD_PD, ["stop"], "Kc"),
           "the chain's controller of a hinge's torque at a stop": (CHAIN_FORCE, ["latch"], "Kp")}
 
@@ -121,7 +122,7 @@ def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name, 
     """At the events (through the API) no difference of W_rest is taken (40bf44a took 6 on the gimbal, 12 on the
     guided mass, 8 on the chain), ∂(W w)/∂q δq agrees with tests/test_weight_derivative_linked's Richardson reference
     (measured 9.1e-13, 5.4e-13, 1.2e-11: the reference's own error, the same on 40bf44a), the whole run's
-    sensitivities agree with Richardson central differences of whole runs (measured 9.7e-8 by k1, 6.2e-7 by Kc,
+    sensitivities agree with Richardson central differences of whole runs (measured 1.0e-7 by Kp — 2.7e-4 on f3ab00e —, 6.2e-7 by Kc,
     1.6e-8 by Kp, as on 40bf44a) and the adjoint's with the forward method's (8.8e-13, 6.8e-14, 1.6e-12)."""
     text, events, parameter = SCENES[name]
     result, errors, differences = _at_events(text, monkeypatch)

@@ -96,7 +96,11 @@ controller (its value is the runtime's; a controller's output read at the moved 
 every parameter of a run whose state an event moved in time through a prescribed motion, or a controller's output in
 t whose second derivatives along q are not generated (:func:`time_generated`; a reel and the other controllers in t
 are generated since timehand, 40bf44a differenced them), and with rigid links or guides every parameter beside
-controllers, held angles or a time shift (their terms through the reduction are not separated).
+controllers, held angles or a time shift (their terms through the reduction are not separated). That difference
+moves the configuration with every assembled rate held, the dependent nodes' too
+(``TransientSensitivities._advanced_at_held_rates``: K_red is ∂r/∂q at the assembled rates held; completed at each
+moved configuration, a gain of a dependent node's velocity read took Pᵀ (∂C_all/∂p) ∂(J v)/∂q w with it, 2.7e-4 off
+Richardson differences of whole runs on the gimbal, tests/test_sensitivities_linked_controller_latch.py).
 
 The weight's move along the rates, ∂(K w)/∂v δv, is not a parameter's part: latdyn/analyses/weight_derivative.py
 "Along the rates" (the hinges' ∂²f/∂θ∂θ̇, controllers' couplings and loads of angles and rates, damped cables).

@@ -1394,6 +1394,11 @@ class ControllerTerms:
         #: controller name -> dS_{n+1}/dp at the step's end configuration held fixed (p_c, k), set by
         #: :class:`ControllerStates` before ∂r/∂p is taken at a step's end (or δS_0 at the start)
         self.held: dict[str, np.ndarray] = {}
+        #: whether :meth:`signal_values` leaves the state's rates as they are (its probes read a copy, completed): an
+        #: event's (∂K/∂p) w on a model with rigid links or guides differences ∂r/∂p along w at the assembled rates
+        #: held, the dependent nodes' too (``TransientSensitivities._at_held_rates``); the compiled partials read the
+        #: sensors from C at the state as given (:meth:`sensed_in_c`)
+        self.rates_held = False
         #: the controllers with states, differentiated (None without)
         self.states = ControllerStates(self) if any(c.states for c in self.continuous) else None
         #: the sampled controllers' held outputs and states, differentiated (None without)
@@ -1440,7 +1445,8 @@ class ControllerTerms:
     def signal_values(self, state) -> dict:
         """The values the controllers read at ``state``: the probes' and the inputs' (held: their current
         values, which do not depend on the parameters)."""
-        return {**dict(zip(self.sensors.names, self.sensors.values(state))), **self.owner.scene.inputs.current()}
+        probed = state.copy() if self.rates_held else state   # ProbeSet.values completes the links in place
+        return {**dict(zip(self.sensors.names, self.sensors.values(probed))), **self.owner.scene.inputs.current()}
 
     def sensed_in_c(self, state) -> dict:
         """The values of the probes the continuous controllers read other than hinge and guide angles and rates

@@ -1040,9 +1040,43 @@ class TransientSensitivities(ParameterDerivatives):
                 with self._controller_outputs_at(moved):   # a derivative law naming a controller reads y there
                     return self.residual_derivatives(moved, 1.0, sections=linked, element_gravity=False)
 
-            moved = (static(assembler.advance(state, eta * w)) - static(assembler.advance(state, -eta * w))) / (2 * eta)
+            if linked:   # K_red is ∂r/∂q at the assembled rates held, the dependent nodes' too
+                with self._at_held_rates():
+                    moved = (static(self._advanced_at_held_rates(state, eta * w))
+                             - static(self._advanced_at_held_rates(state, -eta * w))) / (2 * eta)
+            else:
+                moved = (static(assembler.advance(state, eta * w))
+                         - static(assembler.advance(state, -eta * w))) / (2 * eta)
             out[:, ~exact] += moved[:, ~exact]
         return out
+
+    def _advanced_at_held_rates(self, state, increment: np.ndarray):
+        """``state`` advanced along ``increment`` on the free coordinates (the dependent nodes' positions completed)
+        with every node's rates and accelerations held at ``state``'s, the dependent nodes' too: the evaluation's K on
+        a model with rigid links or guides is ∂r/∂q at the assembled rates held (K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all,
+        latdyn/assembly/linked.py: the dependent rates' move with q, Pᵀ C_·dep ∂(J v)/∂q, is not in the impulse's
+        weight), so (∂K_red/∂p) w differences ∂r/∂p along w there. With the dependent rates completed at the moved
+        configuration the difference held Pᵀ (∂C_all/∂p) ∂(J v)/∂q w beside it: a gain multiplying a velocity read on a
+        dependent node (the gimbal's PD of a point at an offset on its inner ring, tests/
+        test_sensitivities_linked_controller_latch.py) was 2.7e-4 off Richardson differences of whole runs."""
+        moved = self.assembler.advance(state, increment)
+        for name in ("v", "w", "a", "alpha"):
+            getattr(moved, name)[...] = getattr(state, name)
+        return moved
+
+    @contextlib.contextmanager
+    def _at_held_rates(self):
+        """Within the block the controllers' sensors read a state's rates as given (``ControllerTerms.rates_held``:
+        the probes do not complete the dependent nodes' rates in place), for :meth:`_advanced_at_held_rates`."""
+        terms = self.controllers
+        if terms is None:
+            yield
+            return
+        terms.rates_held = True
+        try:
+            yield
+        finally:
+            terms.rates_held = False
 
     @contextlib.contextmanager
     def _controller_outputs_at(self, moved):
