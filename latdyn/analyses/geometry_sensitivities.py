@@ -167,10 +167,13 @@ def _linked_refusal(scene, name: str) -> str | None:
     for beam in rigid:
         start, end = moves["point"][(beam.name, "from")], moves["point"][(beam.name, "to")]
         what = None
+        # the link's start point on a held body (its edge's o) may move: the link and what it carries translate
+        sides = ("to",) if _held_body(scene, beam.start.body) and beam.end.body not in closing else ("from", "to")
         if np.any(end != start):
             what = "its length or direction (its end points moved apart)"
-        elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in ("from", "to")):
-            what = "an end's offset (the link's point on its parent body)"
+        elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in sides):
+            what = ("an end's offset (the link's point on its parent body)" if "from" in sides else
+                    "its end's offset (the link's point on the body it carries)")
         elif np.any(moves["y"].get(beam.name, unmoved) != 0.0):
             what = "its y_axis (its inertia's axes)"
         elif any(np.any(moves["axis"].get((beam.name, end), unmoved) != 0.0) for end in ("start", "end")):
@@ -180,16 +183,30 @@ def _linked_refusal(scene, name: str) -> str | None:
         if what is not None:
             return (f"it moves the rigid link {beam.name!r}'s reference geometry ({what}): geometry sensitivities "
                     "that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not computed yet; "
-                    "taken: a parameter that moves each rigid link with the part it hangs from")
+                    "taken: a parameter that moves each rigid link with the part it hangs from, or a link's start "
+                    "point on a fixed or prescribed body together with all the link carries")
     for body in guided:
         parent = moves["at"].get(body.guide.on, unmoved) if body.guide.on is not None else unmoved
         moved = moves["at"].get(body.name, unmoved)
-        if np.any(moved != parent) or (body.name in closing and np.any(moved != 0.0)):
+        origin_free = body.guide.on is None or _held_body(scene, body.guide.on)   # its origin on a held part may move
+        if (np.any(moved != parent) and not origin_free) or (body.name in closing and np.any(moved != 0.0)):
             on = repr(body.guide.on) if body.guide.on is not None else "the ground"
             return (f"it moves the guide of {body.name!r} relative to {on} (the guide's origin): geometry "
                     "sensitivities that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not "
-                    "computed yet; taken: a parameter that moves each guided body with the part it slides on")
+                    "computed yet; taken: a parameter that moves each guided body with the part it slides on, or a "
+                    "guide's origin on the ground or on a fixed or prescribed body")
     return None
+
+
+def _held_body(scene, name) -> bool:
+    """Whether body ``name`` is held: fixed, or prescribed (a translation: prescribed rotations are refused beside
+    geometry parameters, :func:`geometry_refusal`), so that it neither turns nor has coordinates. An edge from it
+    (a rigid link's start hinge, a guide on it) whose own point o moves translates the subtree it carries by a
+    constant vector at a fixed state: no rate, no joint twist and no inertia of the links moves (module docstring)."""
+    if name is None:
+        return False
+    body = scene.bodies[name]
+    return bool(body.fixed or body.prescribed)
 
 
 def _controllers_refusal(scene) -> str | None:
@@ -483,9 +500,10 @@ class ReferenceGeometry:
             v[0, 6:9] = end_offset.get((beam.name, "from"), np.zeros(3))
             v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
             self.variations[elements, :, column] = v
-        if model.links is not None:   # a dependent node moves with its parent (_linked_refusal: edges unmoved)
-            for edge in model.links.edges:
-                self.node_moves[edge.child, :, column] = self.node_moves[edge.parent, :, column]
+        if model.links is not None:   # a dependent node moves with its parent, and by its edge's own δo where that
+            for edge in model.links.edges:   # hangs from a held body (_linked_refusal: other edges unmoved)
+                self.node_moves[edge.child, :, column] = self.node_moves[edge.parent, :, column] + self._origin_move(
+                    edge, body_at, end_offset)
         # the held ends' reference points (x = at + translation(t), and the links that follow them); a free
         # node's, and a dependent node's on a free root, is the state's
         fixed = self.held
@@ -493,6 +511,22 @@ class ReferenceGeometry:
             ends = model.element_nodes[:, end]
             self.variations[:, 3 * end:3 * end + 3, column] = np.where(
                 fixed[ends][:, None], self.node_moves[ends, :, column], 0.0)
+
+    def _origin_move(self, edge, body_at: dict, end_offset: dict) -> np.ndarray:
+        """δo of ``edge`` (latdyn/model/links.py) in one column, for an edge from a held node (fixed or prescribed:
+        its axes the global ones; :func:`_linked_refusal` takes no other edge's o moved): a guide's origin, the
+        guided body's ``at`` less its parent's (the ground's: 0), and a rigid link's start point on its body, the
+        ``from`` offset. The child and its subtree translate by it at a fixed state; zero for every other edge."""
+        model = self.model
+        if edge.closure or model.nodes[edge.parent].kind not in (FIXED, PRESCRIBED):
+            return np.zeros(3)
+        if edge.prismatic:
+            parent = model.nodes[edge.parent]
+            on = body_at.get(parent.body, np.zeros(3)) if parent.body is not None else np.zeros(3)
+            return body_at.get(edge.link, np.zeros(3)) - on
+        if edge.sign > 0:   # the link's start edge: o is the start offset
+            return end_offset.get((edge.link, "from"), np.zeros(3))
+        return np.zeros(3)
 
     def _hinge_axis(self, beam: str, end: str, component: int, slope: float, column: int) -> None:
         """A hinge axis's component moved: a = v/|v| (the loader's unit axis, node axes = global at t = 0) by
