@@ -43,14 +43,19 @@ then that of p, and so are the reduction's J and Pᵀ (translation-invariant). A
 a fixed state by nothing where the root is free (its position is the coordinates'), by the root's δX where the root is
 fixed or prescribed (:attr:`ReferenceGeometry.held`: such a node's reference point in the elements' variations, in
 :meth:`ReferenceGeometry.held_moves`); its δX of the start is its root's (:attr:`ReferenceGeometry.node_moves`, a
-displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX.
+displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX. Of a link's
+or guide's own geometry one move is taken: the point o of an edge from a held body (fixed or prescribed: it neither
+turns nor has coordinates) — a rigid link's start point on it, a guide's origin on it or on the ground — moved with
+all that the edge carries (:meth:`ReferenceGeometry._origin_move`): the subtree translates by δo at a fixed state,
+so its rates, joint twists, J and the links' inertia stay those of p, and its nodes are held nodes moved by δo.
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
 hinge angle: the velocities they carry into the structure at t = 0 move with its points), a parameter that moves a
-rigid link's or a guide's own geometry (a link's length or direction, an end's offset, its y_axis or hinge axes, a
-slider-crank's closed loop, a guide's origin on its body: the reduction's ∂J/∂X is not generated), guides beside a
+rigid link's or a guide's own geometry (a link's length or direction, an end's offset but a start's on a held body,
+its y_axis or hinge axes, a slider-crank's closed loop, a guide's origin on a free or linked body: the reduction's
+∂J/∂X is not generated), guides beside a
 given initial_velocity.angular (the slides' initial rates move with the points), cables, controllers, arc length (its
 first step's length moves with ∂K/∂p, not generated), a kernel variant generated without the reference derivatives.
 The discrete adjoint takes geometry parameters: the start's move, ∂r/∂p and the probes' moves of this module
@@ -151,8 +156,10 @@ def _linked_refusal(scene, name: str) -> str | None:
     translation of every linked subtree, or none), so that no link's or guide's reference geometry — a link's
     offset from its parent body (o), its arm (b) and length, its hinge axes and inertia, a guide's origin on the
     body it slides on — moves with it: the reduction's J, its closure equations and the links' bodies are then
-    those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). The moves of that reference
-    geometry (∂J/∂X and the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
+    those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). Taken too: an edge's own point o
+    on a held body (:func:`_held_body`: a link's start offset, a guide's origin on it or on the ground) moved with all
+    the edge carries, a translation of that subtree. Other moves of that reference geometry (∂J/∂X and the closure's
+    ∂/∂X, not generated yet) are refused, naming what moves."""
     rigid = [beam for beam in scene.beams.values() if beam.rigid]
     guided = [body for body in scene.bodies.values() if body.guide is not None]
     if not (rigid or guided):
