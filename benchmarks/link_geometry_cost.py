@@ -1,12 +1,13 @@
 """Geometry moving a link's own geometry (issue 34; docs/performance.md, "Geometry moving a link's own geometry (issue
 34)").
 
-The cost of the sensitivities by a parameter that moves a rigid link's start point on a held body or a guide's origin
-(the scenes of tests/test_geometry_sensitivities_link_geometry.py: the gimbal's first hinge point on its fixed base and
-on a prescribed base, a cart's guide origin on the ground and on a fixed rail) and, to compare, by a parameter that is
-not geometry (k1, k): each scene's run in process without sensitivities, by its first parameter alone and by both,
-five rounds alternating after one warm run, medians of CPU (``time.process_time``) and wall. Run it under ``chrt -f
-10`` where the machine is loaded.
+The cost of the sensitivities by a parameter that moves a rigid link's start point or a guide's origin on a body that
+never turns (the scenes of tests/test_geometry_sensitivities_link_geometry.py: the gimbal's first hinge point on its
+fixed base and on a prescribed base, a cart's guide origin on the ground and on a fixed rail, the pendulum's hinge
+point on the sliding cart, a carriage's guide origin on the cart) and, to compare, by a parameter that is not geometry
+(k1, k): each scene's run in process without sensitivities, by its first parameter alone and by both, five rounds
+alternating after one warm run, medians of CPU (``time.process_time``) and wall. Run it under ``chrt -f 10`` where the
+machine is loaded.
 
     python benchmarks/link_geometry_cost.py
 """
@@ -22,8 +23,8 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import latdyn  # noqa: E402
-from tests.test_geometry_sensitivities_link_geometry import (CART, GIMBAL_HINGE_CARRIED,  # noqa: E402
-                                                             GIMBAL_HINGE_POINT, RAIL)
+from tests.test_geometry_sensitivities_link_geometry import (CART, CART_HINGE, GIMBAL_HINGE_CARRIED,  # noqa: E402
+                                                             GIMBAL_HINGE_POINT, RAIL, TABLE)
 
 #: name -> (scene, its parameters in the order measured: the first alone, then both)
 SCENES = {
@@ -33,6 +34,8 @@ SCENES = {
     "cart, k first": (CART, ["k", "X"]),
     "cart's guide origin on the ground": (CART, ["X", "k"]),
     "the same on a fixed rail": (RAIL, ["X", "k"]),
+    "the pendulum's hinge point on the sliding cart": (CART_HINGE, ["X", "k"]),
+    "a carriage's guide origin on the cart": (TABLE, ["X", "k"]),
 }
 
 

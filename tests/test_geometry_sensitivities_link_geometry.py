@@ -2,16 +2,17 @@
 geometry_sensitivities.py ``_linked_refusal`` and ``ReferenceGeometry._origin_move``, docs/parameters.md "Geometry
 parameters").
 
-Taken: the point o of an edge that hangs from a held body — a rigid link's start point on a fixed or prescribed
-(translating) body (``beams.NAME.from.offset``), a guide's origin on the ground or on such a body (the guided body's
-``at``) — moved together with everything that edge carries. The subtree then translates by a constant vector at a
-fixed state: no rate, no joint twist, no link inertia and not the reduction's J moves, and the dependent nodes move
-with δo (held: their root is fixed or prescribed). Each case was refused on 40bf44a ("it moves the rigid link …'s
-reference geometry (an end's offset …)" / "it moves the guide of … relative to the ground") and is checked against
-Richardson-extrapolated central differences of whole runs (≤ 1e-6 of each probe's largest), through the API and the CLI
-(to the bit), the loop of steps on and off (to the bit). The discrete adjoint refuses them, naming the link or guide.
-Still refused, naming what moves: a ring's offset (a link's length), a link's start point on a free body, its end's
-offset, a guide's origin on a free body, a hinge axis on a link (the reduction's ∂J/∂X, the links' inertia by X)."""
+Taken: the point o of an edge that hangs from a body that never turns (fixed, prescribed: translating, or sliding on
+guides from such a body): a rigid link's start point on it (``beams.NAME.from.offset``), a guide's origin on the
+ground or on it (the guided body's ``at``), moved together with everything that edge carries. The subtree then
+translates by a constant vector at a fixed state: no rate, no joint twist, no link inertia and not the reduction's J
+moves, and the dependent nodes move with δo (held: their root is fixed or prescribed). Each case was refused on
+40bf44a ("it moves the rigid link …'s reference geometry (an end's offset …)" / "it moves the guide of … relative to
+…") and is checked against Richardson-extrapolated central differences of whole runs (≤ 1e-6 of each probe's
+largest), through the API and the CLI (to the bit), the loop of steps on and off (to the bit). The discrete adjoint
+refuses them, naming the rigid link. Still refused, naming what moves: a ring's offset (a link's length), a link's
+start point on a body that turns, its end's offset, a guide's origin on a body that turns, a hinge axis on a link (the
+reduction's ∂J/∂X, the links' inertia by X)."""
 from __future__ import annotations
 
 import numpy as np
@@ -40,8 +41,8 @@ GIMBAL_HINGE_CARRIED = GIMBAL_HINGE_POINT.replace(
     'base: {at: [0, 0, 0], motion: {translation: ["0.05*sin(3*t)", 0, "0.02*t*t"]}}')
 
 #: a cart on a skew guide on the ground carrying a rigid pendulum on a skew hinge and a flexible arm to a tip mass,
-#: under gravity and a tip load; X moves the cart (the guide's origin) along (1, 0.5, 0.3) and the pendulum's bob with it, the
-#: arm's tip left where it is
+#: under gravity and a tip load; X moves the cart (the guide's origin) along (1, 0.5, 0.3) and the pendulum's bob with
+#: it, the arm's tip left where it is
 CART = """
 title: a cart on a skew ground guide carrying a rigid pendulum and a flexible arm to a tip mass
 parameters: {X: 0.2, k: 30.0, c: 0.2, kh: 3.0, EI: 8.0}
@@ -76,22 +77,32 @@ output:
 #: the same cart on a guide on a fixed rail body (``on: rail``), the rail unmoved
 RAIL = CART.replace("bodies:\n", "bodies:\n  rail: {at: [-0.2, 0.3, 0.1], fixed: true}\n").replace(
     "guide: {axis:", "guide: {'on': rail, axis:")
-for _scene in (GIMBAL_HINGE_POINT, GIMBAL_HINGE_CARRIED, RAIL):
-    assert '"X - 0.1"' in _scene or "'on': rail" in _scene
+#: the pendulum's hinge point on the cart (which slides on its ground guide, so never turns) moved by X with the bob
+CART_HINGE = CART.replace('cart: {at: ["X", "0.1 + 0.5*X", "0.3*X"],', "cart: {at: [0.2, 0.2, 0.06],").replace(
+    "pend: {from: cart,", 'pend: {from: {body: cart, offset: ["X - 0.2", "0.5*X - 0.1", "0.3*X - 0.06"]},')
+#: a carriage on a cross guide on the cart carrying the pendulum: X moves the carriage's origin on the cart, and the bob
+TABLE = CART.replace('cart: {at: ["X", "0.1 + 0.5*X", "0.3*X"],', "cart: {at: [0.2, 0.2, 0.06],").replace(
+    "  bob:", '  carriage: {at: ["X", "0.1 + 0.5*X", "0.3*X"], mass: 0.2, inertia: [0.001, 0.001, 0.001],\n'
+    "             guide: {'on': cart, axis: [-0.3, 1, 0.5], stiffness: 20.0, damping: 0.1}}\n  bob:").replace(
+    "pend: {from: cart,", "pend: {from: carriage,")
+for _scene in (GIMBAL_HINGE_POINT, GIMBAL_HINGE_CARRIED, RAIL, CART_HINGE, TABLE):
+    assert '"X - 0.1"' in _scene or "'on': rail" in _scene or '"X - 0.2"' in _scene or "'on': cart" in _scene
 assert "0.02*t*t" in GIMBAL_HINGE_CARRIED
 
 
-@pytest.mark.parametrize("text", ["GIMBAL_HINGE_POINT", "GIMBAL_HINGE_CARRIED", "CART", "RAIL"])
-def test_a_moved_hinge_point_or_guide_origin_on_a_held_body_agrees_with_richardson(text):
+@pytest.mark.parametrize("text", ["GIMBAL_HINGE_POINT", "GIMBAL_HINGE_CARRIED", "CART", "RAIL", "CART_HINGE",
+                                  "TABLE"])
+def test_a_moved_hinge_point_or_guide_origin_on_a_body_that_never_turns_agrees_with_richardson(text):
     """Refused on 40bf44a. Measured (every probe over the rows, relative to its largest): the gimbal's hinge point
-    1.9e-8, on its prescribed base 9.4e-8, the cart's guide origin on the ground 1.7e-9, on the fixed rail 1.8e-9."""
+    1.9e-8, on its prescribed base 9.4e-8, the cart's guide origin on the ground 1.7e-9, on the fixed rail 1.8e-9, the
+    pendulum's hinge point on the sliding cart 1.7e-9, the carriage's origin on the cart 2.2e-9."""
     scene = globals()[text]
     result = _api_run(scene, "X")
     assert all(np.any(result.sensitivities[(probe, "X")] != 0.0) for probe in result.probes if probe != "t")
     assert _agree(result, scene, "X") <= 1e-6
 
 
-@pytest.mark.parametrize("text", ["GIMBAL_HINGE_POINT", "CART"])
+@pytest.mark.parametrize("text", ["GIMBAL_HINGE_POINT", "CART", "TABLE"])
 def test_the_loop_of_steps_gives_the_per_step_paths_sensitivities(text):
     """The runs with the sensitivities' loop of steps on and off: every column and the probe sensitivities to the bit,
     the loop taking every step."""

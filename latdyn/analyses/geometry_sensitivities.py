@@ -44,18 +44,20 @@ a fixed state by nothing where the root is free (its position is the coordinates
 fixed or prescribed (:attr:`ReferenceGeometry.held`: such a node's reference point in the elements' variations, in
 :meth:`ReferenceGeometry.held_moves`); its δX of the start is its root's (:attr:`ReferenceGeometry.node_moves`, a
 displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX. Of a link's
-or guide's own geometry one move is taken: the point o of an edge from a held body (fixed or prescribed: it neither
-turns nor has coordinates) — a rigid link's start point on it, a guide's origin on it or on the ground — moved with
+or guide's own geometry one move is taken: the point o of an edge from a body that never turns (fixed, prescribed, or
+sliding on guides from one: :func:`_never_turns`) — a rigid link's start point on it, a guide's origin on it or on the
+ground — moved with
 all that the edge carries (:meth:`ReferenceGeometry._origin_move`): the subtree translates by δo at a fixed state,
-so its rates, joint twists, J and the links' inertia stay those of p, and its nodes are held nodes moved by δo.
+so its rates, joint twists, J and the links' inertia stay those of p, and its nodes (held: their root is fixed or
+prescribed) move by δo.
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
 hinge angle: the velocities they carry into the structure at t = 0 move with its points), a parameter that moves a
-rigid link's or a guide's own geometry (a link's length or direction, an end's offset but a start's on a held body,
-its y_axis or hinge axes, a slider-crank's closed loop, a guide's origin on a free or linked body: the reduction's
-∂J/∂X is not generated), guides beside a
+rigid link's or a guide's own geometry (a link's length or direction, an end's offset but a start's on a body that
+never turns, its y_axis or hinge axes, a slider-crank's closed loop, a guide's origin on a body that turns: the
+reduction's ∂J/∂X is not generated), guides beside a
 given initial_velocity.angular (the slides' initial rates move with the points), cables, controllers, arc length (its
 first step's length moves with ∂K/∂p, not generated), a kernel variant generated without the reference derivatives.
 The discrete adjoint takes geometry parameters: the start's move, ∂r/∂p and the probes' moves of this module
@@ -157,9 +159,9 @@ def _linked_refusal(scene, name: str) -> str | None:
     offset from its parent body (o), its arm (b) and length, its hinge axes and inertia, a guide's origin on the
     body it slides on — moves with it: the reduction's J, its closure equations and the links' bodies are then
     those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). Taken too: an edge's own point o
-    on a held body (:func:`_held_body`: a link's start offset, a guide's origin on it or on the ground) moved with all
-    the edge carries, a translation of that subtree. Other moves of that reference geometry (∂J/∂X and the closure's
-    ∂/∂X, not generated yet) are refused, naming what moves."""
+    on a body that never turns (:func:`_never_turns`: a link's start offset, a guide's origin on it or on the ground)
+    moved with all the edge carries, a translation of that subtree. Other moves of that reference geometry (∂J/∂X and
+    the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
     rigid = [beam for beam in scene.beams.values() if beam.rigid]
     guided = [body for body in scene.bodies.values() if body.guide is not None]
     if not (rigid or guided):
@@ -174,8 +176,9 @@ def _linked_refusal(scene, name: str) -> str | None:
     for beam in rigid:
         start, end = moves["point"][(beam.name, "from")], moves["point"][(beam.name, "to")]
         what = None
-        # the link's start point on a held body (its edge's o) may move: the link and what it carries translate
-        sides = ("to",) if _held_body(scene, beam.start.body) and beam.end.body not in closing else ("from", "to")
+        # the link's start point on a body that never turns (its edge's o) may move: the link and its load translate
+        sides = ("to",) if _never_turns(scene, beam.start.body, closing) and beam.end.body not in closing else (
+            "from", "to")
         if np.any(end != start):
             what = "its length or direction (its end points moved apart)"
         elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in sides):
@@ -195,7 +198,8 @@ def _linked_refusal(scene, name: str) -> str | None:
     for body in guided:
         parent = moves["at"].get(body.guide.on, unmoved) if body.guide.on is not None else unmoved
         moved = moves["at"].get(body.name, unmoved)
-        origin_free = body.guide.on is None or _held_body(scene, body.guide.on)   # its origin on a held part may move
+        # its origin on the ground or on a body that never turns may move
+        origin_free = body.guide.on is None or _never_turns(scene, body.guide.on, closing)
         if (np.any(moved != parent) and not origin_free) or (body.name in closing and np.any(moved != 0.0)):
             on = repr(body.guide.on) if body.guide.on is not None else "the ground"
             return (f"it moves the guide of {body.name!r} relative to {on} (the guide's origin): geometry "
@@ -205,14 +209,18 @@ def _linked_refusal(scene, name: str) -> str | None:
     return None
 
 
-def _held_body(scene, name) -> bool:
-    """Whether body ``name`` is held: fixed, or prescribed (a translation: prescribed rotations are refused beside
-    geometry parameters, :func:`geometry_refusal`), so that it neither turns nor has coordinates. An edge from it
-    (a rigid link's start hinge, a guide on it) whose own point o moves translates the subtree it carries by a
-    constant vector at a fixed state: no rate, no joint twist and no inertia of the links moves (module docstring)."""
+def _never_turns(scene, name, closing: set) -> bool:
+    """Whether body ``name`` never turns and its position is a held part's and slides: it is fixed, or prescribed (a
+    translation: prescribed rotations are refused beside geometry parameters, :func:`geometry_refusal`), or it slides
+    on a guide on the ground or on such a body (a guide keeps its parent's orientation; not a slider a rigid rod
+    closes a loop onto, ``closing``). An edge from it (a rigid link's start hinge, a guide on it) whose own point o
+    moves translates the subtree it carries by that constant vector at a fixed state: no rate, joint twist, J or
+    inertia of the links moves (module docstring; :meth:`ReferenceGeometry._origin_move` the same on the model)."""
     if name is None:
         return False
     body = scene.bodies[name]
+    if body.guide is not None:
+        return name not in closing and (body.guide.on is None or _never_turns(scene, body.guide.on, closing))
     return bool(body.fixed or body.prescribed)
 
 
@@ -508,7 +516,7 @@ class ReferenceGeometry:
             v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
             self.variations[elements, :, column] = v
         if model.links is not None:   # a dependent node moves with its parent, and by its edge's own δo where that
-            for edge in model.links.edges:   # hangs from a held body (_linked_refusal: other edges unmoved)
+            for edge in model.links.edges:   # hangs from a body that never turns (_linked_refusal: others unmoved)
                 self.node_moves[edge.child, :, column] = self.node_moves[edge.parent, :, column] + self._origin_move(
                     edge, body_at, end_offset)
         # the held ends' reference points (x = at + translation(t), and the links that follow them); a free
@@ -520,12 +528,13 @@ class ReferenceGeometry:
                 fixed[ends][:, None], self.node_moves[ends, :, column], 0.0)
 
     def _origin_move(self, edge, body_at: dict, end_offset: dict) -> np.ndarray:
-        """δo of ``edge`` (latdyn/model/links.py) in one column, for an edge from a held node (fixed or prescribed:
-        its axes the global ones; :func:`_linked_refusal` takes no other edge's o moved): a guide's origin, the
-        guided body's ``at`` less its parent's (the ground's: 0), and a rigid link's start point on its body, the
-        ``from`` offset. The child and its subtree translate by it at a fixed state; zero for every other edge."""
+        """δo of ``edge`` (latdyn/model/links.py) in one column, for an edge from a node that never turns (fixed or
+        prescribed, or sliding on guides from one: its axes the global ones; :func:`_linked_refusal` takes no other
+        edge's o moved): a guide's origin, the guided body's ``at`` less its parent's (the ground's: 0), and a rigid
+        link's start point on its body, the ``from`` offset. The child and its subtree translate by it at a fixed
+        state; zero for every other edge."""
         model = self.model
-        if edge.closure or model.nodes[edge.parent].kind not in (FIXED, PRESCRIBED):
+        if edge.closure or not self._never_turns(edge.parent):
             return np.zeros(3)
         if edge.prismatic:
             parent = model.nodes[edge.parent]
@@ -534,6 +543,17 @@ class ReferenceGeometry:
         if edge.sign > 0:   # the link's start edge: o is the start offset
             return end_offset.get((edge.link, "from"), np.zeros(3))
         return np.zeros(3)
+
+    def _never_turns(self, node: int) -> bool:
+        """Whether ``node`` is fixed or prescribed, or reached from such a node through prismatic edges alone (its
+        frame the identity at every state: :func:`_never_turns` on the scene)."""
+        links = self.model.links
+        while node in links.edge_of:
+            edge = links.edges[links.edge_of[node]]
+            if not edge.prismatic:
+                return False
+            node = edge.parent
+        return self.model.nodes[node].kind in (FIXED, PRESCRIBED)
 
     def _hinge_axis(self, beam: str, end: str, component: int, slope: float, column: int) -> None:
         """A hinge axis's component moved: a = v/|v| (the loader's unit axis, node axes = global at t = 0) by
