@@ -165,3 +165,41 @@ def test_what_moves_a_links_geometry_under_a_moving_part_stays_refused(tmp_path,
     assert refused.value.key == "solve.sensitivities" and expected in str(refused.value), str(refused.value)
     run, _ = latdyn_run(tmp_path, text)
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
+
+
+#: the pendulum's hinge point on the sliding cart, the cart's guide latching at s = 0.01 (t = 0.0649 s)
+CART_LATCH = CART_HINGE.replace('stiffness: "k", damping: "c", rest: 0.05}',
+                                'stiffness: "k", damping: "c", rest: 0.05, lock_at: 0.01}')
+assert "lock_at: 0.01" in CART_LATCH
+
+
+def test_the_hinge_point_on_the_sliding_cart_through_its_latch_agrees_with_richardson():
+    """Through the guide's latch (the event machinery's impulse weight from this ∂r/∂X): every probe and the latch's
+    time against Richardson (the time to 1e-6 relative). Measured 3.6e-8."""
+    from tests.test_sensitivities_guides import _agree as _with_events
+
+    result = _api_run(CART_LATCH, "X")
+    assert [event["kind"] for event in result.summary["events"]] == ["latch"]
+    assert _with_events(result, CART_LATCH, "X") <= 1e-6
+
+
+#: the carriage on the cart statically under gravity (load control, 3 steps), without the guides' and rates' probes
+STATIC_TABLE = "\n".join(line for line in TABLE.replace(
+    "solve: {analysis: transient, dt: 0.005, t_end: 0.3, sensitivities: [X, k]}",
+    "solve: {analysis: static, method: load-control, steps: 3, sensitivities: [X, k]}").splitlines()
+    if not line.lstrip().startswith(("s_rate:", "bob_v:", "s:", "f:"))) + "\n"
+assert "method: load-control" in STATIC_TABLE and "s_rate:" not in STATIC_TABLE
+
+
+def test_the_carriage_origin_on_a_static_path_agrees_with_richardson():
+    """Load control: every row's sensitivity by X against Richardson-extrapolated central differences of whole static
+    runs (2e-5 and 1e-5 of X), relative to each probe's largest. Measured 1.4e-10."""
+    result = _api_run(STATIC_TABLE, "X")
+    central = []
+    for step in (2e-5, 1e-5):
+        up, down = _api_run(STATIC_TABLE, "X", X=0.2 + step), _api_run(STATIC_TABLE, "X", X=0.2 - step)
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
+    for probe in central[0]:
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        assert np.abs(expected).max() > 0.0, probe
+        assert np.abs(result.sensitivities[(probe, "X")] - expected).max() <= 1e-6 * np.abs(expected).max(), probe
