@@ -49,9 +49,9 @@ origin — moved with all that the edge carries (:meth:`ReferenceGeometry._origi
 below the edge by δo fixed in the axes of its parent A. Where A never turns (fixed, prescribed, or sliding on guides
 from one: :func:`_never_turns`) S's rates, joint twists, J and the links' inertia stay those of p and its nodes
 (held: their root is fixed or prescribed) move by δo. Where A turns, S moves at a fixed state by d = T_A δo, its
-coordinate velocities by ω_A × d, its accelerations by α_A × d + ω_A × (ω_A × d) (A's rigid field), and J's columns that reach A
-(A's root's turn, the hinges above A: g × (x − o) of S's points moves by g × d) move Pᵀ r by d × F_S on A's rotational
-rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d + C δv + M δa + that moment with the exact K, C,
+coordinate velocities by ω_A × d, its accelerations by α_A × d + ω_A × (ω_A × d) (A's rigid field), and J's columns
+that reach A (A's root's turn, the hinges above A: g × (x − o) of S's points moves by g × d) move Pᵀ r by d × F_S on
+A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d + C δv + M δa + that moment with the exact K, C,
 M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the per-step path; refused beside events,
 controllers and probes whose explicit part does not hold the shift (:func:`_turning_refusal`).
 
@@ -719,16 +719,25 @@ class ReferenceGeometry:
         (an edge's own point o moved by δo on a parent A that turns): the subtree translates by d = T_A δo, fixed in
         A's axes, so its coordinate velocities move by ω_A × d and its accelerations by α_A × d + ω_A × (ω_A × d)
         (A's rigid field); zero for every other node."""
+        from latdyn.numerics.so3 import cross
+
         links, n_nodes = self.model.links, len(self.model.nodes)
+        anchors = sorted({links.edges[index].parent for index, _, _ in self.turning})
+        key = b"".join(state.T[a].tobytes() + state.w[a].tobytes() + state.alpha[a].tobytes() for a in anchors)
+        held = self.__dict__.get("_shifts_held")
+        if held is not None and held[0] == key:   # the same anchors' motion: the probes of one row, its step
+            return held[1]
         d, dv, da = (np.zeros((n_nodes, 3, self.k)) for _ in range(3))
         for index, column, moved in self.turning:
             anchor = links.edges[index].parent
             shift = state.T[anchor] @ moved
             w, alpha = state.w[anchor], state.alpha[anchor]
             below = self._below(index)
+            spun = cross(w, shift)
             d[below, :, column] += shift
-            dv[below, :, column] += np.cross(w, shift)
-            da[below, :, column] += np.cross(alpha, shift) + np.cross(w, np.cross(w, shift))
+            dv[below, :, column] += spun
+            da[below, :, column] += cross(alpha, shift) + cross(w, spun)
+        self._shifts_held = (key, (d, dv, da))
         return d, dv, da
 
     def _below(self, index: int) -> np.ndarray:
@@ -748,6 +757,7 @@ class ReferenceGeometry:
         of J that reach A (its root's turn, the hinges above it) move S's points by (g × d) per unit rate, whose work
         on S's forces is g·(d × F_S); the columns below A move S as a whole and stay."""
         from latdyn.assembly.linked import evaluate_linked
+        from latdyn.numerics.so3 import cross
 
         model, links = self.model, self.model.links
         ev = evaluate_linked(links, self.owner.assembler, state, True, load_factor, inertia, inertia_tangent=True,
@@ -769,7 +779,7 @@ class ReferenceGeometry:
             shift = state.T[anchor] @ moment_arm
             below = self._below(index)
             force = forces[model.node_dofs[below][:, 0:3]].sum(axis=0)
-            total[model.node_dofs[anchor][3:6], column] += np.cross(shift, force)
+            total[model.node_dofs[anchor][3:6], column] += cross(shift, force)
 
     def transposed_product(self, state, w: np.ndarray, load_factor: float, inertia: bool,
                            weight_factor: float) -> np.ndarray:
