@@ -504,7 +504,6 @@ class ReferenceGeometry:
                 target.setdefault((m["beam"], m["side"]), np.zeros(3))[axis] += slope
         for body, moved in body_at.items():
             self.node_moves[model.body_node[body], :, column] += moved
-            self.fixed_moves[model.body_node[body], :, column] += moved
         # the beams this column moves (an end at a moved body, a moved end point or offset, a turned y_axis): the
         # others' nodes and variations stay 0 (a lattice's node coordinate moves the few members at its node; every
         # beam a column cost 1.5 ms a parameter on 72 members)
@@ -551,6 +550,7 @@ class ReferenceGeometry:
             v[0, 6:9] = end_offset.get((beam.name, "from"), np.zeros(3))
             v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
             self.variations[elements, :, column] = v
+        self.fixed_moves[:, :, column] = self.node_moves[:, :, column]
         if model.links is not None:   # a dependent node moves with its parent, and by its edge's own δo where that
             for index, edge in enumerate(model.links.edges):   # (_linked_refusal: others unmoved)
                 moved = self._origin_move(edge, body_at, end_offset)
@@ -658,9 +658,10 @@ class ReferenceGeometry:
 
     def velocity_moves(self, state, node: int) -> tuple[np.ndarray, np.ndarray]:
         """(the node's move at a fixed state that its velocity v + ω × T r does not turn with: :meth:`held_moves` and a
-        :attr:`turning` shift d, the move of its velocity by that shift: δv of :meth:`shifts`), (3, k) each."""
+        :attr:`turning` shift d, the move of its velocity by that shift: δv of :meth:`shifts`, None without one), (3, k)
+        each."""
         if not self.turning:
-            return self.held_moves(node), np.zeros((3, self.k))
+            return self.held_moves(node), None
         d, dv, _ = self.shifts(state)
         return self.held_moves(node) + d[node], dv[node]
 
