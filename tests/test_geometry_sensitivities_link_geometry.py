@@ -2,17 +2,18 @@
 geometry_sensitivities.py ``_linked_refusal`` and ``ReferenceGeometry._origin_move``, docs/parameters.md "Geometry
 parameters").
 
-Taken: the point o of an edge that hangs from a body that never turns (fixed, prescribed: translating, or sliding on
-guides from such a body): a rigid link's start point on it (``beams.NAME.from.offset``), a guide's origin on the
-ground or on it (the guided body's ``at``), moved together with everything that edge carries. The subtree then
-translates by a constant vector at a fixed state: no rate, no joint twist, no link inertia and not the reduction's J
-moves, and the dependent nodes move with δo (held: their root is fixed or prescribed). Each case was refused on
-40bf44a ("it moves the rigid link …'s reference geometry (an end's offset …)" / "it moves the guide of … relative to
-…") and is checked against Richardson-extrapolated central differences of whole runs (≤ 1e-6 of each probe's
-largest), through the API and the CLI (to the bit), the loop of steps on and off (to the bit). The discrete adjoint
-refuses them, naming the rigid link. Still refused, naming what moves: a ring's offset (a link's length), a link's
-start point on a body that turns, its end's offset, a guide's origin on a body that turns, a hinge axis on a link (the
-reduction's ∂J/∂X, the links' inertia by X)."""
+Taken: the point of an edge moved together with everything that edge carries — a rigid link's start point on its body
+(``beams.NAME.from.offset``), its end point on the body it carries (``to.offset``, that body moved the other way), a
+guide's origin (the guided body's ``at``). On a body that never turns (fixed, prescribed: translating, or sliding on
+guides from such a body) the subtree translates by a constant vector at a fixed state: no rate, no joint twist, no link
+inertia and not the reduction's J moves, and the dependent nodes move with δo (held). On a part A that turns it
+translates by T_A δ: ``ReferenceGeometry._add_shifts`` (K d + C δv + M δa before the reduction and the projection's
+d × F_S on A's rotational rows), on the per-step path. Each case was refused on 40bf44a and is checked against
+Richardson-extrapolated central differences of whole runs (≤ 1e-6 of each probe's largest), through the API and the
+CLI (to the bit), the loop of steps on and off (to the bit). The discrete adjoint refuses them, naming the rigid link.
+Still refused, naming what moves: a ring's offset (a link's length: the links' inertia by X), a hinge axis on a link,
+and beside a shift on a part that turns events, controllers and probes other than points' (global axes), hinges' and
+guides'."""
 from __future__ import annotations
 
 import numpy as np
@@ -98,6 +99,15 @@ INNER_POINT = GIMBAL.replace("parameters: {k1", "parameters: {X: 0.1, k1").repla
     "gim2: {from: outer,", 'gim2: {from: {body: outer, offset: ["X - 0.1", "0.5*X - 0.05", "0.03 - 0.3*X"]},').replace(
     "inner: {at: [0.45, -0.05, 0.35],", 'inner: {at: ["0.35 + X", "-0.1 + 0.5*X", "0.38 - 0.3*X"],').replace(
     "sensitivities: [k1, m, P, EI, rho]", "sensitivities: [X, k1]")
+#: gim1's end point on the outer ring (its ``to`` offset) moved along (1, 0.5, −0.3) by X and the outer ring, the inner
+#: ring and the boom's root the other way, so that the link's end point stays: the edge's b moves, fixed in the outer
+#: ring's axes (a part that turns)
+END_OFFSET = GIMBAL.replace("parameters: {k1", "parameters: {X: 0.1, k1").replace(
+    "to: outer,", 'to: {body: outer, offset: ["X - 0.1", "0.5*X - 0.05", "0.03 - 0.3*X"]},').replace(
+    "outer: {at: [0.3, 0.1, 0.2],", 'outer: {at: ["0.4 - X", "0.15 - 0.5*X", "0.17 + 0.3*X"],').replace(
+    "inner: {at: [0.45, -0.05, 0.35],", 'inner: {at: ["0.55 - X", "-0.5*X", "0.32 + 0.3*X"],').replace(
+    "sensitivities: [k1, m, P, EI, rho]", "sensitivities: [X, k1]")
+assert '"0.55 - X"' in END_OFFSET and "to: {body: outer" in END_OFFSET
 assert '"X", 0.35' in GUIDE_ORIGIN and "gf: {guide" in GUIDE_ORIGIN and "{body: outer, offset" in INNER_POINT
 for _scene in (GIMBAL_HINGE_POINT, GIMBAL_HINGE_CARRIED, RAIL, CART_HINGE, TABLE):
     assert '"X - 0.1"' in _scene or "'on': rail" in _scene or '"X - 0.2"' in _scene or "'on': cart" in _scene
@@ -105,13 +115,13 @@ assert "0.02*t*t" in GIMBAL_HINGE_CARRIED
 
 
 @pytest.mark.parametrize("text", ["GIMBAL_HINGE_POINT", "GIMBAL_HINGE_CARRIED", "CART", "RAIL", "CART_HINGE",
-                                  "TABLE", "GUIDE_ORIGIN", "INNER_POINT"])
+                                  "TABLE", "GUIDE_ORIGIN", "INNER_POINT", "END_OFFSET"])
 def test_a_moved_hinge_point_or_guide_origin_agrees_with_richardson(text):
     """Refused on 40bf44a. Measured (every probe over the rows, relative to its largest): the gimbal's hinge point
     1.9e-8, on its prescribed base 9.4e-8, the cart's guide origin on the ground 1.7e-9, on the fixed rail 1.8e-9, the
     pendulum's hinge point on the sliding cart 1.7e-9, the carriage's origin on the cart 2.2e-9; on parts that turn
     (ReferenceGeometry._add_shifts): the guide's origin on the arm's tip 1.9e-9 (its slider's velocity and guide force
-    included), the inner ring's hinge point on the outer ring 2.7e-8."""
+    included), the inner ring's hinge point on the outer ring 2.7e-8, gim1's end point on the outer ring 2.5e-8."""
     scene = globals()[text]
     result = _api_run(scene, "X")
     assert all(np.any(result.sensitivities[(probe, "X")] != 0.0) for probe in result.probes if probe != "t")
@@ -172,17 +182,15 @@ def test_the_adjoint_refuses_them_naming_the_link_or_guide(tmp_path, text):
 
 
 #: what stays refused: the inner ring's hinge point on the outer ring beside its latch, the guide's origin on the arm's
-#: tip beside a section-force probe, gim1's end offset on the outer ring
+#: tip beside a section-force probe, the outer ring moved without the inner one (gim2's length)
 @pytest.mark.parametrize("text, expected", [
     (INNER_POINT.replace('damping: "c2"}}}', 'damping: "c2", lock_at: -0.1}}}'),
      "rigid link 'gim2''s start point on 'outer', a part that turns, beside latches"),
     (GUIDE_ORIGIN.replace("    mid_x:", '    moment: {element: "arm.element[0]", quantity: moment_y}\n    mid_x:'),
      "the guide of 'slider' on 'tip', a part that turns, beside the probe 'moment'"),
-    (GIMBAL.replace("parameters: {k1", "parameters: {X: 0.1, k1").replace(
-        "to: outer,", 'to: {body: outer, offset: ["X - 0.1", 0, 0]},').replace(
-        "outer: {at: [0.3, 0.1, 0.2],", 'outer: {at: ["0.4 - X", 0.1, 0.2],').replace(
-        "sensitivities: [k1,", "sensitivities: [X, k1,"), "rigid link 'gim1''s reference geometry (its end's offset"),
-], ids=["hinge-point-beside-a-latch", "guide-origin-beside-a-section-probe", "end-offset"])
+    (END_OFFSET.replace('inner: {at: ["0.55 - X", "-0.5*X", "0.32 + 0.3*X"],', "inner: {at: [0.45, -0.05, 0.35],"),
+     "rigid link 'gim2''s reference geometry (its length or direction"),
+], ids=["hinge-point-beside-a-latch", "guide-origin-beside-a-section-probe", "ring-offset"])
 def test_what_a_links_own_geometry_moves_stays_refused_where_not_exact(tmp_path, text, expected):
     """Named (the link or the guided body, what moves), through the API (SceneError naming solve.sensitivities) and the
     CLI (exit 2, no traceback)."""

@@ -43,24 +43,26 @@ then that of p, and so are the reduction's J and Pᵀ (translation-invariant). A
 a fixed state by nothing where the root is free (its position is the coordinates'), by the root's δX where the root is
 fixed or prescribed (:attr:`ReferenceGeometry.held`: such a node's reference point in the elements' variations, in
 :meth:`ReferenceGeometry.held_moves`); its δX of the start is its root's (:attr:`ReferenceGeometry.node_moves`, a
-displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX. Of a link's
-or guide's own geometry one move is taken: the point o of an edge — a rigid link's start point on its body, a guide's
-origin — moved with all that the edge carries (:meth:`ReferenceGeometry._origin_move`), a translation of the subtree S
-below the edge by δo fixed in the axes of its parent A. Where A never turns (fixed, prescribed, or sliding on guides
-from one: :func:`_never_turns`) S's rates, joint twists, J and the links' inertia stay those of p and its nodes
-(held: their root is fixed or prescribed) move by δo. Where A turns, S moves at a fixed state by d = T_A δo, its
-coordinate velocities by ω_A × d, its accelerations by α_A × d + ω_A × (ω_A × d) (A's rigid field), and J's columns
-that reach A (A's root's turn, the hinges above A: g × (x − o) of S's points moves by g × d) move Pᵀ r by d × F_S on
-A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d + C δv + M δa + that moment with the exact K, C,
-M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the per-step path; refused beside events,
-controllers and probes whose explicit part does not hold the shift (:func:`_turning_refusal`).
+displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX. Of a link's or
+guide's own geometry one move is taken: the point of an edge — a rigid link's start point on its body (o, fixed in the
+parent A's axes), its end point on the body A it carries (b, that body moved the other way: the link keeps its length
+and direction), a guide's origin (o, A the body it slides on) — moved with all that the edge carries
+(:meth:`ReferenceGeometry._origin_move`), a translation of the subtree S below the edge by δo fixed in A's axes. Where A
+never turns (fixed, prescribed, or sliding on guides from one: :func:`_never_turns`) S's rates, joint twists, J and the
+links' inertia stay those of p and its nodes (held: their root is fixed or prescribed) move by δo. Where A turns, S
+moves at a fixed state by d = T_A δo, its coordinate velocities by ω_A × d, its accelerations by α_A × d + ω_A × (ω_A ×
+d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges above A: g × (x − o) of S's points moves
+by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
++ C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
+per-step path; refused beside events, controllers and probes whose explicit part does not hold the shift
+(:func:`_turning_refusal`).
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
 hinge angle: the velocities they carry into the structure at t = 0 move with its points), a parameter that moves a
-rigid link's or a guide's own geometry (a link's length or direction, its end's offset, its y_axis or hinge axes, a
-slider-crank's closed loop: the reduction's ∂J/∂X is not generated), guides beside a
+rigid link's or a guide's own geometry (a link's length or direction, its y_axis or hinge axes, a slider-crank's
+closed loop: the reduction's ∂J/∂X and the links' inertia by X are not generated), guides beside a
 given initial_velocity.angular (the slides' initial rates move with the points), cables, controllers, arc length (its
 first step's length moves with ∂K/∂p, not generated), a kernel variant generated without the reference derivatives.
 The discrete adjoint takes geometry parameters: the start's move, ∂r/∂p and the probes' moves of this module
@@ -162,8 +164,8 @@ def _linked_refusal(scene, name: str) -> str | None:
     offset from its parent body (o), its arm (b) and length, its hinge axes and inertia, a guide's origin on the
     body it slides on — moves with it: the reduction's J, its closure equations and the links' bodies are then
     those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). Taken too: an edge's own point o
-    (a link's start offset, a guide's origin) moved with all the edge carries, a translation of that subtree (on a part
-    that turns: :func:`_turning_refusal`). Other moves of that reference geometry (∂J/∂X and
+    (a link's start or end offset, a guide's origin) moved with all the edge carries, a translation of that subtree (on
+    a part that turns: :func:`_turning_refusal`). Other moves of that reference geometry (∂J/∂X and
     the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
     rigid = [beam for beam in scene.beams.values() if beam.rigid]
     guided = [body for body in scene.bodies.values() if body.guide is not None]
@@ -181,15 +183,16 @@ def _linked_refusal(scene, name: str) -> str | None:
         start, end = moves["point"][(beam.name, "from")], moves["point"][(beam.name, "to")]
         what = None
         # the link's start point on its body (its edge's o) may move: the link and what it carries translate
-        sides = ("to",) if beam.start.body is not None and beam.end.body not in closing else ("from", "to")
-        if "from" not in sides and np.any(moves["offset"].get((beam.name, "from"), unmoved) != 0.0) and \
+        sides = () if beam.end.body not in closing else ("from", "to")
+        if not sides and np.any(moves["offset"].get((beam.name, "from"), unmoved) != 0.0) and \
                 not _never_turns(scene, beam.start.body, closing):
             turning.append(f"rigid link {beam.name!r}'s start point on {beam.start.body!r}")
+        if not sides and np.any(moves["offset"].get((beam.name, "to"), unmoved) != 0.0):
+            turning.append(f"rigid link {beam.name!r}'s end point on {beam.end.body!r}")
         if np.any(end != start):
             what = "its length or direction (its end points moved apart)"
         elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in sides):
-            what = ("an end's offset (the link's point on its parent body)" if "from" in sides else
-                    "its end's offset (the link's point on the body it carries)")
+            what = "an end's offset (the link's point on a body of the slider-crank loop it closes)"
         elif np.any(moves["y"].get(beam.name, unmoved) != 0.0):
             what = "its y_axis (its inertia's axes)"
         elif any(np.any(moves["axis"].get((beam.name, end), unmoved) != 0.0) for end in ("start", "end")):
@@ -456,8 +459,9 @@ class ReferenceGeometry:
         #: δX of every node at a fixed state where no coordinate carries it and it is the same at every state (the
         #: node_moves less the shifts of edges on a part that turns, :attr:`turning`)
         self.fixed_moves = np.zeros((n_nodes, 3, k))
-        #: (edge index, column, δo) of the edges on a part that turns whose own point o moves (:meth:`shifts`)
-        self.turning: list[tuple[int, int, np.ndarray]] = []
+        #: (edge index, column, δ, anchor A) of the edges whose own point moves on a part A that turns: o by δ in the
+        #: parent's axes (A the parent), a link end's b by δ in the child's (A the child) (:meth:`shifts`)
+        self.turning: list[tuple[int, int, np.ndarray, int]] = []
         self.variations = np.zeros((n_elements, WIDTH, k))
         self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
         #: δa (3, k) of the hinges whose axis moves, by their index in model.hinges
@@ -553,15 +557,15 @@ class ReferenceGeometry:
         self.fixed_moves[:, :, column] = self.node_moves[:, :, column]
         if model.links is not None:   # a dependent node moves with its parent, and by its edge's own δo where that
             for index, edge in enumerate(model.links.edges):   # (_linked_refusal: others unmoved)
-                moved = self._origin_move(edge, body_at, end_offset)
+                moved, anchor = self._origin_move(edge, body_at, end_offset)
                 self.node_moves[edge.child, :, column] = self.node_moves[edge.parent, :, column] + moved
                 self.fixed_moves[edge.child, :, column] = self.fixed_moves[edge.parent, :, column]
                 if not np.any(moved):
                     continue
-                if self._never_turns(edge.parent):
+                if self._never_turns(anchor):
                     self.fixed_moves[edge.child, :, column] += moved
                 else:
-                    self.turning.append((index, column, moved))
+                    self.turning.append((index, column, moved, anchor))
         # the held ends' reference points (x = at + translation(t), and the links that follow them); a free
         # node's, and a dependent node's on a free root, is the state's
         fixed = self.held
@@ -570,22 +574,24 @@ class ReferenceGeometry:
             self.variations[:, 3 * end:3 * end + 3, column] = np.where(
                 fixed[ends][:, None], self.fixed_moves[ends, :, column], 0.0)
 
-    def _origin_move(self, edge, body_at: dict, end_offset: dict) -> np.ndarray:
+    def _origin_move(self, edge, body_at: dict, end_offset: dict) -> tuple[np.ndarray, int]:
         """δo of ``edge`` (latdyn/model/links.py) in one column, in its parent's axes at t = 0 (the global ones;
         :func:`_linked_refusal` takes no other edge's o moved): a guide's origin, the guided body's ``at`` less its
-        parent's (the ground's: 0), and a rigid link's start point on its body, the ``from`` offset; zero for every
-        other edge. The child and its subtree translate by it, at a fixed state by δo where the parent never turns and by
-        T_A δo where it does (:attr:`turning`, :meth:`shifts`)."""
+        parent's (the ground's: 0), and a rigid link's start point on its body, the ``from`` offset, with the anchor A
+        the parent; a link's end edge's b, −(the ``to`` offset), fixed in the child's axes (x_c = x_p + T_p o + T_c b),
+        with A the child; zero for a closure. The child and its subtree translate by it, at a fixed state by δ where A
+        never turns and by T_A δ where it does (:attr:`turning`, :meth:`shifts`): (δ, A)."""
         model = self.model
         if edge.closure:
-            return np.zeros(3)
+            return np.zeros(3), edge.parent
         if edge.prismatic:
             parent = model.nodes[edge.parent]
             on = body_at.get(parent.body, np.zeros(3)) if parent.body is not None else np.zeros(3)
-            return body_at.get(edge.link, np.zeros(3)) - on
+            return body_at.get(edge.link, np.zeros(3)) - on, edge.parent
         if edge.sign > 0:   # the link's start edge: o is the start offset
-            return end_offset.get((edge.link, "from"), np.zeros(3))
-        return np.zeros(3)
+            return end_offset.get((edge.link, "from"), np.zeros(3)), edge.parent
+        # the link's end edge: b = −(the end's offset), fixed in the child's axes (x_c = x_p + T_p o + T_c b)
+        return -end_offset.get((edge.link, "to"), np.zeros(3)), edge.child
 
     def _never_turns(self, node: int) -> bool:
         """Whether ``node`` is fixed or prescribed, or reached from such a node through prismatic edges alone (its
@@ -723,14 +729,13 @@ class ReferenceGeometry:
         from latdyn.numerics.so3 import cross
 
         links, n_nodes = self.model.links, len(self.model.nodes)
-        anchors = sorted({links.edges[index].parent for index, _, _ in self.turning})
+        anchors = sorted({anchor for _, _, _, anchor in self.turning})
         key = b"".join(state.T[a].tobytes() + state.w[a].tobytes() + state.alpha[a].tobytes() for a in anchors)
         held = self.__dict__.get("_shifts_held")
         if held is not None and held[0] == key:   # the same anchors' motion: the probes of one row, its step
             return held[1]
         d, dv, da = (np.zeros((n_nodes, 3, self.k)) for _ in range(3))
-        for index, column, moved in self.turning:
-            anchor = links.edges[index].parent
+        for index, column, moved, anchor in self.turning:
             shift = state.T[anchor] @ moved
             w, alpha = state.w[anchor], state.alpha[anchor]
             below = self._below(index)
@@ -775,8 +780,7 @@ class ReferenceGeometry:
             change += np.asarray(ev._assembled(1.0, 0.0, 0.0, True)) @ moved[2]
         total[:n_asm] += change
         forces = np.asarray(ev.assembled_residual)
-        for index, column, moment_arm in self.turning:
-            anchor = links.edges[index].parent
+        for index, column, moment_arm, anchor in self.turning:
             shift = state.T[anchor] @ moment_arm
             below = self._below(index)
             force = forces[model.node_dofs[below][:, 0:3]].sum(axis=0)
