@@ -225,18 +225,23 @@ STATIC_TABLE = "\n".join(line for line in TABLE.replace(
 assert "method: load-control" in STATIC_TABLE and "s_rate:" not in STATIC_TABLE
 
 
-def test_the_carriage_origin_on_a_static_path_agrees_with_richardson():
-    """Load control: every row's sensitivity by X against Richardson-extrapolated central differences of whole static
-    runs (2e-5 and 1e-5 of X), relative to each probe's largest. Measured 1.4e-10."""
-    result = _api_run(STATIC_TABLE, "X")
+def _static_path_agrees(text: str, value: float) -> None:
+    """Every row's sensitivity by X of the static run ``text`` against Richardson-extrapolated central differences of
+    whole static runs (1e-4 and 5e-5 of X's ``value``), relative to each probe's largest (≤ 1e-6)."""
+    result = _api_run(text, "X")
     central = []
-    for step in (2e-5, 1e-5):
-        up, down = _api_run(STATIC_TABLE, "X", X=0.2 + step), _api_run(STATIC_TABLE, "X", X=0.2 - step)
+    for step in (1e-4 * value, 5e-5 * value):
+        up, down = _api_run(text, "X", X=value + step), _api_run(text, "X", X=value - step)
         central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
     for probe in central[0]:
         expected = (4 * central[1][probe] - central[0][probe]) / 3
         assert np.abs(expected).max() > 0.0, probe
         assert np.abs(result.sensitivities[(probe, "X")] - expected).max() <= 1e-6 * np.abs(expected).max(), probe
+
+
+def test_the_carriage_origin_on_a_static_path_agrees_with_richardson():
+    """Load control, by X. Measured 1.4e-10."""
+    _static_path_agrees(STATIC_TABLE, 0.2)
 
 
 #: the guide's origin on the arm's tip statically under gravity (load control, 3 steps), without the guide's probes
@@ -248,14 +253,5 @@ assert "method: load-control" in STATIC_GUIDE_ORIGIN and "gf:" not in STATIC_GUI
 
 
 def test_the_guide_origin_on_the_turning_tip_on_a_static_path_agrees_with_richardson():
-    """Load control (the shift's K d and the projection's d × F_S, without rates): every row by X against Richardson
-    (7e-5 and 3.5e-5 of X). Measured 4.5e-10."""
-    result = _api_run(STATIC_GUIDE_ORIGIN, "X")
-    central = []
-    for step in (7e-5, 3.5e-5):
-        up, down = _api_run(STATIC_GUIDE_ORIGIN, "X", X=0.7 + step), _api_run(STATIC_GUIDE_ORIGIN, "X", X=0.7 - step)
-        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
-    for probe in central[0]:
-        expected = (4 * central[1][probe] - central[0][probe]) / 3
-        assert np.abs(expected).max() > 0.0, probe
-        assert np.abs(result.sensitivities[(probe, "X")] - expected).max() <= 1e-6 * np.abs(expected).max(), probe
+    """Load control (the shift's K d and the projection's d × F_S, without rates), by X. Measured 4.5e-10."""
+    _static_path_agrees(STATIC_GUIDE_ORIGIN, 0.7)
