@@ -51,8 +51,9 @@ def _once(data) -> tuple[float, float]:
     return time.process_time() - cpu, time.perf_counter() - wall
 
 
-def main() -> None:
-    for name, (text, parameters) in SCENES.items():
+def main(scenes: dict | None = None) -> None:
+    """Measure ``scenes`` (name -> (scene, parameters); :data:`SCENES` unless given) and print each one's line."""
+    for name, (text, parameters) in (SCENES if scenes is None else scenes).items():
         runs = {}
         for label, names in (("without", None), ("first", parameters[:1]), ("both", parameters)):
             data = yaml.safe_load(text)

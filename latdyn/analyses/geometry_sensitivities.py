@@ -43,14 +43,26 @@ then that of p, and so are the reduction's J and Pᵀ (translation-invariant). A
 a fixed state by nothing where the root is free (its position is the coordinates'), by the root's δX where the root is
 fixed or prescribed (:attr:`ReferenceGeometry.held`: such a node's reference point in the elements' variations, in
 :meth:`ReferenceGeometry.held_moves`); its δX of the start is its root's (:attr:`ReferenceGeometry.node_moves`, a
-displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX.
+displacement's reference). A point's velocity v + ω × T r moves with its arm, not with a held root's δX. Of a link's or
+guide's own geometry one move is taken: the point of an edge — a rigid link's start point on its body (o, fixed in the
+parent A's axes), its end point on the body A it carries (b, that body moved the other way: the link keeps its length
+and direction), a guide's origin (o, A the body it slides on) — moved with all that the edge carries
+(:meth:`ReferenceGeometry._origin_move`), a translation of the subtree S below the edge by δo fixed in A's axes. Where A
+never turns (fixed, prescribed, or sliding on guides from one: :func:`_never_turns`) S's rates, joint twists, J and the
+links' inertia stay those of p and its nodes (held: their root is fixed or prescribed) move by δo. Where A turns, S
+moves at a fixed state by d = T_A δo, its coordinate velocities by ω_A × d, its accelerations by α_A × d + ω_A × (ω_A ×
+d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges above A: g × (x − o) of S's points moves
+by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
++ C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
+per-step path; refused beside events, controllers and probes whose explicit part does not hold the shift
+(:func:`_turning_refusal`).
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
 hinge angle: the velocities they carry into the structure at t = 0 move with its points), a parameter that moves a
-rigid link's or a guide's own geometry (a link's length or direction, an end's offset, its y_axis or hinge axes, a
-slider-crank's closed loop, a guide's origin on its body: the reduction's ∂J/∂X is not generated), guides beside a
+rigid link's or a guide's own geometry (a link's length or direction, its y_axis or hinge axes, a slider-crank's
+closed loop: the reduction's ∂J/∂X and the links' inertia by X are not generated), guides beside a
 given initial_velocity.angular (the slides' initial rates move with the points), cables, controllers, arc length (its
 first step's length moves with ∂K/∂p, not generated), a kernel variant generated without the reference derivatives.
 The discrete adjoint takes geometry parameters: the start's move, ∂r/∂p and the probes' moves of this module
@@ -151,8 +163,10 @@ def _linked_refusal(scene, name: str) -> str | None:
     translation of every linked subtree, or none), so that no link's or guide's reference geometry — a link's
     offset from its parent body (o), its arm (b) and length, its hinge axes and inertia, a guide's origin on the
     body it slides on — moves with it: the reduction's J, its closure equations and the links' bodies are then
-    those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). The moves of that reference
-    geometry (∂J/∂X and the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
+    those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). Taken too: an edge's own point o
+    (a link's start or end offset, a guide's origin) moved with all the edge carries, a translation of that subtree (on
+    a part that turns: :func:`_turning_refusal`). Other moves of that reference geometry (∂J/∂X and
+    the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
     rigid = [beam for beam in scene.beams.values() if beam.rigid]
     guided = [body for body in scene.bodies.values() if body.guide is not None]
     if not (rigid or guided):
@@ -164,13 +178,21 @@ def _linked_refusal(scene, name: str) -> str | None:
                 "which is not differentiated yet")
     closing = {beam.end.body for beam in rigid if beam.end.body is not None and
                scene.bodies[beam.end.body].guide is not None}
+    turning = []   # the edges whose own point o moves on a part that turns (ReferenceGeometry.turning)
     for beam in rigid:
         start, end = moves["point"][(beam.name, "from")], moves["point"][(beam.name, "to")]
         what = None
+        # the link's start point on its body (its edge's o) may move: the link and what it carries translate
+        sides = () if beam.end.body not in closing else ("from", "to")
+        if not sides and np.any(moves["offset"].get((beam.name, "from"), unmoved) != 0.0) and \
+                not _never_turns(scene, beam.start.body, closing):
+            turning.append(f"rigid link {beam.name!r}'s start point on {beam.start.body!r}")
+        if not sides and np.any(moves["offset"].get((beam.name, "to"), unmoved) != 0.0):
+            turning.append(f"rigid link {beam.name!r}'s end point on {beam.end.body!r}")
         if np.any(end != start):
             what = "its length or direction (its end points moved apart)"
-        elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in ("from", "to")):
-            what = "an end's offset (the link's point on its parent body)"
+        elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in sides):
+            what = "an end's offset (the link's point on a body of the slider-crank loop it closes)"
         elif np.any(moves["y"].get(beam.name, unmoved) != 0.0):
             what = "its y_axis (its inertia's axes)"
         elif any(np.any(moves["axis"].get((beam.name, end), unmoved) != 0.0) for end in ("start", "end")):
@@ -180,16 +202,59 @@ def _linked_refusal(scene, name: str) -> str | None:
         if what is not None:
             return (f"it moves the rigid link {beam.name!r}'s reference geometry ({what}): geometry sensitivities "
                     "that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not computed yet; "
-                    "taken: a parameter that moves each rigid link with the part it hangs from")
+                    "taken: a parameter that moves each rigid link with the part it hangs from, or a link's start "
+                    "point on its body together with all the link carries")
     for body in guided:
         parent = moves["at"].get(body.guide.on, unmoved) if body.guide.on is not None else unmoved
         moved = moves["at"].get(body.name, unmoved)
-        if np.any(moved != parent) or (body.name in closing and np.any(moved != 0.0)):
+        # its origin may move (but a closing slider's): the guided body and what it carries translate
+        if np.any(moved != parent) and body.name not in closing and body.guide.on is not None and \
+                not _never_turns(scene, body.guide.on, closing):
+            turning.append(f"the guide of {body.name!r} on {body.guide.on!r}")
+        if body.name in closing and np.any(moved != 0.0):
             on = repr(body.guide.on) if body.guide.on is not None else "the ground"
             return (f"it moves the guide of {body.name!r} relative to {on} (the guide's origin): geometry "
                     "sensitivities that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not "
-                    "computed yet; taken: a parameter that moves each guided body with the part it slides on")
+                    "computed yet; taken: a parameter that moves each guided body with the part it slides on, or a "
+                    "guide's origin (but a slider's a rigid rod closes a loop onto)")
+    return _turning_refusal(scene, turning[0]) if turning else None
+
+
+def _turning_refusal(scene, what: str) -> str | None:
+    """Why a parameter that moves ``what`` (a hinge point or guide origin on a part that turns: its subtree shifted
+    in the part's axes, :meth:`ReferenceGeometry._add_shifts`) is not exact here, or None. Taken in transient runs and
+    static paths with point (in global axes), hinge and guide probes; not beside events (latches, stops, limits,
+    friction: their impulse weights' ∂/∂X do not hold the shift yet, measured 1.7e-4 off through a latch), controllers
+    or other probes (sections', bodies' axes, energies: their explicit parts do not hold it)."""
+    joints = [hinge for _, _, hinge in scene.hinges] + [b.guide for b in scene.bodies.values() if b.guide is not None]
+    events = next((j for j in joints if j.lock_at is not None or j.limits is not None or j.friction is not None
+                   or j.contact is not None), None)
+    if events is not None:
+        return (f"it moves {what}, a part that turns, beside latches, stops, limits or friction at the joints: the "
+                "events' ∂/∂X do not hold that shift yet; taken without them")
+    if getattr(scene, "controllers", None):
+        return f"it moves {what}, a part that turns, beside controllers: not differentiated yet; taken without them"
+    other = next((p.name for p in scene.output.probes if not (
+        p.kind in ("hinge", "guide") or (p.kind == "point" and p.frame == "global"))), None)
+    if other is not None:
+        return (f"it moves {what}, a part that turns, beside the probe {other!r}: only points' (in global axes), "
+                "hinges' and guides' probes are differentiated with that shift yet")
     return None
+
+
+def _never_turns(scene, name, closing: set) -> bool:
+    """Whether body ``name`` never turns and its position is a held part's and slides: it is fixed, or prescribed (a
+    translation: prescribed rotations are refused beside geometry parameters, :func:`geometry_refusal`), or it slides
+    on a guide on the ground or on such a body (a guide keeps its parent's orientation; not a slider a rigid rod
+    closes a loop onto, ``closing``). An edge from it (a rigid link's start hinge, a guide on it) whose own point o
+    moves translates the subtree it carries by that constant vector at a fixed state: no rate, joint twist, J or
+    inertia of the links moves (module docstring; :meth:`ReferenceGeometry._origin_move` the same on the model)."""
+    if name is None:
+        return False
+    body = scene.bodies[name]
+    if body.guide is not None:
+        return name not in closing and (body.guide.on is None or _never_turns(scene, body.guide.on, closing))
+    return bool(body.fixed or body.prescribed)
 
 
 def _controllers_refusal(scene) -> str | None:
@@ -391,6 +456,12 @@ class ReferenceGeometry:
         #: parts that depend on the state (ψ, δo and δh are in node axes here: φ, δr_g and δa), δr_g of the
         #: beams' ends
         self.node_moves = np.zeros((n_nodes, 3, k))
+        #: δX of every node at a fixed state where no coordinate carries it and it is the same at every state (the
+        #: node_moves less the shifts of edges on a part that turns, :attr:`turning`)
+        self.fixed_moves = np.zeros((n_nodes, 3, k))
+        #: (edge index, column, δ, anchor A) of the edges whose own point moves on a part A that turns: o by δ in the
+        #: parent's axes (A the parent), a link end's b by δ in the child's (A the child) (:meth:`shifts`)
+        self.turning: list[tuple[int, int, np.ndarray, int]] = []
         self.variations = np.zeros((n_elements, WIDTH, k))
         self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
         #: δa (3, k) of the hinges whose axis moves, by their index in model.hinges
@@ -483,16 +554,55 @@ class ReferenceGeometry:
             v[0, 6:9] = end_offset.get((beam.name, "from"), np.zeros(3))
             v[-1, 9:12] = end_offset.get((beam.name, "to"), np.zeros(3))
             self.variations[elements, :, column] = v
-        if model.links is not None:   # a dependent node moves with its parent (_linked_refusal: edges unmoved)
-            for edge in model.links.edges:
-                self.node_moves[edge.child, :, column] = self.node_moves[edge.parent, :, column]
+        self.fixed_moves[:, :, column] = self.node_moves[:, :, column]
+        if model.links is not None:   # a dependent node moves with its parent, and by its edge's own δo where that
+            for index, edge in enumerate(model.links.edges):   # (_linked_refusal: others unmoved)
+                moved, anchor = self._origin_move(edge, body_at, end_offset)
+                self.node_moves[edge.child, :, column] = self.node_moves[edge.parent, :, column] + moved
+                self.fixed_moves[edge.child, :, column] = self.fixed_moves[edge.parent, :, column]
+                if not np.any(moved):
+                    continue
+                if self._never_turns(anchor):
+                    self.fixed_moves[edge.child, :, column] += moved
+                else:
+                    self.turning.append((index, column, moved, anchor))
         # the held ends' reference points (x = at + translation(t), and the links that follow them); a free
         # node's, and a dependent node's on a free root, is the state's
         fixed = self.held
         for end in (0, 1):
             ends = model.element_nodes[:, end]
             self.variations[:, 3 * end:3 * end + 3, column] = np.where(
-                fixed[ends][:, None], self.node_moves[ends, :, column], 0.0)
+                fixed[ends][:, None], self.fixed_moves[ends, :, column], 0.0)
+
+    def _origin_move(self, edge, body_at: dict, end_offset: dict) -> tuple[np.ndarray, int]:
+        """δo of ``edge`` (latdyn/model/links.py) in one column, in its parent's axes at t = 0 (the global ones;
+        :func:`_linked_refusal` takes no other edge's o moved): a guide's origin, the guided body's ``at`` less its
+        parent's (the ground's: 0), and a rigid link's start point on its body, the ``from`` offset, with the anchor A
+        the parent; a link's end edge's b, −(the ``to`` offset), fixed in the child's axes (x_c = x_p + T_p o + T_c b),
+        with A the child; zero for a closure. The child and its subtree translate by it, at a fixed state by δ where A
+        never turns and by T_A δ where it does (:attr:`turning`, :meth:`shifts`): (δ, A)."""
+        model = self.model
+        if edge.closure:
+            return np.zeros(3), edge.parent
+        if edge.prismatic:
+            parent = model.nodes[edge.parent]
+            on = body_at.get(parent.body, np.zeros(3)) if parent.body is not None else np.zeros(3)
+            return body_at.get(edge.link, np.zeros(3)) - on, edge.parent
+        if edge.sign > 0:   # the link's start edge: o is the start offset
+            return end_offset.get((edge.link, "from"), np.zeros(3)), edge.parent
+        # the link's end edge: b = −(the end's offset), fixed in the child's axes (x_c = x_p + T_p o + T_c b)
+        return -end_offset.get((edge.link, "to"), np.zeros(3)), edge.child
+
+    def _never_turns(self, node: int) -> bool:
+        """Whether ``node`` is fixed or prescribed, or reached from such a node through prismatic edges alone (its
+        frame the identity at every state: :func:`_never_turns` on the scene)."""
+        links = self.model.links
+        while node in links.edge_of:
+            edge = links.edges[links.edge_of[node]]
+            if not edge.prismatic:
+                return False
+            node = edge.parent
+        return self.model.nodes[node].kind in (FIXED, PRESCRIBED)
 
     def _hinge_axis(self, beam: str, end: str, component: int, slope: float, column: int) -> None:
         """A hinge axis's component moved: a = v/|v| (the loader's unit axis, node axes = global at t = 0) by
@@ -549,8 +659,17 @@ class ReferenceGeometry:
         translation(t)) moves with its ``at`` at a fixed state, and a dependent node of rigid links or guides with
         its fixed or prescribed root (:attr:`held`) —, zero for a node whose position is the state's."""
         if self.held[node]:
-            return self.node_moves[node]
+            return self.fixed_moves[node]
         return np.zeros((3, self.k))
+
+    def velocity_moves(self, state, node: int) -> tuple[np.ndarray, np.ndarray]:
+        """(the node's move at a fixed state that its velocity v + ω × T r does not turn with: :meth:`held_moves` and a
+        :attr:`turning` shift d, the move of its velocity by that shift: δv of :meth:`shifts`, None without one), (3, k)
+        each."""
+        if not self.turning:
+            return self.held_moves(node), None
+        d, dv, _ = self.shifts(state)
+        return self.held_moves(node) + d[node], dv[node]
 
     def point_moves(self, probe, state) -> tuple[np.ndarray, np.ndarray]:
         """(δ of the point's current position at a fixed state, δ of its position at t = 0), (3, k) each, for a
@@ -564,7 +683,10 @@ class ReferenceGeometry:
             which = 0 if ref.node == 0 else 1 if ref.node == last else None
             if which is not None:
                 offset = self.end_offsets.get((ref.beam, which), offset)
-        return state.T[node] @ offset + self.held_moves(node), self.node_moves[node] + offset
+        current = state.T[node] @ offset + self.held_moves(node)
+        if self.turning:
+            current = current + self.shifts(state)[0][node]
+        return current, self.node_moves[node] + offset
 
     def control_moves(self, state) -> np.ndarray:
         """∂c/∂p (k,) at a fixed state of displacement control's controlled displacement
@@ -584,6 +706,8 @@ class ReferenceGeometry:
         ParameterDerivatives.residual_derivatives ``element_gravity``), the loads' arms at ``load_factor``."""
         if weight_factor is None:
             weight_factor = load_factor
+        if self.turning:
+            self._add_shifts(state, total, load_factor, inertia)
         elements = self.elements
         if not len(elements):
             return
@@ -596,6 +720,71 @@ class ReferenceGeometry:
         for column in range(k):
             np.add.at(total[:, column], model.element_dofs[elements], forces[column])
         self._load_arms(state, total, load_factor)
+
+    def shifts(self, state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(d, δv, δa), (n_nodes, 3, k) each: the moves at ``state`` of the nodes below the edges of :attr:`turning`
+        (an edge's own point o moved by δo on a parent A that turns): the subtree translates by d = T_A δo, fixed in
+        A's axes, so its coordinate velocities move by ω_A × d and its accelerations by α_A × d + ω_A × (ω_A × d)
+        (A's rigid field); zero for every other node."""
+        from latdyn.numerics.so3 import cross
+
+        links, n_nodes = self.model.links, len(self.model.nodes)
+        anchors = sorted({anchor for _, _, _, anchor in self.turning})
+        key = b"".join(state.T[a].tobytes() + state.w[a].tobytes() + state.alpha[a].tobytes() for a in anchors)
+        held = self.__dict__.get("_shifts_held")
+        if held is not None and held[0] == key:   # the same anchors' motion: the probes of one row, its step
+            return held[1]
+        d, dv, da = (np.zeros((n_nodes, 3, self.k)) for _ in range(3))
+        for index, column, moved, anchor in self.turning:
+            shift = state.T[anchor] @ moved
+            w, alpha = state.w[anchor], state.alpha[anchor]
+            below = self._below(index)
+            spun = cross(w, shift)
+            d[below, :, column] += shift
+            dv[below, :, column] += spun
+            da[below, :, column] += cross(alpha, shift) + cross(w, spun)
+        self._shifts_held = (key, (d, dv, da))
+        return d, dv, da
+
+    def _below(self, index: int) -> np.ndarray:
+        """The nodes of edge ``index``'s subtree (its child and every node whose path passes the edge)."""
+        held = self.__dict__.setdefault("_subtrees", {})
+        if index not in held:
+            links = self.model.links
+            held[index] = np.array([node for node in links.dependent if index in links.path(int(node))], np.int64)
+        return held[index]
+
+    def _add_shifts(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
+        """Add ∂r/∂p of the :attr:`turning` shifts (module docstring) into ``total`` (all coordinates): with the
+        subtree S below the edge moved by (d, δv, δa) at fixed coordinates and rates (:meth:`shifts`), the residual
+        on the assembled coordinates moves by K d + C δv + M δa (the exact K, C, M before the reduction:
+        latdyn/assembly/linked.py ``evaluate_linked`` with the inertia tangent), and the projection Pᵀ itself by
+        d × F_S on the anchor A's rotational rows (F_S the assembled residual's force rows of S summed): the columns
+        of J that reach A (its root's turn, the hinges above it) move S's points by (g × d) per unit rate, whose work
+        on S's forces is g·(d × F_S); the columns below A move S as a whole and stay."""
+        from latdyn.assembly.linked import evaluate_linked
+        from latdyn.numerics.so3 import cross
+
+        model, links = self.model, self.model.links
+        ev = evaluate_linked(links, self.owner.assembler, state, True, load_factor, inertia, inertia_tangent=True,
+                             rates_term=False)
+        n_asm = model.n_assembled
+        d, dv, da = self.shifts(state)
+        moved = np.zeros((3, n_asm, self.k))
+        for node in links.dependent:
+            rows = model.node_dofs[node][0:3]
+            moved[0, rows], moved[1, rows], moved[2, rows] = d[node], dv[node], da[node]
+        change = np.asarray(ev._assembled(0.0, 0.0, 1.0, True)) @ moved[0]
+        if inertia:
+            change += np.asarray(ev._assembled(0.0, 1.0, 0.0, True)) @ moved[1]
+            change += np.asarray(ev._assembled(1.0, 0.0, 0.0, True)) @ moved[2]
+        total[:n_asm] += change
+        forces = np.asarray(ev.assembled_residual)
+        for index, column, moment_arm, anchor in self.turning:
+            shift = state.T[anchor] @ moment_arm
+            below = self._below(index)
+            force = forces[model.node_dofs[below][:, 0:3]].sum(axis=0)
+            total[model.node_dofs[anchor][3:6], column] += cross(shift, force)
 
     def transposed_product(self, state, w: np.ndarray, load_factor: float, inertia: bool,
                            weight_factor: float) -> np.ndarray:

@@ -964,9 +964,12 @@ class ParameterDerivatives:
             moved = moved + offset_moved - (reference_moved if probe.quantity == "displacement" else 0.0)
         if probe.quantity == "velocity":   # δ(v + ω × T r): the arm's move, not the node's (nor a held root's δX)
             dvel, domega, _ = rates
-            held = self.geometry.held_moves(node) if explicit and self.geometry is not None else 0.0
+            held, carried = self.geometry.velocity_moves(state, node) if explicit and self.geometry is not None \
+                else (0.0, None)
             moved = dvel[node] + np.cross(domega[node], arm, axisa=0, axisc=0) \
                 + np.cross(state.w[node], moved - dx[node] - held, axisb=0, axisc=0)
+            if carried is not None:   # a shift on a part that turns moves the node's velocity (ReferenceGeometry)
+                moved = moved + carried
         if probe.component in (None, "norm"):
             value = state.x[node] + arm
             if probe.quantity == "displacement":

@@ -241,6 +241,8 @@ def _geometry_refusal(owner) -> str | None:
     point_load_D_offset with the load's values tabulated per grid point, ReferenceGeometry._load_arms)."""
     if any(owner.kernels.address(name) is None for name in GEOMETRY_KERNELS):
         return "geometry kernels without C libraries"
+    if owner.geometry.turning:   # ReferenceGeometry._add_shifts: formed from the evaluation's matrices in Python
+        return "a geometry parameter moves a hinge point or a guide's origin on a part that turns"
     return None
 
 
