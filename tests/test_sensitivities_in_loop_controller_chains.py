@@ -13,12 +13,12 @@ runs. Each case here failed so (checked on 279ca0e); now the loop and the Python
 from __future__ import annotations
 
 import pytest
-import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.sensitivity_equality import assert_same_sensitivities
 from tests.test_sensitivities_in_loop_controller_reads import _agree, _scene
+from tests.test_sensitivities_in_loop_state_laws import _run
 from tests.test_weight_derivative_controllers_held import FORCE_CHAINED
 
 #: the chain by the read hinge's spring ks alone
@@ -49,13 +49,6 @@ CHAIN_SECTION = (CHAIN_KS.replace("parameters: {ks: 40.0,", "parameters: {EI: 10
 assert "sensitivities: [ks]" in CHAIN_KS and '"0.3 + 0.1*Kt*Kt"' in CHAIN_LOAD and '"0.5*pull"' in CHAIN_THREE
 assert "0.004*pull" in CHAIN_TENSION and "[EAc]" in CHAIN_TENSION and 'EIz: "EI"' in CHAIN_SECTION
 assert "0.04*my" in CHAIN_SECTION and "[EI]" in CHAIN_SECTION
-
-
-def _run(text: str, monkeypatch, in_loop: bool):
-    """The scene's run through the API, its smooth steps' sensitivities in the loop of steps or from Python."""
-    with monkeypatch.context() as patch:
-        patch.setattr("latdyn.analyses.sensitivities_in_loop.SENSITIVITIES_IN_LOOP", in_loop)
-        return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
 
 
 @pytest.mark.parametrize("text, in_loop", [(CHAIN_KS, 39), (CHAIN_LOAD, 40), (CHAIN_THREE, 38), (CHAIN_TENSION, 37),
