@@ -44,8 +44,9 @@ FORCE_STOP = (CHAINED.replace("parameters: {Kt: 2.0,", "parameters: {ks: 40.0, K
               .replace('push: {output: "Kl*(0.7 - tip_x) + 0.2*pd"}', 'push: {output: "Kl*(0.7 - tip_x) + 0.2"}')
               .replace("sensitivities: [Kp, Kt]", "sensitivities: [ks, Kp]")
               .replace("    angle: {", "    tq: {hinge: arm.start, quantity: torque}\n    angle: {", 1))
-#: the same with push reading pd (the chain through the joint's force; its block alone: the loop of steps takes a
-#: chained reader of a joint-force reader 0.10 off, a defect before this file, docs/parameters.md)
+#: the same with push reading pd (the chain through the joint's force; its block alone: the loop of steps took a
+#: chained reader of a joint-force reader 0.10 off while a chain started only at controllers with partials:
+#: tests/test_sensitivities_in_loop_controller_chains.py)
 FORCE_CHAINED = FORCE_STOP.replace('"Kl*(0.7 - tip_x) + 0.2"}', '"Kl*(0.7 - tip_x) + 0.2*pd"}')
 #: the 3D panel stuck by friction at the flexible arm's tip, its arm on a root hinge (0, 1, 1) with a spring k turned
 #: by a PD of the root's and the panel's angles (its coupling on the held angle's column), latching at θ = 0.05

@@ -131,11 +131,14 @@ def chained_outputs(terms) -> list:
     """The continuous controllers without states whose outputs (and their derivatives by what they read) a chain
     through a parameter needs, in file order (ControllerTerms.add: dy_k/dp = ∂f_k/∂p + Σ_j ∂f_k/∂y_j dy_j/dp): those
     that read an earlier controller or are read by one, among the controllers a parameter's slope reaches (those with
-    partials and every reader of one, transitively) and the controllers they read (transitively)."""
+    partials, those reading a force whose own laws a parameter moves, and every reader of one, transitively) and the
+    controllers they read (transitively)."""
     continuous = [c for c in terms.continuous if not c.states]
     names = {c.name for c in terms.continuous}
     reads = {c.name: [r for r in c.reads if r in names] for c in continuous}
-    reached = set(terms.partials)
+    #: a parameter's slope starts at a controller with partials ∂f/∂p, or at one reading a force whose own laws a
+    #: parameter moves (its ∂f/∂s ∂F/∂p, ControllerTerms.sensed_force_slopes), partials or none
+    reached = set(terms.partials) | {name for name, forces in getattr(terms, "forces_read", {}).items() if forces}
     for c in continuous:   # file order: a controller reads only earlier ones
         if any(r in reached for r in reads[c.name]):
             reached.add(c.name)

@@ -82,7 +82,9 @@ EA, damping or rest length, its tension's ∂N/∂p from the generated cable_for
 element's inputs, csrc/cable_forces.c ``cable_tension_slope``, as probe_derivatives._tension_by_parameters forms it),
 that read earlier
 controllers (chains: the earlier controllers' outputs and the reader's derivatives by them from their compiled output
-laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too) and that drive
+laws, derivative_laws.chained_outputs and ControllerPartials.gradient, which the Python step calls too; a chain starts
+at a controller with partials or at one reading a force whose own laws a parameter moves, partials or none:
+tests/test_sensitivities_in_loop_controller_chains.py) and that drive
 load components (the generated point_load per actuated load with the actuators' slopes, as ControllerTerms.add),
 and sampled controllers between their samples (the loop hands each sample
 instant back to Python, latdyn/timeloop/loop.py ``samples_in_loop`` off, where the sample and its restart are
