@@ -281,19 +281,21 @@ class TransientSensitivities(ParameterDerivatives):
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
-        states = self._controller_states()
-        if states is not None:   # δS_0 held for ∂r/∂p at the start (ControllerStates.start)
-            carried = {**carried, **states.start(state)}
-        sampled = self._sampled_controllers()
-        if sampled is not None:  # the sample at t = 0 (before the start): its held δy for ∂r/∂p
-            carried = {**carried, **sampled.start(state, k)}
-        damping = ev.combined_csr(0.0, 1.0, 0.0) if isinstance(mass, CSR) else ev.combined(0.0, 1.0, 0.0)
-        rhs = self.residual_derivatives(state, 1.0, inertia=True) + _times(damping, dv)
-        dq = zero
+        dq, moved = zero, None
         if self.geometry is not None:   # geometry parameters move the start: δq_0 = δX, through the exact K,
             dq = self.geometry.initial_tangent()   # and the rigid spin's velocities δv_0 = ω × δX, through C
             moved = self.geometry.initial_velocity_tangent()
-            dv = dv + moved
+        started = dv if moved is None else dv + moved   # δv_0
+        states = self._controller_states()
+        if states is not None:   # δS_0 held for ∂r/∂p at the start, δf_0 by the start's δq_0, δv_0
+            carried = {**carried, **states.start(state, dq, started)}
+        sampled = self._sampled_controllers()
+        if sampled is not None:  # the sample at t = 0 (before the start) of the start's δq_0, δv_0: its held δy
+            carried = {**carried, **sampled.start(state, k, dq, started)}
+        damping = ev.combined_csr(0.0, 1.0, 0.0) if isinstance(mass, CSR) else ev.combined(0.0, 1.0, 0.0)
+        rhs = self.residual_derivatives(state, 1.0, inertia=True) + _times(damping, dv)
+        if moved is not None:
+            dv = started
             rhs = rhs + self._matrices(state)[2] @ dq + _times(damping, moved)
         if states is not None:
             self.controllers.held = {}
