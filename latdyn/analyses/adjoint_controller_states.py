@@ -248,12 +248,20 @@ class StatesTransposed:
             gradient += hh * (f_p.T @ spread)
         return S_bar, f_bar
 
-    def start_transposed(self, state, f_bar: np.ndarray, gradient: np.ndarray) -> None:
-        """The transpose of ``ControllerStates.start`` (δS_0 = 0, δf_0 = ∂f/∂p): dy/dp += ∂f/∂pᵀ f̄_0."""
+    def start_transposed(self, state, f_bar: np.ndarray, gradient: np.ndarray, moves: tuple | None = None) -> None:
+        """The transpose of ``ControllerStates.start`` (δS_0 = 0, δf_0 = ∂f/∂s δs_0 + ∂f/∂p): dy/dp += ∂f/∂pᵀ f̄_0
+        + δs_0ᵀ ∂f/∂sᵀ f̄_0, δs_0 = D_q δq_0 + D_v δv_0 the forward method's own (``_sensed``) on the start's moves
+        ``moves`` = (δq_0, δv_0) (``TransientSensitivities.start_moves``; None: the start does not move)."""
+        from latdyn.analyses.sensitivities import reads_rates
+
         for c in self.states.controllers:
             rows = slice(self.states.first[c.name], self.states.first[c.name] + len(c.states))
-            _, _, _, f_p = self.states._at(c, state)
+            _, f_s, _, f_p = self.states._at(c, state)
             gradient += f_p.T @ f_bar[rows]
+            sensors = self.states.sensors[c.name]
+            if moves is not None and len(sensors) and (np.any(moves[0]) or reads_rates(sensors)):
+                ds = np.asarray(self.states._sensed(c, state, moves[0], None, moves[1]), float)
+                gradient += ds.reshape(len(sensors), -1).T @ (f_s.T @ f_bar[rows])
 
 
 def probe_forms(owner, probe, state) -> tuple:
@@ -440,14 +448,25 @@ class SamplesTransposed:
                     v_bar += D_v.T @ s_bar
         return y_bar, S_bar
 
-    def start_transposed(self, state, y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray) -> None:
-        """The sample at t = 0 transposed (δq = 0, δS_0 = 0): dy/dp += ∂f/∂pᵀ ȳ_c + ∂g/∂pᵀ S̄/rate."""
+    def start_transposed(self, state, y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray,
+                         moves: tuple | None = None) -> None:
+        """The sample at t = 0 transposed (δS_0 = 0; the forward method's ``SampledTerms.start``):
+        dy/dp += ∂f/∂pᵀ ȳ_c + ∂g/∂pᵀ S̄/rate + δs_0ᵀ s̄, s̄ = ∂f/∂sᵀ ȳ_c + ∂g/∂sᵀ S̄/rate, δs_0 = D_q δq_0 + D_v δv_0 the
+        forward method's own (``_sensor_derivatives``) on the start's moves ``moves`` = (δq_0, δv_0)
+        (``TransientSensitivities.start_moves``; None: the start does not move, δs_0 = 0)."""
+        from latdyn.analyses.sensitivities import _sensor_derivatives
+
         sampled = self.sampled
         values = dict(zip(sampled.terms.sensors.names, sampled.terms.sensors.values(state)))
         initial = np.array([c.initial[s] for c in sampled.controllers for s in c.states], float)
         for c in sampled.controllers:
             rows, i = sampled._rows(c), sampled.index[c.name]
-            inside, _, _, y_p, _, _, g_p = sampled.partials(c, state.t, values, initial[rows])
+            inside, y_s, _, y_p, g_s, _, g_p = sampled.partials(c, state.t, values, initial[rows])
             if inside:
                 gradient += np.outer(y_p, y_bar[i])
             gradient += g_p.T @ (S_bar[rows] / c.rate)
+            if moves is not None and len(c.reads):
+                out_bar = y_bar[i] if inside else np.zeros_like(y_bar[i])
+                s_bar = np.outer(y_s, out_bar) + g_s.T @ (S_bar[rows] / c.rate)
+                ds = _sensor_derivatives(self.owner, sampled.sensors[c.name], state, moves[0], None, moves[1])
+                gradient += ds.T @ s_bar

@@ -308,6 +308,18 @@ class TransientSensitivities(ParameterDerivatives):
                                      for c in range(k)])
         return {**carried, "dq": dq, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
 
+    def start_moves(self) -> tuple | None:
+        """(δq_0, δv_0) (n, k) of the start as :meth:`start` takes them (δq_0 = δX of geometry parameters, δv_0 the
+        ``initial_velocity`` parameters' and the rigid spin's ω × δX), or None where no parameter moves the start:
+        what the sample at t = 0 and the states' δf_0 read through their sensors (the adjoint's
+        ``start_transposed``)."""
+        dv = self._initial_velocities()
+        dq = np.zeros_like(dv)
+        if self.geometry is not None:
+            dq = self.geometry.initial_tangent()
+            dv = dv + self.geometry.initial_velocity_tangent()
+        return (dq, dv) if np.any(dq) or np.any(dv) else None
+
     def _start_mass(self, ev) -> tuple:
         """(M, its split into directions with and without inertia) at the start, M as the run's own start takes
         it (:func:`latdyn.step.integrators.consistent_acceleration`): where that start needs no SciPy (a model
