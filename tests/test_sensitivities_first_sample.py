@@ -17,13 +17,14 @@ relative to its largest; ``solve.tol`` 1e-12; the perturbation varied, the time 
 forward method (≤ 1e-10 relative, every probe's end, max and min by every parameter)."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, latdyn_run_switched, summary_of
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
-from tests.test_sensitivities_refusals_lifted import _adjoint_error
+from tests.test_sensitivities_refusals_lifted import _adjoint_error, _richardson_end
 from tests.test_sensitivities_refusals_lifted2 import _richardson_error
 
 #: a flexible arm on a skew hinge spun at the start about a skew axis (the spin's rate W a parameter), its tip placed
@@ -110,26 +111,48 @@ def test_guard_a_sampled_controller_reading_a_point_a_geometry_parameter_moves_s
         latdyn.run(latdyn.load_scene(yaml.safe_load(GEOMETRY_POSITION)))
 
 
-@pytest.mark.parametrize("text", [*MOVED.values(), GEOMETRY_RATE], ids=[*MOVED, "geometry guard"])
-def test_the_adjoint_equals_the_forward_method_where_the_start_moves(text):
-    """Every probe's end, max and min by every parameter: the forward method's to 1e-10 relative. On 5ef7564 the
-    adjoint was 1.8e-2 (sampled rate), 0.13 (sampled velocity), 9.1e-4 (state of the rate) off the forward method of this
-    change. Measured: 1.5e-13, 6.0e-13, 5.6e-13, and the others below 1e-12."""
-    forward = latdyn.run(latdyn.load_scene(_with(text)))
-    adjoint = latdyn.run(latdyn.load_scene(_with(text, sensitivity_method="adjoint")))
+@pytest.mark.parametrize("case", list(MOVED))
+def test_the_adjoint_equals_the_forward_method_and_richardson_where_the_start_moves(case):
+    """Every probe's end, max and min by every parameter: the forward method's to 1e-10 relative; and every probe's
+    end value by W against whole runs differenced (steps 1e-3 relative, ``solve.tol`` 1e-12), relative to the largest
+    over the probes, ≤ 1e-6. On 5ef7564 the adjoint equalled that commit's forward method, both wrong (the references:
+    the forward test above). Measured: adjoint = forward 1.5e-13 (sampled rate), 6.0e-13 (sampled velocity), 5.6e-13
+    (state of the rate); the adjoint against this change's forward method on 5ef7564: 1.8e-2, 0.13, 9.1e-4."""
+    text = MOVED[case]
+    forward = latdyn.run(latdyn.load_scene(_with(text, tol=1e-12)))
+    adjoint = latdyn.run(latdyn.load_scene(_with(text, tol=1e-12, sensitivity_method="adjoint")))
+    assert _adjoint_error(forward, adjoint) <= 1e-10
+    expected = _richardson_end(_with_tol(text), "W", forward, 1e-3)
+    computed = adjoint.summary["probe_sensitivities"]
+    scale = max(abs(v) for v in expected.values())
+    assert max(abs(computed[k]["end"]["W"] - v) for k, v in expected.items()) <= 1e-6 * scale
+
+
+def _with_tol(text: str) -> str:
+    return yaml.safe_dump(_with(text, tol=1e-12), sort_keys=False)
+
+
+def test_guard_the_adjoint_by_the_geometry_parameter_equals_the_forward_method():
+    """A guard (equal on 5ef7564 too, as the forward method's guard above is right there): the adjoint by tx and Kd
+    beside the sampled PD of the hinge, the forward method's to 1e-10 relative."""
+    forward = latdyn.run(latdyn.load_scene(_with(GEOMETRY_RATE)))
+    adjoint = latdyn.run(latdyn.load_scene(_with(GEOMETRY_RATE, sensitivity_method="adjoint")))
     assert _adjoint_error(forward, adjoint) <= 1e-10
 
 
 @pytest.mark.parametrize("case", list(MOVED))
-def test_the_loop_of_steps_on_and_off_give_the_same_bits(case):
-    """The forward method's loop of steps in C and the per-step Python path write the same sensitivities."""
+def test_guard_the_loop_of_steps_on_and_off_give_the_same_bits(case):
+    """A guard (bit-equal on 5ef7564 too): the forward method's loop of steps in C and the per-step Python path write
+    the same sensitivities."""
     runs = runs_with_the_loop_on_and_off(MOVED[case])
     assert_same_sensitivities(runs[True], runs[False], nonzero="each")
 
 
 def test_the_cli_equals_the_api_bit_for_bit_both_methods(tmp_path):
     """``python -m latdyn run`` writes the API's probe sensitivities to the bit, forward and adjoint; with the
-    adjoint's loop off (a fresh process) the same again."""
+    adjoint's loop off (a fresh process) the same again. The first sample's held output by W, exact: the spin
+    ω = W (0.2, −0.4, 0.1) lies along the hinge's axis, so the tip at (0.6, 0.3, 0.45) starts at vz = 0.3 W and
+    δy_0 = −Kd · 0.3 = −0.06 (0 on 5ef7564)."""
     for method in ("forward", "adjoint"):
         data = _with(SAMPLED_VELOCITY, sensitivity_method=method)
         (tmp_path / method).mkdir()
@@ -139,6 +162,10 @@ def test_the_cli_equals_the_api_bit_for_bit_both_methods(tmp_path):
         api = latdyn.run(latdyn.load_scene(data))
         assert written["probe_sensitivities"] == api.summary["probe_sensitivities"]
         assert written["probe_sensitivities"]["pd_out"]["end"]["W"] != 0.0
+        if method == "forward":
+            rows = np.genfromtxt(out / "sensitivities.csv", delimiter=",", names=True)
+            assert rows["pd_outW"][0] == pytest.approx(-0.06, rel=1e-12)
+            assert api.sensitivities[("pd_out", "W")][0] == rows["pd_outW"][0]
     off = latdyn_run_switched(tmp_path, tmp_path / "adjoint" / "scene.yaml", tmp_path / "off",
                               "import latdyn.analyses.adjoint_in_loop as m; m.ADJOINT_IN_LOOP = False")
     assert off.returncode == 0, off.stderr
