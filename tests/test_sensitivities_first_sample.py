@@ -88,9 +88,9 @@ def _with(text: str, **solve) -> dict:
 @pytest.mark.parametrize("case", list(MOVED))
 def test_the_forward_method_by_the_initial_spin_agrees_with_richardson_central_differences(case, relative):
     """Every probe over its rows (the held output of the first sample among them) by the start's spin rate W. On
-    5ef7564 (δs_0 = 0) off by 0.24 (sampled rate), 2.3e-2 (sampled velocity), 3.7e-4 (state of the rate), 1.9e-4 (state
-    of the velocity: the largest over the end values). Measured (end values, steps 1e-4 / 1e-3 relative): 2.7e-9 /
-    1.0e-9, 5.4e-9 / 1.3e-9, 5.1e-9 / 6.7e-11, 8.4e-10 / 3.7e-10."""
+    5ef7564 (δs_0 = 0) off by 0.21 (sampled rate), 0.15 (sampled velocity), 6.8e-4 (state of the rate), 4.4e-4 (state
+    of the velocity), both steps. Measured (steps 1e-4 / 1e-3 relative): 7.6e-9 / 9.8e-10, 6.5e-9 / 9.5e-10,
+    6.8e-9 / 4.8e-10, 3.9e-9 / 6.6e-10."""
     text = MOVED[case]
     result = latdyn.run(latdyn.load_scene(_with(text, tol=1e-12, sensitivities=["W"])))
     assert abs(result.summary["probe_sensitivities"]["pd_out"]["end"]["W"]) > 0.0
@@ -99,7 +99,8 @@ def test_the_forward_method_by_the_initial_spin_agrees_with_richardson_central_d
 
 def test_guard_the_geometry_parameter_beside_a_sampled_pd_of_the_hinge_agrees_with_richardson():
     """A guard (right on 5ef7564 too: the tip's place moves neither the hinge's angle nor its rate at the start, so
-    δs_0 = 0 there): the forward method by tx against whole runs differenced. Measured: 2.1e-10 (steps 1e-3)."""
+    δs_0 = 0 there): the forward method by tx against whole runs differenced. Measured: 4.4e-10 (steps 1e-3;
+    3.9e-9 at 1e-4)."""
     result = latdyn.run(latdyn.load_scene(_with(GEOMETRY_RATE, tol=1e-12, sensitivities=["tx"])))
     assert _richardson_error(GEOMETRY_RATE, result, "tx", 1e-3) <= 1e-6
 
@@ -115,9 +116,10 @@ def test_guard_a_sampled_controller_reading_a_point_a_geometry_parameter_moves_s
 def test_the_adjoint_equals_the_forward_method_and_richardson_where_the_start_moves(case):
     """Every probe's end, max and min by every parameter: the forward method's to 1e-10 relative; and every probe's
     end value by W against whole runs differenced (steps 1e-3 relative, ``solve.tol`` 1e-12), relative to the largest
-    over the probes, ≤ 1e-6. On 5ef7564 the adjoint equalled that commit's forward method, both wrong (the references:
-    the forward test above). Measured: adjoint = forward 1.5e-13 (sampled rate), 6.0e-13 (sampled velocity), 5.6e-13
-    (state of the rate); the adjoint against this change's forward method on 5ef7564: 1.8e-2, 0.13, 9.1e-4."""
+    over the probes, ≤ 1e-6. On 5ef7564 the adjoint equalled that commit's forward method, both wrong: 1.6e-2, 0.15,
+    2.4e-4, 1.6e-4 off these end values (and 1.8e-2, 0.13, 9.1e-4 off this change's forward method, the first three).
+    Measured: adjoint = forward 1.1e-13, 2.0e-13, 5.6e-13, 8.1e-13; against the end values 1.0e-9, 1.3e-9, 6.6e-11,
+    3.7e-10."""
     text = MOVED[case]
     forward = latdyn.run(latdyn.load_scene(_with(text, tol=1e-12)))
     adjoint = latdyn.run(latdyn.load_scene(_with(text, tol=1e-12, sensitivity_method="adjoint")))
@@ -134,7 +136,7 @@ def _with_tol(text: str) -> str:
 
 def test_guard_the_adjoint_by_the_geometry_parameter_equals_the_forward_method():
     """A guard (equal on 5ef7564 too, as the forward method's guard above is right there): the adjoint by tx and Kd
-    beside the sampled PD of the hinge, the forward method's to 1e-10 relative."""
+    beside the sampled PD of the hinge, the forward method's to 1e-10 relative. Measured: 3.6e-12 (tol 1e-12)."""
     forward = latdyn.run(latdyn.load_scene(_with(GEOMETRY_RATE)))
     adjoint = latdyn.run(latdyn.load_scene(_with(GEOMETRY_RATE, sensitivity_method="adjoint")))
     assert _adjoint_error(forward, adjoint) <= 1e-10

@@ -1606,7 +1606,8 @@ class ControllerStates:
     code generator prints for Newton (codegen/laws.py): ∂f/∂s and ∂f/∂S the step's compiled controller law's own
     (:meth:`_rates_gradients`), ∂f/∂p compiled beside the outputs' partials (derivative_laws.ControllerPartials); the
     p × p algebra csrc/controller_states.c's, which the loop of steps calls too. At the start (and a restart) the
-    states are held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0). A step whose size moves with p (an
+    states are held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂s δs_0 + ∂f/∂p, δs_0 = D_q δq_0 + D_v δv_0 of
+    the start's moves (geometry and ``initial_velocity`` parameters; :meth:`start`). A step whose size moves with p (an
     event's, the steps after it) adds A⁻¹ ½ (f_n + f_{n+1}) δh to δS_{n+1} (:meth:`by_step_size`: its ∂r/∂h in
     the step size's column), and through an event's jump and restart δS is held (:meth:`hold`)."""
 
