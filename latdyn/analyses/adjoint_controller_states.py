@@ -11,8 +11,8 @@ A = I − h/2 ∂f/∂S, ∂f/∂s, ∂f/∂S, ∂f/∂p at the step's end (its 
     δS_{n+1} = held + A⁻¹ h/2 ∂f/∂s δs_{n+1},   δs_{n+1} = D_q δq_{n+1} + D_v δv_{n+1} (``after_step``, ``_sensed``),
     δf_{n+1} = ∂f/∂s δs_{n+1} + ∂f/∂S δS_{n+1} + ∂f/∂p,
 
-and δS_0 = 0, δf_0 = ∂f/∂p at the start (``start``); beside events a step whose size moves adds B by_h to its step
-size's column and by_h δh to δS_{n+1} (by_h = A⁻¹ ½ (f_n + f_{n+1})), and δS_{n+1} is held through the event's
+and δS_0 = 0, δf_0 = ∂f/∂s δs_0 + ∂f/∂p at the start (``start``; δs_0 = D_q δq_0 + D_v δv_0 of the start's
+moves); beside events a step whose size moves adds B by_h to its step size's column and by_h δh to δS_{n+1} (by_h = A⁻¹ ½ (f_n + f_{n+1})), and δS_{n+1} is held through the event's
 jump and restart (``hold``: B δS in the restart's ∂r/∂p, ∂(B δS)/∂q w in the weights'). The reverse pass carries S̄
 and f̄ beside the structure's bars and applies the transposes in reverse order, each named after its forward piece:
 
@@ -21,7 +21,8 @@ and f̄ beside the structure's bars and applies the transposes in reverse order,
 - the structure's step as without states (its matrix taken in :meth:`StatesTransposed.condensed`, the forward
   method's own context), then :meth:`StatesTransposed.held_transposed`: held̄ −= Bᵀ w;
 - :meth:`StatesTransposed.begin_step_transposed`: ĥ = A⁻ᵀ held̄, S̄_n = ĥ, f̄_n = h/2 ĥ, dy/dp += h/2 ∂f/∂pᵀ ĥ;
-- at t = 0 :meth:`StatesTransposed.start_transposed`: dy/dp += ∂f/∂pᵀ f̄_0;
+- at t = 0 :meth:`StatesTransposed.start_transposed`: dy/dp += ∂f/∂pᵀ f̄_0 + δs_0ᵀ ∂f/∂sᵀ f̄_0 (δs_0 the forward
+  method's on the start's δq_0, δv_0);
 - beside events: h̄ += by_hᵀ S̄_{n+1} (:meth:`StatesTransposed.after_step_transposed`), B by_h in the step size's
   column (:meth:`StatesTransposed.by_step_size`), and at the event S̄ += Bᵀū of the restart and ± the weights'
   ∂(B δS)/∂q w transposed (:meth:`StatesTransposed.held_stiffness_along`;
@@ -248,12 +249,20 @@ class StatesTransposed:
             gradient += hh * (f_p.T @ spread)
         return S_bar, f_bar
 
-    def start_transposed(self, state, f_bar: np.ndarray, gradient: np.ndarray) -> None:
-        """The transpose of ``ControllerStates.start`` (δS_0 = 0, δf_0 = ∂f/∂p): dy/dp += ∂f/∂pᵀ f̄_0."""
+    def start_transposed(self, state, f_bar: np.ndarray, gradient: np.ndarray, moves: tuple | None = None) -> None:
+        """The transpose of ``ControllerStates.start`` (δS_0 = 0, δf_0 = ∂f/∂s δs_0 + ∂f/∂p): dy/dp += ∂f/∂pᵀ f̄_0
+        + δs_0ᵀ ∂f/∂sᵀ f̄_0, δs_0 = D_q δq_0 + D_v δv_0 the forward method's own (``_sensed``) on the start's moves
+        ``moves`` = (δq_0, δv_0) (``TransientSensitivities.start_moves``; None: the start does not move)."""
+        from latdyn.analyses.sensitivities import reads_rates
+
         for c in self.states.controllers:
             rows = slice(self.states.first[c.name], self.states.first[c.name] + len(c.states))
-            _, _, _, f_p = self.states._at(c, state)
+            _, f_s, _, f_p = self.states._at(c, state)
             gradient += f_p.T @ f_bar[rows]
+            sensors = self.states.sensors[c.name]
+            if moves is not None and len(sensors) and (np.any(moves[0]) or reads_rates(sensors)):
+                ds = np.asarray(self.states._sensed(c, state, moves[0], None, moves[1]), float)
+                gradient += ds.reshape(len(sensors), -1).T @ (f_s.T @ f_bar[rows])
 
 
 def probe_forms(owner, probe, state) -> tuple:
@@ -358,7 +367,8 @@ class SamplesTransposed:
     ū = −M⁻ᵀ(v̇̄ + ā), q̄ += Kᵀū, v̄ += Cᵀū, dy/dp += (∂r/∂p)ᵀū, ȳ += A_yᵀū, and v̇̄ = ā = 0 before it; then
     s̄ = ∂f/∂sᵀ ȳ_c + ∂g/∂sᵀ S̄/rate, q̄ += D_sᵀ s̄, S̄_k = S̄ + ∂g/∂Sᵀ S̄/rate + ∂f/∂Sᵀ ȳ_c,
     dy/dp += ∂f/∂pᵀ ȳ_c + ∂g/∂pᵀ S̄/rate, and ȳ_c = 0 (the sample replaced the held δy of the controllers due).
-    At t = 0 the sample has δq = 0, δS_0 = 0: δy_0 = ∂f/∂p, δS_1 = ∂g/∂p/rate (:meth:`start_transposed`)."""
+    At t = 0 the sample has δS_0 = 0 and the start's δs_0 = D_q δq_0 + D_v δv_0: δy_0 = ∂f/∂s δs_0 + ∂f/∂p,
+    δS_1 = (∂g/∂s δs_0 + ∂g/∂p)/rate (:meth:`start_transposed`)."""
 
     def __init__(self, owner):
         self.owner = owner
@@ -455,14 +465,25 @@ class SamplesTransposed:
                     v_bar += D_v.T @ s_bar
         return y_bar, S_bar
 
-    def start_transposed(self, state, y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray) -> None:
-        """The sample at t = 0 transposed (δq = 0, δS_0 = 0): dy/dp += ∂f/∂pᵀ ȳ_c + ∂g/∂pᵀ S̄/rate."""
+    def start_transposed(self, state, y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray,
+                         moves: tuple | None = None) -> None:
+        """The sample at t = 0 transposed (δS_0 = 0; the forward method's ``SampledTerms.start``):
+        dy/dp += ∂f/∂pᵀ ȳ_c + ∂g/∂pᵀ S̄/rate + δs_0ᵀ s̄, s̄ = ∂f/∂sᵀ ȳ_c + ∂g/∂sᵀ S̄/rate, δs_0 = D_q δq_0 + D_v δv_0 the
+        forward method's own (``_sensor_derivatives``) on the start's moves ``moves`` = (δq_0, δv_0)
+        (``TransientSensitivities.start_moves``; None: the start does not move, δs_0 = 0)."""
+        from latdyn.analyses.sensitivities import _sensor_derivatives
+
         sampled = self.sampled
         values = dict(zip(sampled.terms.sensors.names, sampled.terms.sensors.values(state)))
         initial = np.array([c.initial[s] for c in sampled.controllers for s in c.states], float)
         for c in sampled.controllers:
             rows, i = sampled._rows(c), sampled.index[c.name]
-            inside, _, _, y_p, _, _, g_p = sampled.partials(c, state.t, values, initial[rows])
+            inside, y_s, _, y_p, g_s, _, g_p = sampled.partials(c, state.t, values, initial[rows])
             if inside:
                 gradient += np.outer(y_p, y_bar[i])
             gradient += g_p.T @ (S_bar[rows] / c.rate)
+            if moves is not None and len(c.reads):
+                out_bar = y_bar[i] if inside else np.zeros_like(y_bar[i])
+                s_bar = np.outer(y_s, out_bar) + g_s.T @ (S_bar[rows] / c.rate)
+                ds = _sensor_derivatives(self.owner, sampled.sensors[c.name], state, moves[0], None, moves[1])
+                gradient += ds.T @ s_bar

@@ -824,15 +824,18 @@ class AdjointSensitivities(TransientSensitivities):
             gradient[:, column] += explicit
         if model.n_dofs == 0:
             return gradient
+        # the start's δq_0, δv_0 through the controllers' sensors (the sample at t = 0, the states' δf_0)
+        moves = self.start_moves() if states_t is not None or samples_t is not None else None
         with self._controllers_at(carried, 0):
-            if states_t is not None:   # δf_0 = ∂f/∂p
-                states_t.start_transposed(carried["start"], f_bar, gradient)
+            if states_t is not None:   # δf_0 = ∂f/∂s δs_0 + ∂f/∂p
+                states_t.start_transposed(carried["start"], f_bar, gradient, moves)
             if samples_t is None:
                 return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar, q_bar)
             outputs[:] = carried["outputs_start"]
-            samples_t.start_transposed(carried["start"], y_bar, sampled_bar, gradient)
+            samples_t.start_transposed(carried["start"], y_bar, sampled_bar, gradient, moves)
             sampled = self.controllers.sampled
-            sampled.start(carried["start"], k)   # the held δy_0 = ∂f/∂p in the start's ∂r/∂p, as the forward method's
+            # the held δy_0 = ∂f/∂s δs_0 + ∂f/∂p in the start's ∂r/∂p, as the forward method's
+            sampled.start(carried["start"], k, *(moves or ()))
             try:
                 return gradient + self._through_the_start(carried["start"], v_bar, vdot_bar + a_bar, q_bar)
             finally:

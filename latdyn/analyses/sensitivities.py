@@ -1616,7 +1616,8 @@ class ControllerStates:
     code generator prints for Newton (codegen/laws.py): ∂f/∂s and ∂f/∂S the step's compiled controller law's own
     (:meth:`_rates_gradients`), ∂f/∂p compiled beside the outputs' partials (derivative_laws.ControllerPartials); the
     p × p algebra csrc/controller_states.c's, which the loop of steps calls too. At the start (and a restart) the
-    states are held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂p (δq_0 = 0). A step whose size moves with p (an
+    states are held: δS_0 = 0 (``initial`` is a number), δf_0 = ∂f/∂s δs_0 + ∂f/∂p, δs_0 = D_q δq_0 + D_v δv_0 of
+    the start's moves (geometry and ``initial_velocity`` parameters; :meth:`start`). A step whose size moves with p (an
     event's, the steps after it) adds A⁻¹ ½ (f_n + f_{n+1}) δh to δS_{n+1} (:meth:`by_step_size`: its ∂r/∂h in
     the step size's column), and through an event's jump and restart δS is held (:meth:`hold`)."""
 
@@ -1799,14 +1800,23 @@ class ControllerStates:
             df[rows] = f_s @ ds.reshape(len(self.sensors[c.name]), -1) + f_S @ carried["controller_dS"][rows] + f_p
         return {**carried, "controller_df": df, **self._prefixed(self._accepted())}
 
-    def start(self, state) -> dict:
-        """δS_0, δf_0 at the (re)start ``state`` (the states held, δq = 0), held for ∂r/∂p there."""
+    def start(self, state, dq: np.ndarray | None = None, dv: np.ndarray | None = None) -> dict:
+        """δS_0 = 0, δf_0 at the start ``state``, δS_0 held for ∂r/∂p there: δf_0 = ∂f/∂s δs_0 + ∂f/∂p, the
+        sensors moved by the start's δs_0 = D_q δq_0 + D_v δv_0 (:meth:`_sensed`; ``dq`` = δq_0 = δX of geometry
+        parameters, ``dv`` = δv_0 of ``initial_velocity`` parameters and the rigid spin's ω × δX; None or zero: the
+        sensors do not move, and ∂f/∂s δs_0 is not added)."""
         k = self.terms.k
         dS, df = np.zeros((len(self.slots), k)), np.zeros((len(self.slots), k))
+        dq = None if dq is None or not np.any(dq) else dq
+        dv = None if dv is None or not np.any(dv) else dv
         for c in self.controllers:
             rows = slice(self.first[c.name], self.first[c.name] + len(c.states))
-            _, _, f_S, f_p = self._at(c, state)
+            _, f_s, f_S, f_p = self._at(c, state)
             df[rows] = f_S @ dS[rows] + f_p
+            moved = dq is not None or (dv is not None and reads_rates(self.sensors[c.name]))
+            if moved:   # the start's sensors moved by δq_0, δv_0 (the first step's δf_n)
+                ds = np.asarray(self._sensed(c, state, np.zeros_like(dv) if dq is None else dq, None, dv), float)
+                df[rows] = df[rows] + f_s @ ds.reshape(len(self.sensors[c.name]), -1)
             self.terms.held[c.name] = dS[rows]
         return {"controller_dS": dS, "controller_df": df, **self._prefixed(self._accepted())}
 
@@ -2110,13 +2120,15 @@ class SampledTerms:
     def _rows(self, c) -> slice:
         return slice(self.first[c.name], self.first[c.name] + len(c.states))
 
-    def start(self, state, k: int) -> dict:
-        """What the run carries from the sample at t = 0 (the states from ``initial``, δq = 0)."""
+    def start(self, state, k: int, dq: np.ndarray | None = None, dv: np.ndarray | None = None) -> dict:
+        """What the run carries from the sample at t = 0 (the states from ``initial``): its sensors moved by the
+        start's δs_0 = D_q δq_0 + D_v δv_0, as a later sample's (:meth:`sample`; ``dq`` = δq_0 = δX of geometry
+        parameters, ``dv`` = δv_0 of ``initial_velocity`` parameters and the rigid spin's ω × δX; None: 0)."""
         initial = np.array([c.initial[s] for c in self.controllers for s in c.states], float)
+        n = self.terms.owner.model.n_dofs
         carried = {"sampled_dy": np.zeros((len(self.controllers), k)), "sampled_dS": np.zeros((len(initial), k)),
-                   "sampled_S": initial}
-        return self.sample(carried, state, np.zeros((self.terms.owner.model.n_dofs, k)),
-                           [c.name for c in self.controllers])
+                   "sampled_S": initial, "dv": np.zeros((n, k)) if dv is None else dv}
+        return self.sample(carried, state, np.zeros((n, k)) if dq is None else dq, [c.name for c in self.controllers])
 
     def sample(self, carried: dict, state, dq: np.ndarray, due: list) -> dict:
         """δy_k, δS_{k+1} of the controllers ``due`` at ``state`` (class docstring), their S_{k+1} as the

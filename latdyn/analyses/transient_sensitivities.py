@@ -298,19 +298,21 @@ class TransientSensitivities(ParameterDerivatives):
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
-        states = self._controller_states()
-        if states is not None:   # δS_0 held for ∂r/∂p at the start (ControllerStates.start)
-            carried = {**carried, **states.start(state)}
-        sampled = self._sampled_controllers()
-        if sampled is not None:  # the sample at t = 0 (before the start): its held δy for ∂r/∂p
-            carried = {**carried, **sampled.start(state, k)}
-        damping = ev.combined_csr(0.0, 1.0, 0.0) if isinstance(mass, CSR) else ev.combined(0.0, 1.0, 0.0)
-        rhs = self.residual_derivatives(state, 1.0, inertia=True) + _times(damping, dv)
-        dq = zero
+        dq, moved = zero, None
         if self.geometry is not None:   # geometry parameters move the start: δq_0 = δX, through the exact K,
             dq = self.geometry.initial_tangent()   # and the rigid spin's velocities δv_0 = ω × δX, through C
             moved = self.geometry.initial_velocity_tangent()
-            dv = dv + moved
+        started = dv if moved is None else dv + moved   # δv_0
+        states = self._controller_states()
+        if states is not None:   # δS_0 held for ∂r/∂p at the start, δf_0 by the start's δq_0, δv_0
+            carried = {**carried, **states.start(state, dq, started)}
+        sampled = self._sampled_controllers()
+        if sampled is not None:  # the sample at t = 0 (before the start) of the start's δq_0, δv_0: its held δy
+            carried = {**carried, **sampled.start(state, k, dq, started)}
+        damping = ev.combined_csr(0.0, 1.0, 0.0) if isinstance(mass, CSR) else ev.combined(0.0, 1.0, 0.0)
+        rhs = self.residual_derivatives(state, 1.0, inertia=True) + _times(damping, dv)
+        if moved is not None:
+            dv = started
             rhs = rhs + self._matrices(state)[2] @ dq + _times(damping, moved)
         if states is not None:
             self.controllers.held = {}
@@ -322,6 +324,18 @@ class TransientSensitivities(ParameterDerivatives):
                                                                                     combined=ev.combined))
                                      for c in range(k)])
         return {**carried, "dq": dq, "dv": dv, "dvdot": dvdot, "da": dvdot.copy()}
+
+    def start_moves(self) -> tuple | None:
+        """(δq_0, δv_0) (n, k) of the start as :meth:`start` takes them (δq_0 = δX of geometry parameters, δv_0 the
+        ``initial_velocity`` parameters' and the rigid spin's ω × δX), or None where no parameter moves the start:
+        what the sample at t = 0 and the states' δf_0 read through their sensors (the adjoint's
+        ``start_transposed``)."""
+        dv = self._initial_velocities()
+        dq = np.zeros_like(dv)
+        if self.geometry is not None:
+            dq = self.geometry.initial_tangent()
+            dv = dv + self.geometry.initial_velocity_tangent()
+        return (dq, dv) if np.any(dq) or np.any(dv) else None
 
     def _start_mass(self, ev) -> tuple:
         """(M, its split into directions with and without inertia) at the start, M as the run's own start takes
