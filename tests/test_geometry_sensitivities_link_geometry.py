@@ -11,9 +11,9 @@ translates by T_A δ: ``ReferenceGeometry._add_shifts`` (K d + C δv + M δa bef
 d × F_S on A's rotational rows), on the per-step path. Each case was refused on 40bf44a and is checked against
 Richardson-extrapolated central differences of whole runs (≤ 1e-6 of each probe's largest), through the API and the
 CLI (to the bit), the loop of steps on and off (to the bit). The discrete adjoint refuses them, naming the rigid link.
-Still refused, naming what moves: a ring's offset (a link's length: the links' inertia by X), a hinge axis on a link,
-and beside a shift on a part that turns events, controllers and probes other than points' (global axes), hinges' and
-guides'."""
+Still refused, naming what moves: a hinge axis on a link, and beside a shift on a part that turns events, controllers
+and probes other than points' (global axes), hinges' and guides' (a ring's offset, a link's length: taken since,
+tests/test_geometry_sensitivities_link_length.py)."""
 from __future__ import annotations
 
 import numpy as np
@@ -182,15 +182,14 @@ def test_the_adjoint_refuses_them_naming_the_link_or_guide(tmp_path, text):
 
 
 #: what stays refused: the inner ring's hinge point on the outer ring beside its latch, the guide's origin on the arm's
-#: tip beside a section-force probe, the outer ring moved without the inner one (gim2's length)
+#: tip beside a section-force probe (the outer ring moved without the inner one, gim2's length, is taken since:
+#: tests/test_geometry_sensitivities_link_length.py END_AND_LENGTH)
 @pytest.mark.parametrize("text, expected", [
     (INNER_POINT.replace('damping: "c2"}}}', 'damping: "c2", lock_at: -0.1}}}'),
      "rigid link 'gim2''s start point on 'outer', a part that turns, beside latches"),
     (GUIDE_ORIGIN.replace("    mid_x:", '    moment: {element: "arm.element[0]", quantity: moment_y}\n    mid_x:'),
      "the guide of 'slider' on 'tip', a part that turns, beside the probe 'moment'"),
-    (END_OFFSET.replace('inner: {at: ["0.55 - X", "-0.5*X", "0.32 + 0.3*X"],', "inner: {at: [0.45, -0.05, 0.35],"),
-     "rigid link 'gim2''s reference geometry (its length or direction"),
-], ids=["hinge-point-beside-a-latch", "guide-origin-beside-a-section-probe", "ring-offset"])
+], ids=["hinge-point-beside-a-latch", "guide-origin-beside-a-section-probe"])
 def test_what_a_links_own_geometry_moves_stays_refused_where_not_exact(tmp_path, text, expected):
     """Named (the link or the guided body, what moves), through the API (SceneError naming solve.sensitivities) and the
     CLI (exit 2, no traceback)."""

@@ -306,22 +306,27 @@ def test_the_derivative_reads_the_inputs_current_values():
     _agree(_run(text, "P"), text, "P", tolerance=1e-6)
 
 
-#: the gimbal with its outer body placed by a parameter X: a geometry parameter, which moves the links' edges
+#: the gimbal with its outer body placed by a parameter X: a geometry parameter, which moves the links' edges (gim1's
+#: and gim2's lengths: differentiated now, tests/test_geometry_sensitivities_link_length.py OUTER against Richardson)
 PLACED = GIMBAL.replace("parameters: {k1: 6.0,", "parameters: {X: 0.3, k1: 6.0,").replace(
     "outer: {at: [0.3, 0.1, 0.2]", "outer: {at: [X, 0.1, 0.2]").replace(
     "sensitivities: [k1, m, P, EI, rho]", "sensitivities: [k1, m, P, EI, rho, X]")
+#: PLACED with gim1's end offset moved as well (a link's length together with its own offset: refused)
+PLACED_OFFSET = PLACED.replace("to: outer,", 'to: {body: outer, offset: ["X - 0.3", 0, 0]},')
+assert "offset: [" in PLACED_OFFSET
 
 
 def test_what_rigid_links_do_not_differentiate_yet_is_refused_naming_the_key():
+    """(PLACED, refused here before, is differentiated now: tests/test_geometry_sensitivities_link_length.py.)"""
     with pytest.raises(SceneError) as refused:
-        latdyn.run(latdyn.load_scene(yaml.safe_load(PLACED)))
+        latdyn.run(latdyn.load_scene(yaml.safe_load(PLACED_OFFSET)))
     assert refused.value.key == "solve.sensitivities" and "rigid links" in str(refused.value)
 
 
 def test_a_refusal_exits_2_through_the_cli_naming_the_key(tmp_path):
     """(Arc length with rigid links, refused here before, is differentiated now:
-    tests/test_sensitivities_arc_3d.py.)"""
-    run, out = latdyn_run(tmp_path, PLACED)
+    tests/test_sensitivities_arc_3d.py; PLACED too: tests/test_geometry_sensitivities_link_length.py.)"""
+    run, out = latdyn_run(tmp_path, PLACED_OFFSET)
     assert run.returncode == 2, run.stderr
     assert "solve.sensitivities" in run.stderr and "rigid links" in run.stderr
     assert "Traceback" not in run.stderr

@@ -55,14 +55,22 @@ d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges 
 by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
 + C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
 per-step path; refused beside events, controllers and probes whose explicit part does not hold the shift
-(:func:`_turning_refusal`).
+(:func:`_turning_refusal`). A rigid link's length or direction is taken where the body at its end (and all it
+carries) moves relative to its start and the link's own offsets, y_axis and hinge axes do not (a gimbal's ring offset):
+the link's vector v = B − A is its end edge's o, fixed in the link node L's axes, so the subtree below shifts by T_L δv
+as above (A = L, which turns), and the link's joint-body block (m = ρA L, c = v/2, I = E D Eᵀ about c,
+latdyn/model/model.py ``rigid_link_inertia``) moves by (δm, δc, δI) (:func:`link_inertia_moved`): its row moves by the
+generated ``joint_body`` at (δm, c, δI) (linear in m and I at a fixed c) and ``joint_body_D_com`` along δc (degree two
+in c) at L's fixed frame and motion (:meth:`ReferenceGeometry._add_link_inertia`), and its end point's offset by δv;
+refused beside events, controllers and other probes as a shift on a part that turns, and by the loop of steps.
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
 hinge axes in a planar model, a point leaving a planar model's plane, prescribed rotations (a body's, a
 hinge angle: the velocities they carry into the structure at t = 0 move with its points), a parameter that moves a
-rigid link's or a guide's own geometry (a link's length or direction, its y_axis or hinge axes, a slider-crank's
-closed loop: the reduction's ∂J/∂X and the links' inertia by X are not generated), guides beside a
+rigid link's or a guide's own geometry (a link's length or direction together with its own offsets, from a free end
+point or closing a loop, its y_axis or hinge axes, a slider-crank's closed loop: the reduction's ∂J/∂X is not
+generated), guides beside a
 given initial_velocity.angular (the slides' initial rates move with the points), cables, controllers, arc length (its
 first step's length moves with ∂K/∂p, not generated), a kernel variant generated without the reference derivatives.
 The discrete adjoint takes geometry parameters: the start's move, ∂r/∂p and the probes' moves of this module
@@ -165,8 +173,9 @@ def _linked_refusal(scene, name: str) -> str | None:
     body it slides on — moves with it: the reduction's J, its closure equations and the links' bodies are then
     those of p, a dependent node moving with its root (:class:`ReferenceGeometry`). Taken too: an edge's own point o
     (a link's start or end offset, a guide's origin) moved with all the edge carries, a translation of that subtree (on
-    a part that turns: :func:`_turning_refusal`). Other moves of that reference geometry (∂J/∂X and
-    the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
+    a part that turns: :func:`_turning_refusal`), and a link's length or direction alone: its end edge's o moved with
+    all the edge carries and the link's inertia block with it (module docstring). Other moves of that reference geometry
+    (∂J/∂X and the closure's ∂/∂X, not generated yet) are refused, naming what moves."""
     rigid = [beam for beam in scene.beams.values() if beam.rigid]
     guided = [body for body in scene.bodies.values() if body.guide is not None]
     if not (rigid or guided):
@@ -189,8 +198,17 @@ def _linked_refusal(scene, name: str) -> str | None:
             turning.append(f"rigid link {beam.name!r}'s start point on {beam.start.body!r}")
         if not sides and np.any(moves["offset"].get((beam.name, "to"), unmoved) != 0.0):
             turning.append(f"rigid link {beam.name!r}'s end point on {beam.end.body!r}")
-        if np.any(end != start):
-            what = "its length or direction (its end points moved apart)"
+        own = any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in ("from", "to")) or \
+            np.any(moves["y"].get(beam.name, unmoved) != 0.0) or \
+            any(np.any(moves["axis"].get((beam.name, end), unmoved) != 0.0) for end in ("start", "end"))
+        if np.any(end != start) and not sides and not own and beam.start.body is not None and \
+                beam.end.body is not None:
+            # its length or direction: its end edge's o (the link's vector) moves with all the link carries, fixed
+            # in the link's axes (ReferenceGeometry._origin_move), and its inertia block with it (_add_link_inertia)
+            turning.append(f"rigid link {beam.name!r}'s length or direction")
+        elif np.any(end != start):
+            what = ("its length or direction (its end points moved apart) together with its own offsets, y_axis or "
+                    "hinge axes, from a free end point or closing a slider-crank loop")
         elif any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in sides):
             what = "an end's offset (the link's point on a body of the slider-crank loop it closes)"
         elif np.any(moves["y"].get(beam.name, unmoved) != 0.0):
@@ -202,8 +220,9 @@ def _linked_refusal(scene, name: str) -> str | None:
         if what is not None:
             return (f"it moves the rigid link {beam.name!r}'s reference geometry ({what}): geometry sensitivities "
                     "that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not computed yet; "
-                    "taken: a parameter that moves each rigid link with the part it hangs from, or a link's start "
-                    "point on its body together with all the link carries")
+                    "taken: a parameter that moves each rigid link with the part it hangs from, a link's start "
+                    "point on its body together with all the link carries, or the body at a link's end with all it "
+                    "carries relative to its start (the link's own offsets, y_axis and hinge axes unmoved)")
     for body in guided:
         parent = moves["at"].get(body.guide.on, unmoved) if body.guide.on is not None else unmoved
         moved = moves["at"].get(body.name, unmoved)
@@ -462,6 +481,9 @@ class ReferenceGeometry:
         #: (edge index, column, δ, anchor A) of the edges whose own point moves on a part A that turns: o by δ in the
         #: parent's axes (A the parent), a link end's b by δ in the child's (A the child) (:meth:`shifts`)
         self.turning: list[tuple[int, int, np.ndarray, int]] = []
+        #: (link, link node, column, δv) of the rigid links whose vector v = B − A (their length or direction) moves by
+        #: δv (global axes at t = 0): their joint body's mass, centre and inertia move with it (:meth:`_add_link_inertia`)
+        self.link_moves: list[tuple[str, int, int, np.ndarray]] = []
         self.variations = np.zeros((n_elements, WIDTH, k))
         self.end_offsets: dict[tuple[str, int], np.ndarray] = {}
         #: δa (3, k) of the hinges whose axis moves, by their index in model.hinges
@@ -562,6 +584,10 @@ class ReferenceGeometry:
                 self.fixed_moves[edge.child, :, column] = self.fixed_moves[edge.parent, :, column]
                 if not np.any(moved):
                     continue
+                if edge.sign < 0 and anchor == edge.parent:   # the link's vector: its inertia block moves too
+                    self.link_moves.append((edge.link, edge.parent, column, moved))
+                    # its end point's offset from the link node (a point probe, a load there) moves by δv
+                    self.end_offsets.setdefault((edge.link, 1), np.zeros((3, self.k)))[:, column] += moved
                 if self._never_turns(anchor):
                     self.fixed_moves[edge.child, :, column] += moved
                 else:
@@ -579,7 +605,8 @@ class ReferenceGeometry:
         :func:`_linked_refusal` takes no other edge's o moved): a guide's origin, the guided body's ``at`` less its
         parent's (the ground's: 0), and a rigid link's start point on its body, the ``from`` offset, with the anchor A
         the parent; a link's end edge's b, −(the ``to`` offset), fixed in the child's axes (x_c = x_p + T_p o + T_c b),
-        with A the child; zero for a closure. The child and its subtree translate by it, at a fixed state by δ where A
+        with A the child, or else its o, the link's vector B − A moved (its length or direction), with A the link
+        node (the parent; :attr:`link_moves`); zero for a closure. The child and its subtree translate by it, at a fixed state by δ where A
         never turns and by T_A δ where it does (:attr:`turning`, :meth:`shifts`): (δ, A)."""
         model = self.model
         if edge.closure:
@@ -591,7 +618,14 @@ class ReferenceGeometry:
         if edge.sign > 0:   # the link's start edge: o is the start offset
             return end_offset.get((edge.link, "from"), np.zeros(3)), edge.parent
         # the link's end edge: b = −(the end's offset), fixed in the child's axes (x_c = x_p + T_p o + T_c b)
-        return -end_offset.get((edge.link, "to"), np.zeros(3)), edge.child
+        arm = -end_offset.get((edge.link, "to"), np.zeros(3))
+        if np.any(arm):
+            return arm, edge.child
+        # else its o, the link's vector B − A between its end points on their bodies (at + offset), fixed in the link
+        # node's axes: the link's length or direction
+        beam, unmoved = self.scene.beams[edge.link], np.zeros(3)
+        start = body_at.get(beam.start.body, unmoved) + end_offset.get((edge.link, "from"), unmoved)
+        return body_at.get(beam.end.body, unmoved) - start, edge.parent
 
     def _never_turns(self, node: int) -> bool:
         """Whether ``node`` is fixed or prescribed, or reached from such a node through prismatic edges alone (its
@@ -708,6 +742,8 @@ class ReferenceGeometry:
             weight_factor = load_factor
         if self.turning:
             self._add_shifts(state, total, load_factor, inertia)
+        if self.link_moves:
+            self._add_link_inertia(state, total, load_factor, inertia)
         elements = self.elements
         if not len(elements):
             return
@@ -785,6 +821,34 @@ class ReferenceGeometry:
             below = self._below(index)
             force = forces[model.node_dofs[below][:, 0:3]].sum(axis=0)
             total[model.node_dofs[anchor][3:6], column] += cross(shift, force)
+
+    def _add_link_inertia(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
+        """Add ∂r/∂p of the rigid links whose vector v moves (:attr:`link_moves`) into ``total`` (all coordinates): their
+        joint body's row (the generated ``joint_body``, Eqs. 2, 59) at the link node's fixed frame and motion, by its
+        block (m, c, I) moved by (δm, δc, δI) (:func:`link_inertia_moved`): linear in (m, I)
+        at a fixed c, so ``joint_body`` with the block (δm, c, δI), and by c the generated ``joint_body_D_com`` (of
+        degree two in c) along δc; static (at rest) its λ-gravity alone."""
+        model = self.model
+        gravity = load_factor * np.asarray(self.owner.assembler.gravity, float)
+        if not inertia and not np.any(gravity):
+            return
+        for link, node, column, moved in self.link_moves:
+            beam = self.scene.beams[link]
+            b = int(np.flatnonzero(model.body_nodes == node)[0])
+            s = beam.section
+            dm, dc, dI = link_inertia_moved(beam, s.rhoA, s.rhoIy, s.rhoIz, moved)
+            frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
+            motion = np.zeros((1, 9))
+            if inertia:
+                motion[0] = np.concatenate([state.w[node], state.a[node], state.alpha[node]])
+            block = np.zeros((1, 13))
+            block[0, 0], block[0, 1:4], block[0, 4:13] = dm, model.body_com[b], dI.reshape(9)
+            force = np.asarray(self.kernels.joint_body(frame, motion, block, gravity[None])[0]).reshape(6)
+            held = np.zeros((1, 13))
+            held[0, 0], held[0, 1:4], held[0, 4:13] = model.body_mass[b], model.body_com[b], \
+                model.body_inertia[b].reshape(9)
+            by_com = np.asarray(self.kernels.joint_body_D_com(frame, motion, held, gravity[None])[0]).reshape(6, 3)
+            total[model.node_dofs[node], column] += force + by_com @ dc
 
     def transposed_product(self, state, w: np.ndarray, load_factor: float, inertia: bool,
                            weight_factor: float) -> np.ndarray:
@@ -938,3 +1002,27 @@ def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarr
     dy = (draw - y * (y @ draw)) / size
     z, dz = np.cross(x, y), np.cross(dx, y) + np.cross(x, dy)
     return 0.5 * (np.cross(x, dx) + np.cross(y, dy) + np.cross(z, dz))
+
+
+def link_inertia_moved(beam, rhoA: float, rhoIy: float, rhoIz: float, moved: np.ndarray) -> tuple:
+    """(δm, δc, δI) of a rigid link's joint-body block (latdyn/model/model.py ``rigid_link_inertia``: m = ρA L,
+    c = v/2, I = E D Eᵀ about c with E = [x̂, ŷ, x̂ × ŷ] and D = diag((ρI_y + ρI_z) L, ρA L³/12 + ρI_y L,
+    ρA L³/12 + ρI_z L)) when its vector v = B − A moves by δv (``moved``, global axes at t = 0): δL = x̂·δv,
+    δx̂ = (δv − x̂ δL)/L, δE = skew(φ) E (φ of :func:`_frame_turn`, the loader's rule for ŷ), so
+    δI = skew(φ) I − I skew(φ) + E δD Eᵀ, δD = diag(ρI_y + ρI_z, ρA L²/4 + ρI_y, ρA L²/4 + ρI_z) δL."""
+    from latdyn.model.model import rigid_link_inertia
+    from latdyn.numerics.so3 import skew
+
+    vector = beam.end.point - beam.start.point
+    length = float(np.linalg.norm(vector))
+    x = vector / length
+    stretch = float(x @ moved)
+    dx = (moved - x * stretch) / length
+    phi = _frame_turn(beam, x, dx, np.zeros(3))
+    _, _, inertia = rigid_link_inertia(beam, rhoA, rhoIy, rhoIz)
+    y = np.asarray(beam.y_axis, float)
+    frame = np.column_stack([x, y, np.cross(x, y)])
+    rod = rhoA * length ** 2 / 4.0
+    grown = frame @ np.diag([rhoIy + rhoIz, rod + rhoIy, rod + rhoIz]) @ frame.T * stretch
+    turn = skew(phi)
+    return rhoA * stretch, 0.5 * moved, turn @ inertia - inertia @ turn + grown

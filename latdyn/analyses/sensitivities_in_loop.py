@@ -245,6 +245,8 @@ def _geometry_refusal(owner) -> str | None:
         return "geometry kernels without C libraries"
     if owner.geometry.turning:   # ReferenceGeometry._add_shifts: formed from the evaluation's matrices in Python
         return "a geometry parameter moves a hinge point or a guide's origin on a part that turns"
+    if owner.geometry.link_moves:   # ReferenceGeometry._add_link_inertia: the links' blocks moved, in Python
+        return "a geometry parameter moves a rigid link's length or direction"
     return None
 
 
