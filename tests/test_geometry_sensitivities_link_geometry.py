@@ -148,17 +148,22 @@ def test_a_shift_on_a_part_that_turns_keeps_the_per_step_path_both_ways(text):
 def test_through_the_cli_equals_the_api(tmp_path, text):
     """``latdyn run`` of the scene as typed: sensitivities.csv's columns by X and summary.json's probe sensitivities
     those of ``latdyn.run`` on the same text, to the bit."""
+    columns = ("s/X", "f/X", "th/X", "bob_v/X", "tip_z/X", "s/k") if text == "CART" else (
+        "s/X", "gf/X", "sv/X", "slider_z/X", "mid_x/X", "s/k")
+    assert_the_cli_equals_the_api(tmp_path, globals()[text], columns)
+
+
+def assert_the_cli_equals_the_api(tmp_path, scene: str, columns) -> None:
+    """``latdyn run`` of ``scene`` as typed: summary.json's probe sensitivities and sensitivities.csv's ``columns``
+    ("probe/parameter") those of ``latdyn.run`` on the same text, to the bit."""
     import json
 
-    scene = globals()[text]
     run, out = latdyn_run(tmp_path, scene)
     assert run.returncode == 0, run.stderr
     api = latdyn.run(latdyn.load_scene(yaml.safe_load(scene)))
     summary = json.loads((out / "summary.json").read_text())
     assert summary["probe_sensitivities"] == api.summary["probe_sensitivities"]
     rows = [line.split(",") for line in (out / "sensitivities.csv").read_text().splitlines()]
-    columns = ("s/X", "f/X", "th/X", "bob_v/X", "tip_z/X", "s/k") if text == "CART" else (
-        "s/X", "gf/X", "sv/X", "slider_z/X", "mid_x/X", "s/k")
     for column in columns:
         at = rows[0].index(column)
         assert np.array_equal([float(row[at]) for row in rows[1:]], api.sensitivities[tuple(column.split("/"))])
@@ -169,14 +174,19 @@ def test_the_adjoint_refuses_them_naming_the_link_or_guide(tmp_path, text):
     """The discrete adjoint does not take geometry beside rigid links or guides: SceneError naming
     solve.sensitivity_method, the geometry key and the rigid link, through the API, and exit 2 without a traceback
     through the CLI."""
-    scene = globals()[text].replace("solve: {analysis: transient,", "solve: {analysis: transient, "
-                                                                    "sensitivity_method: adjoint,")
+    assert_the_adjoint_refuses(tmp_path, globals()[text], "beams.pend.rigid" if text == "CART" else "beams.gim1.rigid")
+
+
+def assert_the_adjoint_refuses(tmp_path, text: str, key: str) -> None:
+    """``text`` with ``sensitivity_method: adjoint``: SceneError naming solve.sensitivity_method, "beside rigid links or
+    guides" and ``key`` through the API, exit 2 naming the key without a traceback through the CLI."""
+    scene = text.replace("solve: {analysis: transient,", "solve: {analysis: transient, sensitivity_method: adjoint,")
     assert "sensitivity_method: adjoint" in scene
     with pytest.raises(SceneError) as refused:
         latdyn.run(latdyn.load_scene(yaml.safe_load(scene)))
     message = str(refused.value)
     assert refused.value.key == "solve.sensitivity_method" and "beside rigid links or guides" in message, message
-    assert ("beams.pend.rigid" if text == "CART" else "beams.gim1.rigid") in message, message
+    assert key in message, message
     run, _ = latdyn_run(tmp_path, scene)
     assert run.returncode == 2 and "solve.sensitivity_method" in run.stderr and "Traceback" not in run.stderr
 

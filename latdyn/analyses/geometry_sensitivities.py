@@ -832,23 +832,31 @@ class ReferenceGeometry:
         gravity = load_factor * np.asarray(self.owner.assembler.gravity, float)
         if not inertia and not np.any(gravity):
             return
-        for link, node, column, moved in self.link_moves:
-            beam = self.scene.beams[link]
-            b = int(np.flatnonzero(model.body_nodes == node)[0])
-            s = beam.section
-            dm, dc, dI = link_inertia_moved(beam, s.rhoA, s.rhoIy, s.rhoIz, moved)
+        for (link, node, column, moved), (moved_block, block, dc) in zip(self.link_moves, self._link_blocks()):
             frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
             motion = np.zeros((1, 9))
             if inertia:
                 motion[0] = np.concatenate([state.w[node], state.a[node], state.alpha[node]])
-            block = np.zeros((1, 13))
-            block[0, 0], block[0, 1:4], block[0, 4:13] = dm, model.body_com[b], dI.reshape(9)
-            force = np.asarray(self.kernels.joint_body(frame, motion, block, gravity[None])[0]).reshape(6)
-            held = np.zeros((1, 13))
-            held[0, 0], held[0, 1:4], held[0, 4:13] = model.body_mass[b], model.body_com[b], \
-                model.body_inertia[b].reshape(9)
-            by_com = np.asarray(self.kernels.joint_body_D_com(frame, motion, held, gravity[None])[0]).reshape(6, 3)
+            force = np.asarray(self.kernels.joint_body(frame, motion, moved_block, gravity[None])[0]).reshape(6)
+            by_com = np.asarray(self.kernels.joint_body_D_com(frame, motion, block, gravity[None])[0]).reshape(6, 3)
             total[model.node_dofs[node], column] += force + by_com @ dc
+
+    def _link_blocks(self) -> list:
+        """(the block (δm, c, δI), the block (m, c, I), δc) of each of :attr:`link_moves` (1 × 13 blocks as the generated
+        ``joint_body`` reads them), the same at every state: made once."""
+        held = self.__dict__.get("_link_blocks_held")
+        if held is None:
+            model, held = self.model, []
+            for link, node, column, moved in self.link_moves:
+                beam = self.scene.beams[link]
+                b = int(np.flatnonzero(model.body_nodes == node)[0])
+                s = beam.section
+                dm, dc, dI = link_inertia_moved(beam, s.rhoA, s.rhoIy, s.rhoIz, moved)
+                moved_block = np.concatenate([[dm], model.body_com[b], dI.reshape(9)])[None]
+                block = np.concatenate([[model.body_mass[b]], model.body_com[b], model.body_inertia[b].reshape(9)])[None]
+                held.append((moved_block, block, dc))
+            self._link_blocks_held = held
+        return held
 
     def transposed_product(self, state, w: np.ndarray, load_factor: float, inertia: bool,
                            weight_factor: float) -> np.ndarray:
