@@ -54,6 +54,13 @@ FUZZ_RING = GIMBAL.replace("parameters: {k1", "parameters: {X: 0.1, cr: 0.068, k
     "solve: {analysis: transient, dt: 0.01, t_end: 0.3, sensitivities: [k1, m, P, EI, rho]}",
     "solve: {analysis: transient, dt: 0.01, t_end: 0.4, method: hht-alpha, sensitivities: [X, k2, cr, P]}")
 assert "hht-alpha" in FUZZ_RING and "[0.3, X, 0.2]" in FUZZ_RING and "theta_dot" in FUZZ_RING
+#: RING with a load at gim1's end point (its offset from the link node moves with the link's vector)
+LOAD_END = RING.replace("loads:\n", "loads:\n  - {at: gim1.end, force: [0.2, -0.1, 0.3]}\n")
+#: CART_BOB with the pendulum clamped to the cart (no hinge: the link node never turns)
+CLAMPED = CART_BOB.replace("""pend: {from: cart, to: bob, section: rod, rigid: true,
+         start: {hinge: {axis: [0.3, 1.0, 0.2], stiffness: "kh"}}}""", "pend: {from: cart, to: bob, section: rod, "
+                           "rigid: true}").replace("    th: {hinge: pend.start, quantity: angle}\n", "")
+assert "{at: gim1.end" in LOAD_END and "rigid: true}\n" in CLAMPED and "th:" not in CLAMPED
 #: RING statically under gravity (load control, 3 steps), without its spin and its rate probes
 STATIC_RING = "\n".join(line for line in RING.replace(
     "solve: {analysis: transient, dt: 0.01, t_end: 0.3, sensitivities: [X, k1]}",
@@ -64,11 +71,13 @@ assert '"0.2 + X"' in RING and "[X, 0.1, 0.2]" in OUTER and "rho, X]" in OUTER a
 assert '"X + 0.1", 0.15, -0.34' in CART_BOB and "load-control" in STATIC_RING and "vi:" not in STATIC_RING
 
 
-@pytest.mark.parametrize("text", ["RING", "OUTER", "END_AND_LENGTH", "CART_BOB", "FUZZ_RING"])
+@pytest.mark.parametrize("text", ["RING", "OUTER", "END_AND_LENGTH", "CART_BOB", "FUZZ_RING", "LOAD_END",
+                                  "CLAMPED"])
 def test_a_links_length_agrees_with_richardson(text):
     """Refused on 0d1fc61. Measured (every probe over the rows, relative to its largest): the ring offset 1.7e-8, the
     outer ring alone 1.0e-8 (gim1.end's velocity included: the link's end point moves on it), gim1's end point with
-    gim2's length 1.3e-8, the pendulum on the sliding cart 8.1e-10, fuzz8's s4-6 without its events 6.1e-9. Without the link's inertia term 0.12, 0.27; without
+    gim2's length 1.3e-8, the pendulum on the sliding cart 8.1e-10, fuzz8's s4-6 without its events 6.1e-9, with a load at gim1's end point 1.7e-8, the pendulum
+    clamped to the cart 9.2e-9. Without the link's inertia term 0.12, 0.27; without
     δI 0.031, 0.040; without δc 0.072, 0.23; without δm 0.018, 0.17 (RING, OUTER)."""
     scene = globals()[text]
     result = _api_run(scene, "X")
