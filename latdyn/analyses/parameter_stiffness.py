@@ -189,10 +189,55 @@ def time_generated(owner) -> bool:
     if found is None:
         timed = owner.explicit_time
         laws = timed.laws
-        found = (not timed.prescribed
+        found = ((not timed.prescribed or owner.model.links is None)
                  and all(_generated_use(laws, key, by) for key, by in laws.derivatives.items()))
         owner._time_stiffness_exact = found
-    return found and _controllers_in_time_generated(owner)
+    return found and _controllers_in_time_generated(owner) and _prescribed_generated(owner)
+
+
+def _prescribed_generated(owner) -> bool:
+    """Whether the prescribed motions' part of the time shift's, ∂(K_·p q̇_p + C_·p q̈_p)/∂q w, is generated
+    (:func:`_prescribed_along`): no prescribed motion, or no continuous controller's coupling (a coupling entry on a
+    prescribed coordinate moves along w with the output's second derivatives by a free and a prescribed read, which
+    :func:`latdyn.analyses.weight_derivative._coupling_part` does not take: the difference). Checked per call (the
+    couplings are renumbered at a latch)."""
+    if not owner.explicit_time.prescribed:
+        return True
+    from latdyn.analyses.prescribed_rates import coupling_entries
+
+    return coupling_entries(owner.assembler) is None
+
+
+def _prescribed_along(owner, state, w: np.ndarray, total: np.ndarray) -> None:
+    """The prescribed motions' part of ∂(∂r/∂t)/∂q w into ``total`` (n_total + 1,), where :func:`time_generated`: the
+    static ∂r/∂t through them is K_·p q̇_p + C_·p q̈_p (latdyn/analyses/prescribed_rates.py, csrc/prescribed_rates.c
+    without the inertia), q̇_p, q̈_p the motion laws' rates at t on the prescribed coordinates (``PrescribedRates.rates``)
+    and fixed along w (the prescribed coordinates do not move with the free ones), so along w it is ∂(K u)/∂q w at
+    u = q̇_p plus ∂(C a)/∂q w = ∂(K w)/∂v a at a = q̈_p: the H parts of latdyn/analyses/weight_derivative.py with
+    their direction ``full`` on every coordinate — the elements' ``beam_stiffness_D_q`` and the joint bodies'
+    weight stiffness (:func:`~latdyn.analyses.weight_derivative._generated`; a prescribed body's own block is on its
+    own rows alone, no free row), the point loads' ``point_load_stiffness_D_q`` (a follower load turning with a
+    prescribed frame, :func:`~latdyn.analyses.weight_derivative._load_part`), the taut cable elements'
+    ``cable_stiffness_D_q`` (:func:`~latdyn.analyses.weight_derivative._cable_part`) at u, times w; and the damped
+    cables' K_c(a) w − K_c(0) w (:func:`~latdyn.analyses.weight_derivative._cable_rates_product`: K_c affine in the
+    rates). A hinge's K_jj and C_jj are of its own angle and rate: a prescribed hinge's are on its own (reaction) row,
+    a free hinge's move with no prescribed coordinate. No new kernel."""
+    from latdyn.analyses.weight_derivative import _cable_part, _cable_rates_product, _generated, _load_part, _taut_cables
+
+    model, assembler = owner.model, owner.assembler
+    rates = owner.explicit_time.motions.rates(float(state.t))
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    u = rates[0]
+    if np.any(u):
+        for rows, cols, values in (_generated(assembler, state, None, 1.0, False, full=u),
+                                   _load_part(assembler, state, None, 1.0, full=u),
+                                   _cable_part(assembler, state, None, 1.0, full=u)):
+            np.add.at(total, rows, values * full[cols])
+    if np.any(rates[1]):
+        taut = _taut_cables(assembler, state)
+        if taut is not None:
+            total += _cable_rates_product(assembler, taut, full, rates[1][:, None])[:, 0]
 
 
 def _controllers_in_time_generated(owner) -> bool:
@@ -219,6 +264,8 @@ def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
         full = np.zeros(owner.model.n_total + 1)
         full[:owner.model.n_dofs] = w
         _reels_along(owner, state, full, out)
+    if timed.prescribed:
+        _prescribed_along(owner, state, w, out)
     if timed.laws.controllers is not None:
         out = out + controller_parameter_along(owner, state, w, terms=timed.laws.controllers)[:, 0]
     return out

@@ -224,6 +224,7 @@ which reads a free joint's force whose laws are not generated along the rates (:
 """
 from __future__ import annotations
 
+import math
 import weakref
 
 import numpy as np
@@ -1180,12 +1181,28 @@ def _hinge_rows(assembler, state, hinges: list, by: str = "d_theta") -> tuple:
             if "theta" in law.depends_on:
                 slope = _slope_law(law, scene, f"joints.{hinge.name}.{key}")
                 curvature[slot] = getattr(slope, by)(theta, rate, t)
+                if not math.isfinite(curvature[slot]):
+                    _refuse_infinite_curvature(scene, hinge, key, law, by, theta, rate, t)
         states.append([theta, rate, hinge.rest_angle, 1.0])
         laws.append(row)
         curvatures.append(curvature)
         contacts.append(contact_rows[j])
     rows = lambda a: np.ascontiguousarray(np.asarray(a, float))  # noqa: E731
     return rows(states), rows(laws), rows(curvatures), rows(contacts)
+
+
+def _refuse_infinite_curvature(scene, hinge, key: str, law, by: str, theta: float, rate: float, t: float) -> None:
+    """SceneError (exit 2) naming ``solve.sensitivities``: a hinge law's second derivative (``by``: "d_theta"
+    ∂²f/∂θ², "d_rate" ∂²f/∂θ∂θ̇) is not finite at an event's state (``abs(theta)**1.5`` at θ = 0), so the impulse
+    weight's derivative H there is not either; refused rather than carried as inf or nan into the sensitivities."""
+    from latdyn.errors import SceneError
+
+    which = "d2f/dtheta2" if by == "d_theta" else "d2f/dtheta/dtheta_dot"
+    raise SceneError(scene.file, "solve.sensitivities",
+                     f"the sensitivities through the event at t = {t:.6g} need the hinge {hinge.name}'s {key} law "
+                     f"{str(law.source)!r} twice differentiable there, but its {which} is not finite at "
+                     f"theta = {theta:.6g}, theta_dot = {rate:.6g}; expected a law with a finite second derivative at "
+                     "the event's state (or no sensitivities)")
 
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:
