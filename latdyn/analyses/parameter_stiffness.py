@@ -49,9 +49,12 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   their rates in t in the parameter's place; a reel (a cable's rest length L0(t)), whose ∂r/∂t is ∂F/∂L0 · share ·
   L0′(t), by ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 · share · L0′(t) (:func:`_reels_along`); a continuous
   controller's output naming t, whose ∂r/∂t is its ∂y/∂t through its actuators, by :func:`controller_parameter_along`
-  of that one column t (below). Not a prescribed motion: its ∂r/∂t, K_·p q̇_p + C_·p q̈_p of the static residual,
-  moves along w with the blocks' second derivatives by a free and a prescribed coordinate, which no kernel forms
-  (:func:`time_generated` False: every parameter the difference).
+  of that one column t (below); a prescribed motion (since prestime; 0d1fc61 differenced every parameter with it),
+  whose static ∂r/∂t is K_·p q̇_p + C_·p q̈_p, by the H parts of latdyn/analyses/weight_derivative.py with their
+  direction on every coordinate, ∂(K u)/∂q w at u = q̇_p, and a damped cable's ∂(K_c w)/∂v a at a = q̈_p
+  (:func:`_prescribed_along`; no new kernel) — not on a model with rigid links or guides, nor beside a continuous
+  controller's coupling (:func:`_prescribed_generated`: its entry on a prescribed coordinate moves with the output's
+  second derivative by a free and a prescribed read, not taken: the difference).
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
@@ -93,9 +96,10 @@ added exactly (``TransientSensitivities._linked_stiffness_along``). Not generate
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
 controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
-every parameter of a run whose state an event moved in time through a prescribed motion, or a controller's output in
-t whose second derivatives along q are not generated (:func:`time_generated`; a reel and the other controllers in t
-are generated since timehand, 40bf44a differenced them), and with rigid links or guides every parameter beside
+every parameter of a run whose state an event moved in time through a prescribed motion beside a continuous
+controller's coupling, or a controller's output in t whose second derivatives along q are not generated
+(:func:`time_generated`; a reel and the other controllers in t are generated since timehand, 40bf44a differenced
+them; prescribed motions otherwise since prestime), and with rigid links or guides every parameter beside
 controllers, held angles or a time shift (their terms through the reduction are not separated). That difference
 moves the configuration with every assembled rate held, the dependent nodes' too
 (``TransientSensitivities._advanced_at_held_rates``: K_red is ∂r/∂q at the assembled rates held; completed at each
@@ -181,8 +185,9 @@ def time_generated(owner) -> bool:
     scene's laws in t are loads' and hinges' (or guides') whose rates in t have their slopes (:func:`_generated_use`
     of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), reels (a cable's rest length L0(t),
     :func:`_reels_along`) and continuous controllers' outputs naming t whose output's second derivatives along q are
-    generated (:func:`_controllers_in_time_generated`); no prescribed motion (its K_·p q̇_p + C_·p q̈_p moving along w
-    has no kernel: the difference). The laws' and motions' part found once, the controllers' per call (their
+    generated (:func:`_controllers_in_time_generated`); prescribed motions on a model without rigid links or guides
+    and without a continuous controller's coupling (:func:`_prescribed_generated`, :func:`_prescribed_along`). The
+    laws' and motions' part found once, the controllers' and couplings' per call (their
     wiring is renumbered at a latch; :func:`latdyn.analyses.weight_derivative._exact_controllers` keeps it per
     wiring)."""
     found = owner.__dict__.get("_time_stiffness_exact")
@@ -257,7 +262,8 @@ def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them),
     the reels' (:func:`_reels_along`) and the continuous controllers' outputs' ∂y/∂t through their actuators
     (:func:`controller_parameter_along` of ExplicitTime's ControllerTerms: SymPy's mixed second derivatives of ∂f/∂t
-    by the reads that move along q, times the sensors' generated gradients, chained)."""
+    by the reads that move along q, times the sensors' generated gradients, chained) and the prescribed motions'
+    (:func:`_prescribed_along`)."""
     timed = owner.explicit_time
     out = stiffness_along(timed.laws, state, w, cables=False)[:, 0]
     if timed.reels:
