@@ -35,7 +35,7 @@ from tests.test_sensitivities_adjoint import _disagreement
 from tests.test_sensitivities_in_loop_prescribed import BOOM_SLEW
 from tests.test_sensitivities_time_shift_exact import _richardson_of_the_time_rate
 from tests.test_weight_derivative_parameters import PARAMETER_BOOM, _richardson_along
-from tests.test_weight_derivative_rest import _boom_state
+from tests.test_weight_derivative_rest import CONTROLLED_BOOM, _boom_state
 
 #: the 3D latching wheel's arm deployed about its root by a prescribed hinge angle 0.4 t² + 0.1 sin 2t (a skew
 #: axis), its wheel's hinge latching at 1.057 s
@@ -59,8 +59,14 @@ MOVING_ANCHOR = PARAMETER_BOOM.replace(
     "anchor: {at: [1.2, -0.4, 1.1], fixed: true}",
     'anchor: {at: [1.2, -0.4, 1.1], motion: {translation: ["0.02*t**2", "0.1*t**3", "0.05*sin(2*t)"]}}', 1)
 assert "0.1*t**3" in MOVING_ANCHOR
+#: the boom whose latching hinge a PD of its angle and rate drives (tests/test_weight_derivative_rest.py), on a base
+#: slewing by a prescribed rotation: the couplings are on free columns alone, no part of K_·p
+CONTROLLED_SLEW = CONTROLLED_BOOM.replace(
+    "base: {at: [0, 0, 0], fixed: true}",
+    'base: {at: [0, 0, 0], motion: {rotation: {axis: [0.3, -0.2, 1.0], angle: "0.2*t**2"}}}', 1)
+assert "0.2*t**2" in CONTROLLED_SLEW
 STATES = {"hinge deploy": HINGE_DEPLOY, "base stop": BASE_STOP, "slewing boom": BOOM_SLEW,
-          "moving anchor": MOVING_ANCHOR}
+          "moving anchor": MOVING_ANCHOR, "controlled slew": CONTROLLED_SLEW}
 
 
 def _adjoint(text: str) -> str:
@@ -89,10 +95,11 @@ def prescribed_shifts(monkeypatch):
 @pytest.mark.parametrize("name", list(STATES))
 def test_the_prescribed_motions_time_part_is_generated_and_is_richardsons_of_the_rate_in_t_along_w(name):
     """At a deformed, moving state at t = 0.7 the time shift's part ∂(∂r/∂t)/∂q w — through the prescribed hinge
-    angle, base translation, base slew, the damped stay's moving anchor — is the Richardson reference of ∂r/∂t along w
-    (steps 1e-3, 5e-4 ℓ/|w|_∞) to 1e-10 of its largest entry (measured 1.7e-12, 2.0e-11, 1.1e-11, 4.4e-13, about the
-    reference's own spread between step pairs; the central difference of 0d1fc61, step 1e-5, 2.7e-10, 5.9e-10,
-    4.5e-10, 9.2e-11 off; without the stay's ∂(C a)/∂q w the anchor's was 0.35 off)."""
+    angle, base translation, base slew, the damped stay's moving anchor, the PD-driven boom's slewing base — is the
+    Richardson reference of ∂r/∂t along w (steps 1e-3, 5e-4 ℓ/|w|_∞) to 1e-10 of its largest entry (measured 1.7e-12,
+    2.0e-11, 1.1e-11, 4.4e-13, 2.7e-12, about the reference's own spread between step pairs; the central difference
+    of 0d1fc61, step 1e-5, 2.7e-10, 5.9e-10, 4.5e-10, 9.2e-11 off; without the stay's ∂(C a)/∂q w the anchor's was
+    0.35 off)."""
     prepared, state, rng = _boom_state(STATES[name])
     state.t = 0.7
     owner = TransientSensitivities(prepared)
@@ -104,7 +111,7 @@ def test_the_prescribed_motions_time_part_is_generated_and_is_richardsons_of_the
     assert np.abs(computed - reference).max() <= 1e-10 * np.abs(reference).max()
 
 
-@pytest.mark.parametrize("name", ["hinge deploy", "base stop", "moving anchor"])
+@pytest.mark.parametrize("name", ["hinge deploy", "base stop", "moving anchor", "controlled slew"])
 def test_with_a_time_shift_every_parameter_is_generated_and_each_column_agrees_with_richardson(name):
     """With a random δt_e no parameter takes the difference, and each column of (∂K/∂p) w agrees with the
     Richardson reference of the static ∂r/∂p (its time shift's term included) along w to 1e-10 of its largest

@@ -52,9 +52,10 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   of that one column t (below); a prescribed motion (since prestime; 0d1fc61 differenced every parameter with it),
   whose static ∂r/∂t is K_·p q̇_p + C_·p q̈_p, by the H parts of latdyn/analyses/weight_derivative.py with their
   direction on every coordinate, ∂(K u)/∂q w at u = q̇_p, and a damped cable's ∂(K_c w)/∂v a at a = q̈_p
-  (:func:`_prescribed_along`; no new kernel) — not on a model with rigid links or guides, nor beside a continuous
-  controller's coupling (:func:`_prescribed_generated`: its entry on a prescribed coordinate moves with the output's
-  second derivative by a free and a prescribed read, not taken: the difference).
+  (:func:`_prescribed_along`; no new kernel) — not on a model with rigid links or guides, nor where a continuous
+  controller's coupling has an entry in a prescribed coordinate's column (:func:`_prescribed_generated`: a sensor on
+  a prescribed body; that entry moves with the output's second derivative by a free and a prescribed read, not
+  taken: the difference).
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
@@ -97,7 +98,7 @@ differenced along w by the caller (:func:`exact_parameters` False): a geometry p
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
 controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
 every parameter of a run whose state an event moved in time through a prescribed motion beside a continuous
-controller's coupling, or a controller's output in t whose second derivatives along q are not generated
+controller's coupling entry in a prescribed column, or a controller's output in t whose second derivatives along q are not generated
 (:func:`time_generated`; a reel and the other controllers in t are generated since timehand, 40bf44a differenced
 them; prescribed motions otherwise since prestime), and with rigid links or guides every parameter beside
 controllers, held angles or a time shift (their terms through the reduction are not separated). That difference
@@ -186,7 +187,8 @@ def time_generated(owner) -> bool:
     of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), reels (a cable's rest length L0(t),
     :func:`_reels_along`) and continuous controllers' outputs naming t whose output's second derivatives along q are
     generated (:func:`_controllers_in_time_generated`); prescribed motions on a model without rigid links or guides
-    and without a continuous controller's coupling (:func:`_prescribed_generated`, :func:`_prescribed_along`). The
+    and without a continuous controller's coupling entry in a prescribed column (:func:`_prescribed_generated`,
+    :func:`_prescribed_along`). The
     laws' and motions' part found once, the controllers' and couplings' per call (their
     wiring is renumbered at a latch; :func:`latdyn.analyses.weight_derivative._exact_controllers` keeps it per
     wiring)."""
@@ -202,15 +204,19 @@ def time_generated(owner) -> bool:
 
 def _prescribed_generated(owner) -> bool:
     """Whether the prescribed motions' part of the time shift's, ∂(K_·p q̇_p + C_·p q̈_p)/∂q w, is generated
-    (:func:`_prescribed_along`): no prescribed motion, or no continuous controller's coupling (a coupling entry on a
-    prescribed coordinate moves along w with the output's second derivatives by a free and a prescribed read, which
-    :func:`latdyn.analyses.weight_derivative._coupling_part` does not take: the difference). Checked per call (the
-    couplings are renumbered at a latch)."""
+    (:func:`_prescribed_along`): no prescribed motion, or no continuous controller's coupling entry in a prescribed
+    coordinate's column (a sensor reading a prescribed body's place or turn: its entry moves along w with the output's
+    second derivatives by a free and a prescribed read, which
+    :func:`latdyn.analyses.weight_derivative._coupling_part` does not take: the difference; a coupling on free
+    columns alone is no part of K_·p). Checked per call (the couplings are renumbered at a latch)."""
     if not owner.explicit_time.prescribed:
         return True
     from latdyn.analyses.prescribed_rates import coupling_entries
 
-    return coupling_entries(owner.assembler) is None
+    entries = coupling_entries(owner.assembler)
+    if entries is None:
+        return True
+    return not np.any(owner.explicit_time.motions.mask()[entries[len(entries) // 2:]])
 
 
 def _prescribed_along(owner, state, w: np.ndarray, total: np.ndarray) -> None:
