@@ -49,9 +49,13 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   their rates in t in the parameter's place; a reel (a cable's rest length L0(t)), whose ∂r/∂t is ∂F/∂L0 · share ·
   L0′(t), by ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 · share · L0′(t) (:func:`_reels_along`); a continuous
   controller's output naming t, whose ∂r/∂t is its ∂y/∂t through its actuators, by :func:`controller_parameter_along`
-  of that one column t (below). Not a prescribed motion: its ∂r/∂t, K_·p q̇_p + C_·p q̈_p of the static residual,
-  moves along w with the blocks' second derivatives by a free and a prescribed coordinate, which no kernel forms
-  (:func:`time_generated` False: every parameter the difference).
+  of that one column t (below); a prescribed motion (since prestime; 0d1fc61 differenced every parameter with it),
+  whose static ∂r/∂t is K_·p q̇_p + C_·p q̈_p, by the H parts of latdyn/analyses/weight_derivative.py with their
+  direction on every coordinate, ∂(K u)/∂q w at u = q̇_p, and a damped cable's ∂(K_c w)/∂v a at a = q̈_p
+  (:func:`_prescribed_along`; no new kernel) — not on a model with rigid links or guides, nor where a continuous
+  controller's coupling has an entry in a prescribed coordinate's column (:func:`_prescribed_generated`: a sensor on
+  a prescribed body; that entry moves with the output's second derivative by a free and a prescribed read, not
+  taken: the difference).
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
@@ -93,9 +97,10 @@ added exactly (``TransientSensitivities._linked_stiffness_along``). Not generate
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
 controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
-every parameter of a run whose state an event moved in time through a prescribed motion, or a controller's output in
-t whose second derivatives along q are not generated (:func:`time_generated`; a reel and the other controllers in t
-are generated since timehand, 40bf44a differenced them), and with rigid links or guides every parameter beside
+every parameter of a run whose state an event moved in time through a prescribed motion beside a continuous
+controller's coupling entry in a prescribed column, or a controller's output in t whose second derivatives along q are not generated
+(:func:`time_generated`; a reel and the other controllers in t are generated since timehand, 40bf44a differenced
+them; prescribed motions otherwise since prestime), and with rigid links or guides every parameter beside
 controllers, held angles or a time shift (their terms through the reduction are not separated). That difference
 moves the configuration with every assembled rate held, the dependent nodes' too
 (``TransientSensitivities._advanced_at_held_rates``: K_red is ∂r/∂q at the assembled rates held; completed at each
@@ -181,18 +186,69 @@ def time_generated(owner) -> bool:
     scene's laws in t are loads' and hinges' (or guides') whose rates in t have their slopes (:func:`_generated_use`
     of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), reels (a cable's rest length L0(t),
     :func:`_reels_along`) and continuous controllers' outputs naming t whose output's second derivatives along q are
-    generated (:func:`_controllers_in_time_generated`); no prescribed motion (its K_·p q̇_p + C_·p q̈_p moving along w
-    has no kernel: the difference). The laws' and motions' part found once, the controllers' per call (their
+    generated (:func:`_controllers_in_time_generated`); prescribed motions on a model without rigid links or guides
+    and without a continuous controller's coupling entry in a prescribed column (:func:`_prescribed_generated`,
+    :func:`_prescribed_along`). The
+    laws' and motions' part found once, the controllers' and couplings' per call (their
     wiring is renumbered at a latch; :func:`latdyn.analyses.weight_derivative._exact_controllers` keeps it per
     wiring)."""
     found = owner.__dict__.get("_time_stiffness_exact")
     if found is None:
         timed = owner.explicit_time
         laws = timed.laws
-        found = (not timed.prescribed
+        found = ((not timed.prescribed or owner.model.links is None)
                  and all(_generated_use(laws, key, by) for key, by in laws.derivatives.items()))
         owner._time_stiffness_exact = found
-    return found and _controllers_in_time_generated(owner)
+    return found and _controllers_in_time_generated(owner) and _prescribed_generated(owner)
+
+
+def _prescribed_generated(owner) -> bool:
+    """Whether the prescribed motions' part of the time shift's, ∂(K_·p q̇_p + C_·p q̈_p)/∂q w, is generated
+    (:func:`_prescribed_along`): no prescribed motion, or no continuous controller's coupling entry in a prescribed
+    coordinate's column (a sensor reading a prescribed body's place or turn: its entry moves along w with the output's
+    second derivatives by a free and a prescribed read, which
+    :func:`latdyn.analyses.weight_derivative._coupling_part` does not take: the difference; a coupling on free
+    columns alone is no part of K_·p). Checked per call (the couplings are renumbered at a latch)."""
+    if not owner.explicit_time.prescribed:
+        return True
+    from latdyn.analyses.prescribed_rates import coupling_entries
+
+    entries = coupling_entries(owner.assembler)
+    if entries is None:
+        return True
+    return not np.any(owner.explicit_time.motions.mask()[entries[len(entries) // 2:]])
+
+
+def _prescribed_along(owner, state, w: np.ndarray, total: np.ndarray) -> None:
+    """The prescribed motions' part of ∂(∂r/∂t)/∂q w into ``total`` (n_total + 1,), where :func:`time_generated`: the
+    static ∂r/∂t through them is K_·p q̇_p + C_·p q̈_p (latdyn/analyses/prescribed_rates.py, csrc/prescribed_rates.c
+    without the inertia), q̇_p, q̈_p the motion laws' rates at t on the prescribed coordinates (``PrescribedRates.rates``)
+    and fixed along w (the prescribed coordinates do not move with the free ones), so along w it is ∂(K u)/∂q w at
+    u = q̇_p plus ∂(C a)/∂q w = ∂(K w)/∂v a at a = q̈_p: the H parts of latdyn/analyses/weight_derivative.py with
+    their direction ``full`` on every coordinate — the elements' ``beam_stiffness_D_q`` and the joint bodies'
+    weight stiffness (:func:`~latdyn.analyses.weight_derivative._generated`; a prescribed body's own block is on its
+    own rows alone, no free row), the point loads' ``point_load_stiffness_D_q`` (a follower load turning with a
+    prescribed frame, :func:`~latdyn.analyses.weight_derivative._load_part`), the taut cable elements'
+    ``cable_stiffness_D_q`` (:func:`~latdyn.analyses.weight_derivative._cable_part`) at u, times w; and the damped
+    cables' K_c(a) w − K_c(0) w (:func:`~latdyn.analyses.weight_derivative._cable_rates_product`: K_c affine in the
+    rates). A hinge's K_jj and C_jj are of its own angle and rate: a prescribed hinge's are on its own (reaction) row,
+    a free hinge's move with no prescribed coordinate. No new kernel."""
+    from latdyn.analyses.weight_derivative import _cable_part, _cable_rates_product, _generated, _load_part, _taut_cables
+
+    model, assembler = owner.model, owner.assembler
+    rates = owner.explicit_time.motions.rates(float(state.t))
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    u = rates[0]
+    if np.any(u):
+        for rows, cols, values in (_generated(assembler, state, None, 1.0, False, full=u),
+                                   _load_part(assembler, state, None, 1.0, full=u),
+                                   _cable_part(assembler, state, None, 1.0, full=u)):
+            np.add.at(total, rows, values * full[cols])
+    if np.any(rates[1]):
+        taut = _taut_cables(assembler, state)
+        if taut is not None:
+            total += _cable_rates_product(assembler, taut, full, rates[1][:, None])[:, 0]
 
 
 def _controllers_in_time_generated(owner) -> bool:
@@ -212,13 +268,16 @@ def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them),
     the reels' (:func:`_reels_along`) and the continuous controllers' outputs' ∂y/∂t through their actuators
     (:func:`controller_parameter_along` of ExplicitTime's ControllerTerms: SymPy's mixed second derivatives of ∂f/∂t
-    by the reads that move along q, times the sensors' generated gradients, chained)."""
+    by the reads that move along q, times the sensors' generated gradients, chained) and the prescribed motions'
+    (:func:`_prescribed_along`)."""
     timed = owner.explicit_time
     out = stiffness_along(timed.laws, state, w, cables=False)[:, 0]
     if timed.reels:
         full = np.zeros(owner.model.n_total + 1)
         full[:owner.model.n_dofs] = w
         _reels_along(owner, state, full, out)
+    if timed.prescribed:
+        _prescribed_along(owner, state, w, out)
     if timed.laws.controllers is not None:
         out = out + controller_parameter_along(owner, state, w, terms=timed.laws.controllers)[:, 0]
     return out

@@ -1024,8 +1024,10 @@ class TransientSensitivities(ParameterDerivatives):
         difference along w (step :data:`WEIGHT_STEP` ℓ/|w|_∞) of the static ∂r/∂p without the section values' element
         forces and without the elements' gravity load (``sections``, ``element_gravity`` of
         :meth:`residual_derivatives`): a hinge law naming an input, and all
-        of them where a prescribed motion moves the state in time (a reel's and a continuous controller's output in
-        t are generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With rigid
+        of them where a prescribed motion beside a continuous controller's coupling entry in a prescribed column
+        moves the state in time (a
+        reel's, a continuous controller's output in t and, since prestime, a prescribed motion's otherwise are
+        generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With rigid
         links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`) where no controller,
         held angle or time shift adds terms, else the difference of the static ∂r/∂p without the elements' gravity
         load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia

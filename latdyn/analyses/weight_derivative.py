@@ -41,8 +41,12 @@ and exact:
   law and its slope read the scene's inputs, as the compiled laws do); a torque a y + b naming a continuous
   controller's output y (a constant a, b of θ, θ̇, t and inputs: latdyn.assembly.control refuses any other) with
   b's second derivative, SymPy's of the law with y a symbol (y moves along q through the couplings below), a sampled
-  controller's held output as an input (:func:`_names_held_in_a_hinge_law`). A hinge whose ∂f/∂θ does not parse
-  back as a law (:func:`exact_hinges`) keeps the difference below along its angle;
+  controller's held output as an input (:func:`_names_held_in_a_hinge_law`). The slope law is not checked finite at
+  θ = θ̇ = t = 0 as a user's law is (``sqrt(abs(theta))``'s slope is infinite there; it is evaluated at the event's
+  state alone: latdyn.scene.expressions ``derivative_as_law``); a second derivative not finite at the event's state
+  is refused (:func:`_refuse_infinite_curvature`, a SceneError naming ``solve.sensitivities`` and the law) rather
+  than carried as inf or nan. A hinge whose ∂f/∂θ does not parse back as a law (:func:`exact_hinges`) keeps the
+  difference below along its angle;
 * the point loads' blocks K_l (the node's rows × the turns of the node and of the body the load turns with; a
   global load's frame half zero), along w_l on those columns: ``point_load_stiffness_D_q`` (codegen/joints.py: K_l w
   as the derivative of the load's force along the turns τ w at τ = 0, differentiated once more by the turns the
@@ -87,6 +91,12 @@ without the generated blocks) w is differenced centrally along each coordinate t
 :func:`exact_hinges`), two evaluations per coordinate, step
 :data:`latdyn.analyses.transient_sensitivities.WEIGHT_STEP` √(ℓ L_min) (ℓ the length scale, L_min the shortest
 element where shorter). A model with none of them has H exact with no evaluation.
+
+The same parts serve the event's time shift through prescribed motions on a model without rigid links or guides
+(latdyn/analyses/parameter_stiffness.py ``_prescribed_along``, since prestime): :func:`_generated`, :func:`_load_part`
+and :func:`_cable_part` with their direction ``full`` at u = q̇_p on the prescribed coordinates give ∂(K u)/∂q, times
+w, and :func:`_cable_rates_product` at a = q̈_p a damped cable's ∂(C a)/∂q w; no new kernel. With rigid links or
+guides that shift keeps the difference.
 
 Rigid links and guides: the reduced weight is W_red = Pᵀ W_all P + s ∂(Pᵀ r_all)/∂q (latdyn/assembly/linked.py: W_all
 the blocks on the assembled coordinates, free and dependent, P = [I; J] the projection, r_all the residual before the
@@ -224,6 +234,7 @@ which reads a free joint's force whose laws are not generated along the rates (:
 """
 from __future__ import annotations
 
+import math
 import weakref
 
 import numpy as np
@@ -1180,12 +1191,28 @@ def _hinge_rows(assembler, state, hinges: list, by: str = "d_theta") -> tuple:
             if "theta" in law.depends_on:
                 slope = _slope_law(law, scene, f"joints.{hinge.name}.{key}")
                 curvature[slot] = getattr(slope, by)(theta, rate, t)
+                if not math.isfinite(curvature[slot]):
+                    _refuse_infinite_curvature(scene, hinge, key, law, by, theta, rate, t)
         states.append([theta, rate, hinge.rest_angle, 1.0])
         laws.append(row)
         curvatures.append(curvature)
         contacts.append(contact_rows[j])
     rows = lambda a: np.ascontiguousarray(np.asarray(a, float))  # noqa: E731
     return rows(states), rows(laws), rows(curvatures), rows(contacts)
+
+
+def _refuse_infinite_curvature(scene, hinge, key: str, law, by: str, theta: float, rate: float, t: float) -> None:
+    """SceneError (exit 2) naming ``solve.sensitivities``: a hinge law's second derivative (``by``: "d_theta"
+    ∂²f/∂θ², "d_rate" ∂²f/∂θ∂θ̇) is not finite at an event's state (``abs(theta)**1.5`` at θ = 0), so the impulse
+    weight's derivative H there is not either; refused rather than carried as inf or nan into the sensitivities."""
+    from latdyn.errors import SceneError
+
+    which = "d2f/dtheta2" if by == "d_theta" else "d2f/dtheta/dtheta_dot"
+    raise SceneError(scene.file, "solve.sensitivities",
+                     f"the sensitivities through the event at t = {t:.6g} need the hinge {hinge.name}'s {key} law "
+                     f"{str(law.source)!r} twice differentiable there, but its {which} is not finite at "
+                     f"theta = {theta:.6g}, theta_dot = {rate:.6g}; expected a law with a finite second derivative at "
+                     "the event's state (or no sensitivities)")
 
 
 def _rest_product(assembler, state, w: np.ndarray, scale: float, mass: bool) -> np.ndarray:

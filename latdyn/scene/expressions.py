@@ -869,7 +869,10 @@ class HingeLaw(_BySource):
     as for time functions). ``depends_on`` tells which of the variables appear.
     """
 
-    def __init__(self, source: Any, file: str | None = None, key: str = "expression"):
+    def __init__(self, source: Any, file: str | None = None, key: str = "expression", finite_at_zero: bool = True):
+        """``finite_at_zero``: check the law is finite at θ = θ̇ = t = 0 (a user's law; a derived slope evaluated
+        only at an event's state, :func:`derivative_as_law` of kind "angle_slope", is not checked there: its use
+        checks its value, latdyn/analyses/weight_derivative.py ``_hinge_rows``)."""
         self._file, self._key = file, key
         self._source = source._source if isinstance(source, (HingeLaw, TimeFunction)) \
             else _with_parameters(source, key)
@@ -877,6 +880,8 @@ class HingeLaw(_BySource):
             if isinstance(source, _BySource) and source._input_names else _inputs_named(self._source)
         self._compiled = None
         self._compile()
+        if not finite_at_zero:
+            return
         try:
             value0 = self.value(0.0, 0.0, 0.0)
         except (ArithmeticError, TypeError, ValueError) as exc:
@@ -1024,7 +1029,9 @@ def derivative_as_law(law, scene, key: str, kind: str, by: str, what: str, deriv
     expression cache's key (kind ``kind``: "time_rate", "angle_slope"), ``what`` in a message. The text is kept in the
     expression cache, so a later process needs no SymPy for it. None where the law has no SymPy expression or its
     derivative does not parse (latdyn/analyses/transient_sensitivities.py ``_time_rate_law``,
-    latdyn/analyses/weight_derivative.py ``_angle_slope_law``)."""
+    latdyn/analyses/weight_derivative.py ``_angle_slope_law``). An angle slope is not checked finite at
+    θ = θ̇ = t = 0 as a user's law is (``sqrt(abs(theta))``'s slope ``sign(theta)/(2*sqrt(abs(theta)))`` is infinite
+    there): it is evaluated at an event's state alone, where its use checks its value."""
     source = repr((str(law.source), by))
     cached = cached_entry(kind, source)
     text = cached.get("text") if cached is not None else None
@@ -1035,8 +1042,8 @@ def derivative_as_law(law, scene, key: str, kind: str, by: str, what: str, deriv
         text = re.sub(r"\bAbs\(", "abs(", str(derivative(held)))
         keep_entry(kind, source, {"text": text}, {}, ())
     try:
-        with reading_inputs(scene.inputs):
-            return parse_hinge_law(text, scene.file, f"{key} ({what})")
+        with reading_inputs(scene.inputs):   # a slope is evaluated at an event's state alone: not checked at zero
+            return HingeLaw(text, scene.file, f"{key} ({what})", finite_at_zero=kind != "angle_slope")
     except SceneError:
         return None
 
