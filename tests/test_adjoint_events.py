@@ -226,7 +226,7 @@ def test_a_planar_hinge_resting_on_its_stop_adjoint_equals_the_forward_method():
     tests/test_adjoint_hinge_on_stop.py)."""
     text = STOP_PLANAR.replace("restitution: 0.5", "restitution: 0.0")
     forward, adjoint = _run(text), _run(_adjoint(text))
-    assert [e["kind"] for e in adjoint.summary["events"]] == ["stop"]
+    assert adjoint.summary["events"] == forward.summary["events"] and adjoint.summary["events"][0]["kind"] == "stop"
     assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
 
 

@@ -83,8 +83,10 @@ releases otherwise, are taken: the forward method's stick — a stop's impulse w
 δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
 its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
 bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`), a hinge resting on
-its rigid stop (its coming to rest, the steps it rests, its release and its projection back onto the stop, which the
-forward method differentiates: exit 1 when it happens, :meth:`_refuse_a_rest`). Controllers are taken:
+its rigid stop beside geometry parameters or controllers with states or sampled ones (exit 1 when it happens,
+:meth:`_refuse_what_a_rest_meets`; else its coming to rest — the landed impact with restitution 0 and the restart on
+the locked numbering —, the steps it rests, its release at a step's end, :meth:`_release_transposed`, and its projection
+back onto the stop, :meth:`_projected_transposed`, are transposed). Controllers are taken:
 continuous ones without states enter E and the matrices as in the forward method; with states and sampled ones
 (beside events too: :meth:`_held_weights_transposed`; reading rates too) and controller probes (an output naming t at
 a row whose time moves: its ∂f/∂t seeded on t̄ there, :meth:`reverse`) through the states' and held outputs' bars
