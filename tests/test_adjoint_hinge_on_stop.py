@@ -15,7 +15,8 @@ latdyn/analyses/adjoint_sensitivities.py back and running this file.
 The bound is 1e-9 relative to each output's largest derivative, not 1e-10: measured 2.1e-10 (BOOM), 3.9e-10 (RELEASE),
 5.3e-11 (REBOUND), 6.8e-10 (GIMBAL). The part above 1e-10 is the code before this change's: the same scenes with
 restitution 0.5 (no rest; BOOM to 0.85 s, GIMBAL to 0.45 s) give 3.1e-10 and 1.6e-10 on int22's path, largest by the
-masses m, rho and the torque T of these stiff (EA 1e8) models; the softer REBOUND (EA 1e6) agrees to 5.3e-11.
+masses m, rho and the torque T of these stiff (EA 1e8) models, and without their stops (smooth runs, no event: BOOM to
+0.85 s, GIMBAL to 1.2 s) 1.6e-10 and 5.9e-10; the softer REBOUND (EA 1e6) agrees to 5.3e-11.
 
 Geometry parameters beside a rest stay refused by the adjoint (exit 1 naming the stop's ``limits``): the released
 boom's end angle by the tip's z (RELEASE) was 3.7e-7 of its largest derivative off the forward method's (4.3e-9
