@@ -220,19 +220,32 @@ def test_the_cli_takes_a_compliant_stop_with_the_adjoint_as_the_forward_method(t
             assert worst <= 1e-10 * scale, (probe, which, worst / scale)
 
 
-def test_a_run_failing_in_its_events_ends_with_the_solver_message_and_the_forward_methods_derivatives(tmp_path):
-    """A rigid stop with restitution 0 leaves the hinge resting on it, which the adjoint refuses inside the accepted
-    step's events (SolverError, exit 1, naming the stop's key and the forward method), after it stored that step: the
-    CLI reports the solver's failure, not an internal error, and summary.json holds the derivatives of the rows recorded
-    up to the failure as the forward method's run to the last of them (the step it failed in left out; measured
-    1.3e-11 of each output's largest on 40bf44a, where the forward method refused the rest too;
-    tests/test_sensitivities_hinge_on_stop.py differentiates it)."""
+def test_a_planar_hinge_resting_on_its_stop_adjoint_equals_the_forward_method():
+    """A rigid stop with restitution 0 leaves the hinge resting on it: the adjoint transposes its coming to rest and
+    the steps it rests (refused on int22 0d1fc61, exit 1) and equals the forward method (more:
+    tests/test_adjoint_hinge_on_stop.py)."""
     text = STOP_PLANAR.replace("restitution: 0.5", "restitution: 0.0")
+    forward, adjoint = _run(text), _run(_adjoint(text))
+    assert adjoint.summary["events"] == forward.summary["events"] and adjoint.summary["events"][0]["kind"] == "stop"
+    assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
+
+
+def test_a_run_failing_in_its_events_ends_with_the_solver_message_and_the_forward_methods_derivatives(tmp_path):
+    """A rigid stop with restitution 0 leaves the hinge resting on it, which the adjoint refuses beside a geometry
+    parameter (the wheel's x) inside the accepted step's events (SolverError, exit 1, naming the stop's key and the
+    forward method), after it stored that step: the CLI reports the solver's failure, not an internal error, and
+    summary.json holds the derivatives of the rows recorded up to the failure as the forward method's run to the last
+    of them (the step it failed in left out; measured 1.3e-11 of each output's largest on 40bf44a, where the adjoint
+    refused every rest; tests/test_sensitivities_hinge_on_stop.py differentiates it)."""
+    text = (STOP_PLANAR.replace("restitution: 0.5", "restitution: 0.0").replace("rho: 1.0}", "rho: 1.0, xw: 1.0}")
+            .replace('wheel: {at: [1.0, 0, 0]', 'wheel: {at: ["xw", 0, 0]').replace("EI, rho]", "EI, rho, xw]"))
+    assert text.count("xw") == 3
     (tmp_path / "adjoint").mkdir()
     completed, out = latdyn_run(tmp_path / "adjoint", _adjoint(text), quiet=True)
     assert completed.returncode == 1, completed.stderr
     assert "the solver failed" in completed.stderr and "resting on its stop" in completed.stderr
     assert "hinge.limits" in completed.stderr and "sensitivity_method: forward" in completed.stderr
+    assert "geometry parameters" in completed.stderr
     assert "internal error" not in completed.stderr and "Traceback" not in completed.stderr
     adjoint = json.loads((out / "summary.json").read_text())
     last = float((out / "probes.csv").read_text().splitlines()[-1].split(",")[0])
