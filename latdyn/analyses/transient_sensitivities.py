@@ -139,6 +139,7 @@ from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters, held_angles_along,
+                                                 linked_controller_parameter_along,
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
@@ -1035,7 +1036,11 @@ class TransientSensitivities(ParameterDerivatives):
         linked = model.links is not None
         exact = exact_parameters(self)
         if linked and np.any(exact):   # the parameters' own parts through P w, the reduction's geometric term exact
-            out[:, exact] += self._linked_stiffness_along(state, w)[:, exact]
+            along = self._linked_stiffness_along(state, w)
+            if along is None:   # a controller's mixed second derivatives not functions: the difference below
+                exact = np.zeros_like(exact)
+            else:
+                out[:, exact] += along[:, exact]
         if not linked:
             out += self._section_stiffness_along(state, w)
             if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
@@ -1131,6 +1136,11 @@ class TransientSensitivities(ParameterDerivatives):
         full[:n_asm] = np.asarray(projection @ w).reshape(-1)
         total = parameter_stiffness_along_all(self, state, full)
         self.add_section_stiffness_along(state, full, total)
+        if self.controllers is not None:   # the controllers' terms of ∂r_all/∂p along u = P w, the rates held
+            beside = linked_controller_parameter_along(self, state, full)
+            if beside is None:
+                return None
+            total += beside
         out = self._on_free_coordinates(state, total)
         static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
         return out + self._geometric_products(state, static, w)
