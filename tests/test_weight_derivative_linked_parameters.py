@@ -124,8 +124,8 @@ def test_the_parameter_part_is_generated_through_the_reduction(name, monkeypatch
 
 @pytest.mark.parametrize("name", list(SCENES))
 def test_the_events_take_no_difference(name, monkeypatch):
-    """Through the API at every event no evaluation of the static ∂r/∂p along w (0d1fc61: 18 on the gimbal, 36 on
-    the guided mass, 36 on the chain latching twice, 18 on the chain's PI)."""
+    """Through the API at every event no evaluation of the static ∂r/∂p along w (0d1fc61: 2 on the gimbal, 4 on the
+    guided mass, 4 on the chain latching twice, 2 on the chain's PI: two a weighing)."""
     text, events, _ = SCENES[name]
     calls = _counting(monkeypatch)
     result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))

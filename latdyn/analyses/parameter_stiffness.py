@@ -89,14 +89,21 @@ controller's reaches.
 With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
 stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
-added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
+added exactly (``TransientSensitivities._linked_stiffness_along``). Beside controllers the same, their terms of
+∂r_all/∂p moved along u = P w with every assembled rate held (:func:`linked_controller_parameter_along`: the unlinked
+:func:`controller_parameter_along`, sampled controllers' held outputs and controllers' states included, its sensors'
+generated gradients by the assembled coordinates, a dependent node's too), projected by Pᵀ, their part of ∂r_all/∂p
+in the geometric term (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
+test_weight_derivative_linked_parameters.py). Not generated, the whole static ∂r/∂p
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
 controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
 every parameter of a run whose state an event moved in time through a prescribed motion, or a controller's output in
 t whose second derivatives along q are not generated (:func:`time_generated`; a reel and the other controllers in t
 are generated since timehand, 40bf44a differenced them), and with rigid links or guides every parameter beside
-controllers, held angles or a time shift (their terms through the reduction are not separated). That difference
+held angles, a time shift, a controller reading a joint's force whose laws a parameter moves or a controller outside
+``_exact_controllers`` (their terms through the reduction are not separated; a parameter moving the links' own data,
+a geometry parameter, keeps it too). That difference
 moves the configuration with every assembled rate held, the dependent nodes' too
 (``TransientSensitivities._advanced_at_held_rates``: K_red is ∂r/∂q at the assembled rates held; completed at each
 moved configuration, a gain of a dependent node's velocity read took Pᵀ (∂C_all/∂p) ∂(J v)/∂q w with it, 2.7e-4 off

@@ -1027,8 +1027,9 @@ class TransientSensitivities(ParameterDerivatives):
         :meth:`residual_derivatives`): a hinge law naming an input, and all
         of them where a prescribed motion moves the state in time (a reel's and a continuous controller's output in
         t are generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With rigid
-        links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`) where no controller,
-        held angle or time shift adds terms, else the difference of the static ∂r/∂p without the elements' gravity
+        links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`, the controllers' terms
+        along P w with them) where no held angle or time shift adds terms and the controllers' are formed, else the
+        difference of the static ∂r/∂p without the elements' gravity
         load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia
         forces' geometric term."""
         model = self.model
@@ -1121,13 +1122,17 @@ class TransientSensitivities(ParameterDerivatives):
             outputs.values[:] = held
 
     def _linked_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
-        """(∂K/∂p) w (n, k) with rigid links or guides (no controllers, held angles or time shift: their terms are in
-        the static ∂r/∂p too) for the parameters of ``exact_parameters``: K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all, so
+        """(∂K/∂p) w (n, k) with rigid links or guides (no held angles or time shift: their terms are in the static
+        ∂r/∂p too) for the parameters of ``exact_parameters``, or None where a controller's terms are not formed
+        (latdyn/analyses/parameter_stiffness.py ``linked_controller_parameter_along`` None: the caller differences):
+        K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all, so
         (∂K_red/∂p) w = Pᵀ (∂K_all/∂p)(P w) + ∂Pᵀ/∂q[w] · ∂r_all/∂p — the generated parts (the section values' and
         latdyn/analyses/parameter_stiffness.py's) along P w on the assembled coordinates, reduced, and the forward
         step's geometric term of each column of the static ∂r_all/∂p (without the elements' gravity load) times w
         (:func:`latdyn.analyses.weight_derivative.geometric_product`, exact; :meth:`_geometric_derivative` adds the
-        inertia forces'). Before, the difference of the whole reduced static ∂r/∂p along w."""
+        inertia forces'); beside controllers their terms of ∂r_all/∂p along u = P w at the assembled rates held
+        (``linked_controller_parameter_along``, since linkedparam). Before, the difference of the whole reduced
+        static ∂r/∂p along w."""
         model, assembler = self.model, self.assembler
         n_asm = model.n_assembled
         assembler.complete_links(state)
