@@ -3,8 +3,10 @@ the reduction (latdyn/analyses/parameter_stiffness.py ``linked_controller_parame
 difference of the static ∂r/∂p along w it replaces (``--before``: ``exact_parameters`` as on 0d1fc61, none exact on a
 linked model beside controllers).
 
-    python benchmarks/linked_parameter_part.py [--before] [--term] [--runs] [--cost]
+    python benchmarks/linked_parameter_part.py [--before] [--term] [--same] [--runs] [--cost]
 
+``--same``: (∂K/∂p) w against Richardson-extrapolated differences of the same quantity (the static ∂r/∂p along w at
+the assembled rates held; tests/test_weight_derivative_linked_parameters.py ``parameter_part_and_reference``);
 ``--term``: (∂K/∂p) w at a turned state with random rates against Richardson differences in p of the evaluation's
 K w (tests/test_sensitivities_linked_controller_latch.py ``_stiffness_by_parameters``); ``--runs``: the whole runs'
 sensitivities against Richardson central differences of whole runs (tests/test_sensitivities_events.py ``_agree``)
@@ -12,16 +14,21 @@ and the count of the difference's evaluations at the events; ``--cost``: CPU and
 at the events and of the whole forward run (medians of 5 after a warm-up)."""
 from __future__ import annotations
 
+import argparse
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import yaml
 
-import latdyn
-from latdyn.analyses import transient_sensitivities as ts
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests")]   # the tests' scenes and helpers (tests/cli_runs.py is imported bare)
+
+import latdyn  # noqa: E402
+from latdyn.analyses import transient_sensitivities as ts  # noqa: E402
 from tests.test_weight_derivative_linked_parameters import (SCENES, parameter_part_and_reference, relative_errors,
-                                                          turned)
+                                                          turned)  # noqa: E402
 
 
 def before() -> None:
@@ -36,8 +43,15 @@ def before() -> None:
     ts.exact_parameters = base
 
 
-def main(argv) -> None:
-    if "--before" in argv:
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--before", action="store_true", help="0d1fc61's exact_parameters (the difference)")
+    parser.add_argument("--term", action="store_true", help="(∂K/∂p) w against Richardson differences in p")
+    parser.add_argument("--same", action="store_true", help="(∂K/∂p) w against Richardson of the same quantity")
+    parser.add_argument("--runs", action="store_true", help="whole runs against Richardson, the difference's count")
+    parser.add_argument("--cost", action="store_true", help="CPU and wall of the weighings and the whole runs")
+    args = parser.parse_args()
+    if args.before:
         before()
     from tests.test_sensitivities_events import _agree
     from tests.test_sensitivities_linked_controller_latch import _stiffness_by_parameters
@@ -59,26 +73,26 @@ def main(argv) -> None:
     ts.TransientSensitivities._advanced_at_held_rates = counted
     ts.TransientSensitivities._stiffness_derivative = timed
     for name, (text, events, parameters) in SCENES.items():
-        if "--term" in argv:
+        if args.term:
             names, computed, reference = _stiffness_by_parameters(text)
             largest = float(np.max(np.abs(reference)))
             errors = {p: float(np.max(np.abs(computed[:, c] - reference[:, c]))
                                / (float(np.max(np.abs(reference[:, c]))) or largest)) for c, p in enumerate(names)}
             print(name, "term", {p: f"{e:.2g}" for p, e in errors.items()}, flush=True)
-        if "--same" in argv:
+        if args.same:
             owner, state, w = turned(text)
             computed = owner._stiffness_derivative(state, w)
             single, reference = parameter_part_and_reference(owner, state, w)
             names = owner.names
             print(name, "same quantity: generated",
                   {p: f"{e:.2g}" for p, e in relative_errors(names, computed, reference).items()}, "difference", {p: f"{e:.2g}" for p, e in relative_errors(names, single, reference).items()}, flush=True)
-        if "--runs" in argv:
+        if args.runs:
             calls[0] = 0
             result = latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
             kinds = [e["kind"] for e in result.summary["events"]]
             agree = {p: f"{_agree(result, text, p, tolerance=1.0, event_tolerance=1.0):.2g}" for p in parameters}
             print(name, kinds, "evaluations", calls[0], "agree", agree, flush=True)
-        if "--cost" in argv:
+        if args.cost:
             scene = yaml.safe_load(text)
             latdyn.run(latdyn.load_scene(scene))
             whole, one = [], []
@@ -96,4 +110,4 @@ def main(argv) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main()
