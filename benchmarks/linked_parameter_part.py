@@ -27,8 +27,8 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests")]   # the tests' scenes and helper
 
 import latdyn  # noqa: E402
 from latdyn.analyses import transient_sensitivities as ts  # noqa: E402
-from tests.test_weight_derivative_linked_parameters import (SCENES, parameter_part_and_reference, relative_errors,
-                                                          turned)  # noqa: E402
+from tests.test_weight_derivative_linked_parameters import (BEAD_IN_TIME, SCENES, parameter_part_and_reference,  # noqa: E402
+                                                          relative_errors, turned)
 
 
 def before() -> None:
@@ -72,7 +72,8 @@ def main() -> None:
 
     ts.TransientSensitivities._advanced_at_held_rates = counted
     ts.TransientSensitivities._stiffness_derivative = timed
-    for name, (text, events, parameters) in SCENES.items():
+    scenes = {**SCENES, "the guided mass, its follower moment in t": (BEAD_IN_TIME, ["stop"], ["Kc"])}
+    for name, (text, events, parameters) in scenes.items():
         if args.term:
             names, computed, reference = _stiffness_by_parameters(text)
             largest = float(np.max(np.abs(reference)))

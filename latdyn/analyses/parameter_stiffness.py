@@ -93,7 +93,8 @@ added exactly (``TransientSensitivities._linked_stiffness_along``). Beside contr
 ∂r_all/∂p moved along u = P w with every assembled rate held (:func:`linked_controller_parameter_along`: the unlinked
 :func:`controller_parameter_along`, sampled controllers' held outputs and controllers' states included, its sensors'
 generated gradients by the assembled coordinates, a dependent node's too), projected by Pᵀ, their part of ∂r_all/∂p
-in the geometric term (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
+in the geometric term, and an event's time shift where :func:`time_generated` (:func:`time_stiffness_along` at
+``full`` = P w) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
 test_weight_derivative_linked_parameters.py). Not generated, the whole static ∂r/∂p
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
@@ -101,7 +102,8 @@ controller (its value is the runtime's; a controller's output read at the moved 
 every parameter of a run whose state an event moved in time through a prescribed motion, or a controller's output in
 t whose second derivatives along q are not generated (:func:`time_generated`; a reel and the other controllers in t
 are generated since timehand, 40bf44a differenced them), and with rigid links or guides every parameter beside
-held angles, a time shift, a controller reading a joint's force whose laws a parameter moves or a controller outside
+held angles, a time shift not generated, a controller reading a joint's force whose laws a parameter moves or a
+controller outside
 ``_exact_controllers`` (their terms through the reduction are not separated; a parameter moving the links' own data,
 a geometry parameter, keeps it too). That difference
 moves the configuration with every assembled rate held, the dependent nodes' too
@@ -166,11 +168,11 @@ def _slopes_known(law) -> bool:
 def exact_parameters(owner) -> np.ndarray:
     """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring; beside controllers
     and held angles the caller adds their terms' difference); none where the state's time shift is not generated,
-    nor with rigid links or guides beside held angles, a time shift or controllers whose terms' move is not formed
-    through the reduction (:func:`_linked_controllers_generated`; checked per call: the time shift and held angles
+    nor with rigid links or guides beside held angles or controllers whose terms' move is not formed
+    through the reduction (a generated time shift through it too: :func:`time_stiffness_along` ``full``) (:func:`_linked_controllers_generated`; checked per call: the time shift and held angles
     change at each event, the controllers' wiring at a latch)."""
     shifted = owner.time_shift is not None and owner.explicit_time is not None and np.any(owner.time_shift)
-    linked = owner.model.links is not None and (shifted or not _linked_controllers_generated(owner)
+    linked = owner.model.links is not None and (not _linked_controllers_generated(owner)
                                                 or (owner.held is not None and np.any(owner.held)))
     if (shifted and not time_generated(owner)) or linked:
         return np.zeros(len(owner.names), bool)
@@ -228,13 +230,25 @@ def _controllers_in_time_generated(owner) -> bool:
     return terms.sampled is None and not any(terms.forces_read.values()) and all(_exact_controllers(owner.assembler))
 
 
-def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
+def time_stiffness_along(owner, state, w: np.ndarray, full: np.ndarray | None = None):
     """∂(∂r/∂t)/∂q w (n_total + 1,) of the static residual, where :func:`time_generated`: :func:`stiffness_along` of
     the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them),
     the reels' (:func:`_reels_along`) and the continuous controllers' outputs' ∂y/∂t through their actuators
     (:func:`controller_parameter_along` of ExplicitTime's ControllerTerms: SymPy's mixed second derivatives of ∂f/∂t
-    by the reads that move along q, times the sensors' generated gradients, chained)."""
+    by the reads that move along q, times the sensors' generated gradients, chained). ``full`` (n_total + 1,): with
+    rigid links or guides the direction u = P w on the assembled coordinates (the caller projects by Pᵀ); None where
+    a controller's terms are not formed there."""
     timed = owner.explicit_time
+    if full is not None:   # rigid links or guides: along u = P w on the assembled coordinates, the rates held
+        out = stiffness_along_all(timed.laws, state, full, cables=False)[:, 0]
+        if timed.reels:
+            _reels_along(owner, state, full, out)
+        if timed.laws.controllers is not None:
+            beside = controller_parameter_along(owner, state, w, terms=timed.laws.controllers, full=full)
+            if beside is None:
+                return None
+            out = out + beside[:, 0]
+        return out
     out = stiffness_along(timed.laws, state, w, cables=False)[:, 0]
     if timed.reels:
         full = np.zeros(owner.model.n_total + 1)

@@ -1146,6 +1146,11 @@ class TransientSensitivities(ParameterDerivatives):
             if beside is None:
                 return None
             total += beside
+        if self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift):
+            timed = time_stiffness_along(self, state, w, full=full)   # ∂(∂r_all/∂t)/∂q u δt_e, the laws' rates in t
+            if timed is None:
+                return None
+            total += np.outer(timed, self.time_shift)
         out = self._on_free_coordinates(state, total)
         static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
         return out + self._geometric_products(state, static, w)

@@ -11,7 +11,8 @@ held outputs, ``sampled_held_along``; a free joint's force whose laws a paramete
 the held angles' columns, ``held_angles_along``; the terms of a controller reading another force a parameter moves
 or outside :func:`_exact_controllers` a central difference; with rigid links or guides beside controllers the same
 parts through the reduction, the controllers' terms along u = P w, ``linked_controller_parameter_along``, and the
-geometric term of ∂r_all/∂p, since linkedparam; beside held angles, a time shift, a controller reading a joint's
+geometric term of ∂r_all/∂p, and a generated time shift, since linkedparam; beside held angles, a time shift not
+generated, a controller reading a joint's
 force a parameter moves or one outside :func:`_exact_controllers` the whole static ∂r/∂p a central difference along
 w, at the assembled rates held, ``TransientSensitivities._advanced_at_held_rates``). H is assembled once per event as an
 n × n sparse matrix on the free coordinates, so one matrix serves both:
