@@ -93,15 +93,23 @@ controller's reaches.
 With rigid links or guides, K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all: the generated parts are taken along P w on
 the assembled coordinates (:func:`stiffness_along_all`; a rigid link's section ρA through its body's weight
 stiffness, :func:`_link_masses`) and reduced, and the geometric term of each column of the static ∂r_all/∂p times w
-added exactly (``TransientSensitivities._linked_stiffness_along``). Not generated, the whole static ∂r/∂p
+added exactly (``TransientSensitivities._linked_stiffness_along``). Beside controllers the same, their terms of
+∂r_all/∂p moved along u = P w with every assembled rate held (:func:`linked_controller_parameter_along`: the unlinked
+:func:`controller_parameter_along`, sampled controllers' held outputs and controllers' states included, its sensors'
+generated gradients by the assembled coordinates, a dependent node's too), projected by Pᵀ, their part of ∂r_all/∂p
+in the geometric term, and an event's time shift where :func:`time_generated` (:func:`time_stiffness_along` at
+``full`` = P w) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
+test_weight_derivative_linked_parameters.py). Not generated, the whole static ∂r/∂p
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
 controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
 every parameter of a run whose state an event moved in time through a prescribed motion beside a continuous
-controller's coupling entry in a prescribed column, or a controller's output in t whose second derivatives along q are not generated
-(:func:`time_generated`; a reel and the other controllers in t are generated since timehand, 40bf44a differenced
-them; prescribed motions otherwise since prestime), and with rigid links or guides every parameter beside
-controllers, held angles or a time shift (their terms through the reduction are not separated). That difference
+controller's coupling entry in a prescribed column, or a controller's output in t whose second derivatives along q are
+not generated (:func:`time_generated`; a reel and the other controllers in t are generated since timehand, 40bf44a
+differenced them; prescribed motions otherwise since prestime), and with rigid links or guides every parameter beside
+held angles, a time shift not generated, a controller reading a joint's force whose laws a parameter moves or a
+controller outside ``_exact_controllers`` (their terms through the reduction are not separated; a parameter moving the
+links' own data, a geometry parameter, keeps it too). That difference
 moves the configuration with every assembled rate held, the dependent nodes' too
 (``TransientSensitivities._advanced_at_held_rates``: K_red is ∂r/∂q at the assembled rates held; completed at each
 moved configuration, a gain of a dependent node's velocity read took Pᵀ (∂C_all/∂p) ∂(J v)/∂q w with it, 2.7e-4 off
@@ -119,8 +127,8 @@ from latdyn.analyses.parameter_keys import BODY_KEY, CABLE_KEY, INITIAL_VELOCITY
 from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
-__all__ = ["controller_parameter_along", "exact_parameters", "held_angles_along", "sampled_held_along",
-           "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
+__all__ = ["controller_parameter_along", "exact_parameters", "held_angles_along", "linked_controller_parameter_along",
+           "sampled_held_along", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -164,10 +172,11 @@ def _slopes_known(law) -> bool:
 def exact_parameters(owner) -> np.ndarray:
     """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring; beside controllers
     and held angles the caller adds their terms' difference); none where the state's time shift is not generated,
-    nor with rigid links or guides beside controllers, held angles or a time shift (checked per call: the time shift
-    and held angles change at each event)."""
+    nor with rigid links or guides beside held angles or controllers whose terms' move is not formed
+    through the reduction (a generated time shift through it too: :func:`time_stiffness_along` ``full``) (:func:`_linked_controllers_generated`; checked per call: the time shift and held angles
+    change at each event, the controllers' wiring at a latch)."""
     shifted = owner.time_shift is not None and owner.explicit_time is not None and np.any(owner.time_shift)
-    linked = owner.model.links is not None and (shifted or owner.controllers is not None
+    linked = owner.model.links is not None and (not _linked_controllers_generated(owner)
                                                 or (owner.held is not None and np.any(owner.held)))
     if (shifted and not time_generated(owner)) or linked:
         return np.zeros(len(owner.names), bool)
@@ -179,6 +188,19 @@ def exact_parameters(owner) -> np.ndarray:
                 found[list(laws)] = False
         owner._parameter_stiffness_exact = found
     return found
+
+
+def _linked_controllers_generated(owner) -> bool:
+    """Whether the controllers' terms of ∂r_all/∂p move along u = P w exactly on a model with rigid links or guides
+    (:func:`linked_controller_parameter_along`): no controllers, or every continuous controller's second derivatives
+    along q generated (:func:`latdyn.analyses.weight_derivative._exact_controllers`) and no joint's force read whose
+    laws a parameter moves. Sampled controllers' held outputs are formed too (:func:`sampled_held_along`)."""
+    from latdyn.analyses.weight_derivative import _exact_controllers
+
+    terms = owner.controllers
+    if terms is None:
+        return True
+    return not any(terms.forces_read.values()) and all(_exact_controllers(owner.assembler))
 
 
 def time_generated(owner) -> bool:
@@ -263,14 +285,26 @@ def _controllers_in_time_generated(owner) -> bool:
     return terms.sampled is None and not any(terms.forces_read.values()) and all(_exact_controllers(owner.assembler))
 
 
-def time_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
+def time_stiffness_along(owner, state, w: np.ndarray, full: np.ndarray | None = None):
     """∂(∂r/∂t)/∂q w (n_total + 1,) of the static residual, where :func:`time_generated`: :func:`stiffness_along` of
     the scene's laws' rates in t (ExplicitTime's one column t: the loads' and hinges' rates, as ∂r/∂t takes them),
     the reels' (:func:`_reels_along`) and the continuous controllers' outputs' ∂y/∂t through their actuators
     (:func:`controller_parameter_along` of ExplicitTime's ControllerTerms: SymPy's mixed second derivatives of ∂f/∂t
     by the reads that move along q, times the sensors' generated gradients, chained) and the prescribed motions'
-    (:func:`_prescribed_along`)."""
+    (:func:`_prescribed_along`; no rigid links or guides). ``full`` (n_total + 1,): with rigid links or guides the
+    direction u = P w on the assembled coordinates (the caller projects by Pᵀ); None where a controller's terms are
+    not formed there."""
     timed = owner.explicit_time
+    if full is not None:   # rigid links or guides: along u = P w on the assembled coordinates, the rates held
+        out = stiffness_along_all(timed.laws, state, full, cables=False)[:, 0]
+        if timed.reels:
+            _reels_along(owner, state, full, out)
+        if timed.laws.controllers is not None:
+            beside = controller_parameter_along(owner, state, w, terms=timed.laws.controllers, full=full)
+            if beside is None:
+                return None
+            out = out + beside[:, 0]
+        return out
     out = stiffness_along(timed.laws, state, w, cables=False)[:, 0]
     if timed.reels:
         full = np.zeros(owner.model.n_total + 1)
@@ -642,7 +676,7 @@ def _mixed_laws(controller, partials: dict, moving: tuple):
     return _MIXED[key]
 
 
-def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
+def controller_parameter_along(owner, state, w: np.ndarray, terms=None, full: np.ndarray | None = None):
     """(n_total + 1, k): the derivative along w of the controllers' terms of ∂r/∂p
     (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`) at ``state``, exact, or None where it is not formed
     here (the caller differences those terms then): a controller reading a force other than a free joint's whose laws
@@ -664,7 +698,9 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
     :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there; sampled controllers
     and joint-force readers until ctrlhand).
     ``terms``: a ControllerTerms other than ``owner.controllers`` (its ``k`` columns: the adjoint's held δS map,
-    latdyn/analyses/adjoint_controller_states.py ``held_stiffness_along``)."""
+    latdyn/analyses/adjoint_controller_states.py ``held_stiffness_along``). ``full`` (n_total + 1,): the direction on
+    every assembled coordinate (a model with rigid links or guides, u = P w, :func:`linked_controller_parameter_along`;
+    default w on the free coordinates, 0 elsewhere)."""
     from latdyn.analyses.weight_derivative import _exact_controllers
 
     terms = owner.controllers if terms is None else terms
@@ -677,16 +713,35 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None):
     control = assembler.control
     total = np.zeros((model.n_total + 1, terms.k))
     if terms.sampled is not None:   # the held outputs' δy: constants of the step, their loads turning along w
-        sampled_held_along(owner, state, w, terms.sampled, total)
+        sampled_held_along(owner, state, w, terms.sampled, total, full=full)
     if not (terms.partials or terms.held or forces_read) or not len(control.actuator_kind):
         return total
     exact = _exact_controllers(assembler)
     if not all(exact):
         return None
-    return _controller_parameter_along(owner, terms, state, w, exact, total)   # chained outputs: the laws' arguments
+    return _controller_parameter_along(owner, terms, state, w, exact, total, full=full)   # chained: the laws' arguments
 
 
-def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray) -> np.ndarray:
+def linked_controller_parameter_along(owner, state, full: np.ndarray):
+    """(n_total + 1, k) on every coordinate, or None: with rigid links or guides, the derivative of the controllers'
+    terms of ∂r_all/∂p (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`) along u = P w on the assembled
+    coordinates (``full``), every assembled rate held (the evaluation's K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all is ∂r/∂q
+    at the assembled rates held, the dependent nodes' too: latdyn/assembly/linked.py), exact as
+    :func:`controller_parameter_along` unlinked: the sensors' generated gradients by the assembled coordinates (a
+    dependent node's too, :func:`latdyn.analyses.weight_derivative._sensor_kinematics`) times u. The caller projects
+    it by Pᵀ and adds the reduction's geometric term of ∂r_all/∂p. None (the caller keeps the difference) where
+    :func:`controller_parameter_along` does not form it, and where a controller reads a joint's force whose laws a
+    parameter moves (its ∂F/∂p's move, :func:`_moved_joint_forces_along`, is on the free coordinates alone)."""
+    terms = owner.controllers
+    if terms is None:
+        return None
+    if any(terms.forces_read.values()):
+        return None
+    return controller_parameter_along(owner, state, full[:owner.model.n_dofs], full=full)
+
+
+def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray,
+                       full: np.ndarray | None = None) -> np.ndarray:
     """Add into ``total`` (n_total + 1, k) the derivative along w of the sampled controllers' held outputs' terms of
     ∂r/∂p (:meth:`latdyn.analyses.sensitivities.SampledTerms.add`), exact: a held δy is a constant of the step (the
     sample's, ``SampledTerms.sample``: the output's derivative at the sample, carried by the forward method), so a
@@ -699,7 +754,7 @@ def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray) 
         if kind == 1 and np.any(moved):
             loads.setdefault(int(index), np.zeros((6, total.shape[1])))[component] += moved
     for index, values in loads.items():
-        _load_actuator_along(owner, state, w, index, np.zeros_like(values), values, total)
+        _load_actuator_along(owner, state, w, index, np.zeros_like(values), values, total, full=full)
     return total
 
 
@@ -808,9 +863,10 @@ def held_angles_along(owner, state, w: np.ndarray):
     return total
 
 
-def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray) -> np.ndarray:
+def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list, total: np.ndarray,
+                                full: np.ndarray | None = None) -> np.ndarray:
     """:func:`controller_parameter_along`'s chain and actuators (the chained outputs the compiled partials' arguments,
-    computed at ``state``: codegen/laws.py ``_block``)."""
+    computed at ``state``: codegen/laws.py ``_block``). ``full``: the direction on every coordinate (u = P w)."""
     from latdyn.analyses.weight_derivative import (_controller_curvatures, _controller_reads, _MOVING_SENSORS,
                                                    _sensor_dofs, _sensor_kinematics)
     from latdyn.assembly.control import CONTROLLER
@@ -820,7 +876,10 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
     k_cols = terms.k
     n = model.n_dofs
     columns, _, _, gradients = _controller_curvatures(assembler, state, exact, with_outputs=True)
-    along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
+    if full is not None:   # u = P w on the assembled coordinates, a dependent node's too
+        along = full[np.asarray(columns, np.int64)] if len(columns) else np.zeros(0)
+    else:
+        along = np.where(columns < n, w[np.minimum(columns, n - 1)], 0.0) if len(columns) else np.zeros(0)
     place = {c.name: k for k, c in enumerate(control.controllers)}
     values = terms.signal_values(state)
     if terms.compiled is not None:
@@ -844,7 +903,7 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
             elif kind in _MOVING_SENSORS:
                 gradient, _ = _sensor_kinematics(assembler, state, kind, index, sensor)
                 dofs = np.asarray(_sensor_dofs(assembler, kind, index, sensor), np.int64)
-                moved = np.where(dofs < n, w[np.minimum(dofs, n - 1)], 0.0)
+                moved = full[dofs] if full is not None else np.where(dofs < n, w[np.minimum(dofs, n - 1)], 0.0)
                 moving.append(p)
                 delta.append(float(np.asarray(gradient, float) @ moved))
         partials = {column: expression for column, expression in terms.partial_expressions.get(c.name, {}).items()
@@ -897,12 +956,12 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
             pair[0][component] += a * moves[name]
             pair[1][component] += a * slopes[name]
     for index, (moved_values, held_values) in loads.items():
-        _load_actuator_along(owner, state, w, index, moved_values, held_values, total)
+        _load_actuator_along(owner, state, w, index, moved_values, held_values, total, full=full)
     return total
 
 
 def _load_actuator_along(owner, state, w: np.ndarray, index: int, moved_values: np.ndarray, held_values: np.ndarray,
-                         total: np.ndarray) -> None:
+                         total: np.ndarray, full: np.ndarray | None = None) -> None:
     """Load ``index``'s part of :func:`controller_parameter_along`: ``point_load`` (linear in its values) at the
     values' move along w, and ``point_load_stiffness_D_q``'s K_l w at the values, on the load's node rows."""
     model = owner.model
@@ -913,8 +972,9 @@ def _load_actuator_along(owner, state, w: np.ndarray, index: int, moved_values: 
     columns = [c for c in range(total.shape[1]) if np.any(held_values[:, c])]
     if not columns:
         return
-    full = np.zeros(model.n_total + 1)
-    full[:model.n_dofs] = w
+    if full is None:
+        full = np.zeros(model.n_total + 1)
+        full[:model.n_dofs] = w
     node, offset, frame = owner._load_points()
     direction = np.zeros(6)
     direction[0:3] = full[_scattered(model.node_dofs[node[index], 3:6], model.n_total)]

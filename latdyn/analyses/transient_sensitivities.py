@@ -139,6 +139,7 @@ from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters, held_angles_along,
+                                                 linked_controller_parameter_along,
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
@@ -1025,11 +1026,11 @@ class TransientSensitivities(ParameterDerivatives):
         forces and without the elements' gravity load (``sections``, ``element_gravity`` of
         :meth:`residual_derivatives`): a hinge law naming an input, and all
         of them where a prescribed motion beside a continuous controller's coupling entry in a prescribed column
-        moves the state in time (a
-        reel's, a continuous controller's output in t and, since prestime, a prescribed motion's otherwise are
-        generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With rigid
-        links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`) where no controller,
-        held angle or time shift adds terms, else the difference of the static ∂r/∂p without the elements' gravity
+        moves the state in time (a reel's, a continuous controller's output in t and, since prestime, a prescribed
+        motion's otherwise are generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With
+        rigid links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`, the controllers'
+        terms along P w with them) where no held angle or time shift adds terms and the controllers' are formed, else
+        the difference of the static ∂r/∂p without the elements' gravity
         load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia
         forces' geometric term."""
         model = self.model
@@ -1037,7 +1038,11 @@ class TransientSensitivities(ParameterDerivatives):
         linked = model.links is not None
         exact = exact_parameters(self)
         if linked and np.any(exact):   # the parameters' own parts through P w, the reduction's geometric term exact
-            out[:, exact] += self._linked_stiffness_along(state, w)[:, exact]
+            along = self._linked_stiffness_along(state, w)
+            if along is None:   # a controller's mixed second derivatives not functions: the difference below
+                exact = np.zeros_like(exact)
+            else:
+                out[:, exact] += along[:, exact]
         if not linked:
             out += self._section_stiffness_along(state, w)
             if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
@@ -1118,13 +1123,17 @@ class TransientSensitivities(ParameterDerivatives):
             outputs.values[:] = held
 
     def _linked_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
-        """(∂K/∂p) w (n, k) with rigid links or guides (no controllers, held angles or time shift: their terms are in
-        the static ∂r/∂p too) for the parameters of ``exact_parameters``: K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all, so
+        """(∂K/∂p) w (n, k) with rigid links or guides (no held angles or time shift: their terms are in the static
+        ∂r/∂p too) for the parameters of ``exact_parameters``, or None where a controller's terms are not formed
+        (latdyn/analyses/parameter_stiffness.py ``linked_controller_parameter_along`` None: the caller differences):
+        K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all, so
         (∂K_red/∂p) w = Pᵀ (∂K_all/∂p)(P w) + ∂Pᵀ/∂q[w] · ∂r_all/∂p — the generated parts (the section values' and
         latdyn/analyses/parameter_stiffness.py's) along P w on the assembled coordinates, reduced, and the forward
         step's geometric term of each column of the static ∂r_all/∂p (without the elements' gravity load) times w
         (:func:`latdyn.analyses.weight_derivative.geometric_product`, exact; :meth:`_geometric_derivative` adds the
-        inertia forces'). Before, the difference of the whole reduced static ∂r/∂p along w."""
+        inertia forces'); beside controllers their terms of ∂r_all/∂p along u = P w at the assembled rates held
+        (``linked_controller_parameter_along``, since linkedparam). Before, the difference of the whole reduced
+        static ∂r/∂p along w."""
         model, assembler = self.model, self.assembler
         n_asm = model.n_assembled
         assembler.complete_links(state)
@@ -1133,6 +1142,16 @@ class TransientSensitivities(ParameterDerivatives):
         full[:n_asm] = np.asarray(projection @ w).reshape(-1)
         total = parameter_stiffness_along_all(self, state, full)
         self.add_section_stiffness_along(state, full, total)
+        if self.controllers is not None:   # the controllers' terms of ∂r_all/∂p along u = P w, the rates held
+            beside = linked_controller_parameter_along(self, state, full)
+            if beside is None:
+                return None
+            total += beside
+        if self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift):
+            timed = time_stiffness_along(self, state, w, full=full)   # ∂(∂r_all/∂t)/∂q u δt_e, the laws' rates in t
+            if timed is None:
+                return None
+            total += np.outer(timed, self.time_shift)
         out = self._on_free_coordinates(state, total)
         static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
         return out + self._geometric_products(state, static, w)

@@ -9,9 +9,12 @@ sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp
 uses, and beside them the controllers' terms of ∂r/∂p exact, ``controller_parameter_along`` (a sampled controller's
 held outputs, ``sampled_held_along``; a free joint's force whose laws a parameter moves, read by a controller), and
 the held angles' columns, ``held_angles_along``; the terms of a controller reading another force a parameter moves
-or outside :func:`_exact_controllers` a central difference; with rigid links or guides beside controllers, held
-angles or a time shift the whole static ∂r/∂p a central difference along w, at the assembled rates held,
-``TransientSensitivities._advanced_at_held_rates``). H is assembled once per event as an
+or outside :func:`_exact_controllers` a central difference; with rigid links or guides beside controllers the same
+parts through the reduction, the controllers' terms along u = P w, ``linked_controller_parameter_along``, and the
+geometric term of ∂r_all/∂p, and a generated time shift, since linkedparam; beside held angles, a time shift not
+generated, a controller reading a joint's
+force a parameter moves or one outside :func:`_exact_controllers` the whole static ∂r/∂p a central difference along
+w, at the assembled rates held, ``TransientSensitivities._advanced_at_held_rates``). H is assembled once per event as an
 n × n sparse matrix on the free coordinates, so one matrix serves both:
 
     H = Σ_e A_e [s ∂(K_e w_e)/∂q_e + c_m ∂(M_e w_e)/∂q_e] A_eᵀ + Σ_b A_b [s ∂(K_b w_b)/∂q_b + c_m ∂(M_b w_b)/∂q_b] A_bᵀ
