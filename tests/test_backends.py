@@ -153,8 +153,10 @@ def _assert_close(actual, expected, what):
 #: (codegen/formulation.py ``_planar_variants``), derived, CSE'd and printed by the same code; their
 #: kernels are compared here NumPy against C (every output), and their models with the 3D model in
 #: tests/test_planar.py (``test_planar_model_equals_3d_model``, every plane). Deriving a variant again for
-#: the direct evaluation is most of this file's time (1-6 min a variant on 2 busy cores); the six yz and
-#: zx derivations were 15 % of the suite's.
+#: the direct evaluation is most of this file's time (1-6 min a variant on 2 busy cores when the six yz and
+#: zx derivations were 15 % of the suite's; since the log map's jet rules are derived once a process,
+#: codegen/derivation.py ``_log_jet_rules``, the file took 38 s against 104 s in one process, on a core to
+#: itself at load 10-13: 11-15 s for a process's first variants, 1-3 s for the later ones).
 SYMPY_PLANES = (None, "xy")
 
 

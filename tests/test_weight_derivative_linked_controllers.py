@@ -31,7 +31,7 @@ from tests.test_sensitivities_in_loop_links import CHAIN
 from tests.test_sensitivities_events import _agree
 from tests.test_weight_derivative_linked import turned_state
 from tests.test_weight_derivative_linked_rates import richardson_of_the_generated_product
-from tests.test_weight_derivative_linked_rest import CRANK_CABLES, GIMBAL_LOADS, _at_events
+from tests.test_weight_derivative_linked_rest import CRANK_CABLES, GIMBAL_LOADS, _at_events_once
 
 #: the gimbal latching with loads, its boom starting at an offset from the inner ring (a dependent node), a PD of that
 #: point's global y and z (OFFSET_POSITION sensors, nonlinear in them) driving the outer hinge (free through the latch)
@@ -110,14 +110,14 @@ def test_the_couplings_are_generated_through_the_reduction(name):
 
 
 @pytest.mark.parametrize("name", list(SCENES))
-def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name, monkeypatch):
+def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name):
     """At the events (through the API) no difference of W_rest is taken (ea72688 took 6 on the gimbal, 16 on the
     slider-crank, 16 on the chain), ∂(W w)/∂q δq agrees with tests/test_weight_derivative_linked's Richardson reference
     (measured 6.1e-12, 1.5e-9, 1.2e-12: the reference's own error), the whole run's sensitivities by the controller's
     gain agree with Richardson central differences of whole runs (measured 3.2e-8, 7.4e-9, 3.7e-8, as on ea72688) and
     the adjoint's with the forward method's (1.7e-12, 5.7e-12, 1.4e-11)."""
     text, events, gain = SCENES[name]
-    result, errors, differences = _at_events(text, monkeypatch)
+    result, errors, differences = _at_events_once(text)
     assert [e["kind"] for e in result.summary["events"]] == events
     assert differences == 0
     assert errors and max(errors) < 5e-9, errors
@@ -126,7 +126,7 @@ def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name, 
     assert _largest_gap(adjoint.summary["probe_sensitivities"], result.summary["probe_sensitivities"]) <= 1e-10
 
 
-def test_the_slider_crank_through_the_cli_loop_on_and_off(tmp_path, monkeypatch):
+def test_the_slider_crank_through_the_cli_loop_on_and_off(tmp_path):
     """The slider-crank with the controller of cables' lengths through ``latdyn run``: the loop off writing the same
     bytes, and the API's event sensitivities the CLI's, made without a difference of W_rest."""
     run, out = latdyn_run(tmp_path, CRANK_LENGTH, quiet=True)
@@ -134,6 +134,6 @@ def test_the_slider_crank_through_the_cli_loop_on_and_off(tmp_path, monkeypatch)
     summary = summary_of(out)
     assert [e["kind"] for e in summary["events"]] == ["stop"]
     the_loop_off_writes_the_same(tmp_path, out)
-    result, _, differences = _at_events(CRANK_LENGTH, monkeypatch)
+    result, _, differences = _at_events_once(CRANK_LENGTH)   # the events test's run, when this process made it
     assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
     assert differences == 0

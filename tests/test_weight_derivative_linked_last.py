@@ -32,7 +32,7 @@ from tests.test_sensitivities_in_loop_links import CHAIN
 from tests.test_weight_derivative_linked import turned_state
 from tests.test_weight_derivative_linked_controllers import GIMBAL_OFFSET
 from tests.test_weight_derivative_linked_rates import richardson_of_the_generated_product
-from tests.test_weight_derivative_linked_rest import BEAD_FOLLOWER, _at_events
+from tests.test_weight_derivative_linked_rest import BEAD_FOLLOWER, _at_events_once
 
 #: the gimbal latching, a PD of the boom's start (an offset from the inner ring, a dependent node): its global y, its
 #: velocity's y (v + ω × T r, sensor kind 6) and its velocity's z in the tip body's axes (kind 13), nonlinear in them
@@ -118,14 +118,14 @@ def test_the_blocks_are_generated_through_the_reduction(name):
 
 
 @pytest.mark.parametrize("name", list(SCENES))
-def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name, monkeypatch):
+def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name):
     """At the events (through the API) no difference of W_rest is taken (40bf44a took 6 on the gimbal, 12 on the
     guided mass, 8 on the chain), ∂(W w)/∂q δq agrees with tests/test_weight_derivative_linked's Richardson reference
     (measured 9.1e-13, 5.4e-13, 1.2e-11: the reference's own error, the same on 40bf44a), the whole run's
     sensitivities agree with Richardson central differences of whole runs (measured 1.0e-7 by Kp — 2.7e-4 on f3ab00e —, 6.2e-7 by Kc,
     1.6e-8 by Kp, as on 40bf44a) and the adjoint's with the forward method's (8.8e-13, 6.8e-14, 1.6e-12)."""
     text, events, parameter = SCENES[name]
-    result, errors, differences = _at_events(text, monkeypatch)
+    result, errors, differences = _at_events_once(text)
     assert [e["kind"] for e in result.summary["events"]] == events
     assert differences == 0
     assert errors and max(errors) < 5e-11, errors
@@ -134,7 +134,7 @@ def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name, 
     assert _largest_gap(adjoint.summary["probe_sensitivities"], result.summary["probe_sensitivities"]) <= 1e-10
 
 
-def test_the_guided_mass_through_the_cli_loop_on_and_off(tmp_path, monkeypatch):
+def test_the_guided_mass_through_the_cli_loop_on_and_off(tmp_path):
     """The guided mass with its driven loads through ``latdyn run``: the loop off writing the same bytes, and the API's
     event sensitivities the CLI's, made without a difference of W_rest."""
     run, out = latdyn_run(tmp_path, BEAD_PD, quiet=True)
@@ -142,6 +142,6 @@ def test_the_guided_mass_through_the_cli_loop_on_and_off(tmp_path, monkeypatch):
     summary = summary_of(out)
     assert [e["kind"] for e in summary["events"]] == ["stop"]
     the_loop_off_writes_the_same(tmp_path, out)
-    result, _, differences = _at_events(BEAD_PD, monkeypatch)
+    result, _, differences = _at_events_once(BEAD_PD)   # the events test's run, when this process made it
     assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
     assert differences == 0

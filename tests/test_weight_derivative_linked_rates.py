@@ -25,7 +25,7 @@ import pytest
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_in_loop_links import CHAIN
 from tests.test_weight_derivative_linked import turned_state
-from tests.test_weight_derivative_linked_rest import GIMBAL_DAMPED, GIMBAL_LOADS, GIMBAL_MIXED, _at_events, _moved
+from tests.test_weight_derivative_linked_rest import GIMBAL_DAMPED, GIMBAL_LOADS, GIMBAL_MIXED, _at_events_once, _moved
 
 #: the gimbal with loads, its outer hinge's torque a law of θ and θ̇ both (its ∂f/∂θ moves with θ̇)
 GIMBAL_TORQUE = GIMBAL_LOADS.replace('stiffness: "k1", rest_angle: "rest"}}}',
@@ -132,16 +132,16 @@ def test_the_hinges_and_couplings_moving_with_the_rates_are_generated_through_th
 
 
 @pytest.mark.parametrize("name", list(SCENES))
-def test_the_events_take_no_difference_and_agree_with_richardson(name, monkeypatch):
+def test_the_events_take_no_difference_and_agree_with_richardson(name):
     """At the latch (through the API) no difference of W_rest is taken (af426b0 took two evaluations a parameter), and
     ∂(W w)/∂q δq agrees with tests/test_weight_derivative_linked's Richardson reference."""
-    result, errors, differences = _at_events(SCENES[name], monkeypatch)
+    result, errors, differences = _at_events_once(SCENES[name])
     assert [e["kind"] for e in result.summary["events"]] == ["latch"] * (2 if "chain" in name else 1)
     assert differences == 0
     assert errors and max(errors) < 5e-11, errors
 
 
-def test_the_outer_pd_through_the_cli_loop_on_and_off(tmp_path, monkeypatch):
+def test_the_outer_pd_through_the_cli_loop_on_and_off(tmp_path):
     """The gimbal with the outer hinge's mixed PD through ``latdyn run``: the loop off writing the same bytes, and the
     API's event sensitivities the CLI's, made without a difference of W_rest."""
     run, out = latdyn_run(tmp_path, GIMBAL_MIXED_OUTER, quiet=True)
@@ -149,7 +149,7 @@ def test_the_outer_pd_through_the_cli_loop_on_and_off(tmp_path, monkeypatch):
     summary = summary_of(out)
     assert [e["kind"] for e in summary["events"]] == ["latch"]
     the_loop_off_writes_the_same(tmp_path, out)
-    result, _, differences = _at_events(GIMBAL_MIXED_OUTER, monkeypatch)
+    result, _, differences = _at_events_once(GIMBAL_MIXED_OUTER)   # the events test's run, when this process made it
     assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
     assert differences == 0
 
