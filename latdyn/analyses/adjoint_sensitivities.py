@@ -1038,7 +1038,7 @@ class AdjointSensitivities(TransientSensitivities):
         The restart sets δv̇ and δa afresh (the stick's ``dvdot`` 0): nothing of v̇̄ or ā passes. Returns (q̄, v̄, v̇̄,
         θ̄ before it, (k, m) into the gradient); the model left on the numbering before it."""
         kind, j = entry["friction"]
-        model, scale = self.model, self.scene.solve.dt ** 2
+        model, scale = self.model, self.scene.solve.dt * self.scene.solve.dt
         theta_bar = theta_bar.copy()
         self._restart_weight = None
         q_bar, v_bar, _, gradient, _ = self._restart_transposed(entry, q_bar, v_bar, s_bar)
@@ -1214,15 +1214,9 @@ class AdjointSensitivities(TransientSensitivities):
 
         (:meth:`_weight_derivative_transposed`). Returns (q̄ before it, the part of v̄, the part of v̇̄, (k, m) into
         the gradient, (m,) into t̄: the weight at t_e + δt_e, latdyn/analyses/adjoint_time.py)."""
-        model, dt = self.model, self.scene.solve.dt
         new, hinge = entry["state"], entry["event"][0]
-        scale = dt * dt
-        N = hinge_directions(model, [hinge])
-        W = self.assembler.evaluate(new, matrices=True).combined(1.0, 0.0, scale)
-        X = np.asarray(solve_linear(W, N)).reshape(N.shape)
-        NtX = N.T @ X
-        stop = min(model.hinges[hinge].limits, key=lambda at: abs(new.theta[hinge] - at))
-        moved = (X @ np.linalg.solve(NtX, np.array([new.theta[hinge] - stop]))).reshape(-1)   # X μ = −Δ
+        scale = self.scene.solve.dt * self.scene.solve.dt
+        W, N, X, NtX, moved = self._projection(new, hinge)
         turn, tangent = self._rotation_operators(-moved)
         delta_bar = _transposed_rotations(self, tangent)(q_bar_plus)
         pushed = N @ np.linalg.solve(NtX.T, X.T @ delta_bar)   # N Gᵀ Δ̄
@@ -1265,7 +1259,7 @@ class AdjointSensitivities(TransientSensitivities):
         if kind == "latch":
             matrix = M
         else:
-            scale = self.scene.solve.dt ** 2
+            scale = self.scene.solve.dt * self.scene.solve.dt
             before = after.copy()
             unpack_free(model, free_acceleration(model, entry["state"]), before.a, before.alpha, before.theta_ddot)
             self.assembler.complete_links(before)

@@ -849,20 +849,26 @@ class TransientSensitivities(ParameterDerivatives):
 
         R = exp(skew Δπ), J = dexp(Δπ) on the rotation coordinates (the step's update, :meth:`_rotation_operators`),
         so that Nᵀδq⁺ = 0: the hinge's angle is the stop's (the term δ[X(NᵀX)⁻¹](θ − stop) is δX μ's)."""
-        model, dt = self.model, self.scene.solve.dt
-        scale = dt * dt
-        N = hinge_directions(model, [hinge])
-        W = self.assembler.evaluate(new, matrices=True).combined(1.0, 0.0, scale)
-        X = np.asarray(solve_linear(W, N)).reshape(N.shape)
-        NtX = N.T @ X
-        stop = min(model.hinges[hinge].limits, key=lambda at: abs(new.theta[hinge] - at))
-        moved = (X @ np.linalg.solve(NtX, np.array([new.theta[hinge] - stop]))).reshape(-1)   # X μ = −Δ
-        dq = carried["dq"]
-        weight = self._weight_derivative(new, moved, dq, scale, rates=(carried["dv"], carried["dvdot"]))
+        W, N, X, NtX, moved = self._projection(new, hinge)
+        dq, dt = carried["dq"], self.scene.solve.dt
+        weight = self._weight_derivative(new, moved, dq, dt * dt, rates=(carried["dv"], carried["dvdot"]))
         dX_mu = -np.asarray(solve_linear(W, weight)).reshape(dq.shape)
         d_delta = -dX_mu + X @ np.linalg.solve(NtX, N.T @ dX_mu) - X @ np.linalg.solve(NtX, N.T @ dq)
         turn, tangent = self._rotation_operators(-moved)
         return turn(dq) + tangent(d_delta)
+
+    def _projection(self, new, hinge: int) -> tuple:
+        """(W, N, X, NᵀX, Xμ) of the projection that puts ``hinge`` back on its rigid stop at ``new``
+        (:meth:`_projected`, its transpose ``AdjointSensitivities._projected_transposed``): W = M + dt²K at the step's
+        end, N the hinge's direction, X = W⁻¹N, Xμ = X(NᵀX)⁻¹(θ − stop) = −Δ."""
+        model, dt = self.model, self.scene.solve.dt
+        N = hinge_directions(model, [hinge])
+        W = self.assembler.evaluate(new, matrices=True).combined(1.0, 0.0, dt * dt)
+        X = np.asarray(solve_linear(W, N)).reshape(N.shape)
+        NtX = N.T @ X
+        stop = min(model.hinges[hinge].limits, key=lambda at: abs(new.theta[hinge] - at))
+        moved = (X @ np.linalg.solve(NtX, np.array([new.theta[hinge] - stop]))).reshape(-1)   # X μ = −Δ
+        return W, N, X, NtX, moved
 
     def _refuse_what_a_rest_moves(self, new, j: int) -> None:
         """The models and probes where a projection onto a stop at a step's end (:meth:`_projected`) is not
@@ -1528,7 +1534,7 @@ class TransientSensitivities(ParameterDerivatives):
         if pending["kind"] == "latch":
             matrix = M
         else:   # the restart's W is evaluated at the accelerations before it (the same without guides)
-            scale = self.scene.solve.dt ** 2
+            scale = self.scene.solve.dt * self.scene.solve.dt
             before = new.copy()
             unpack_free(model, pack(model, *pending["vdot"])[:n], before.a, before.alpha, before.theta_ddot)
             self.assembler.complete_links(before)
