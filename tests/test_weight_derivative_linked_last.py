@@ -26,11 +26,9 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
-from tests.test_adjoint_in_loop_links import _adjoint, _largest_gap
-from tests.test_sensitivities_events import _agree
 from tests.test_sensitivities_in_loop_links import CHAIN
 from tests.test_weight_derivative_linked import turned_state
-from tests.test_weight_derivative_linked_controllers import GIMBAL_OFFSET
+from tests.test_weight_derivative_linked_controllers import GIMBAL_OFFSET, events_take_no_difference_and_runs_agree
 from tests.test_weight_derivative_linked_rates import richardson_of_the_generated_product
 from tests.test_weight_derivative_linked_rest import BEAD_FOLLOWER, _at_events_once
 
@@ -125,13 +123,7 @@ def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name):
     sensitivities agree with Richardson central differences of whole runs (measured 1.0e-7 by Kp — 2.7e-4 on f3ab00e —, 6.2e-7 by Kc,
     1.6e-8 by Kp, as on 40bf44a) and the adjoint's with the forward method's (8.8e-13, 6.8e-14, 1.6e-12)."""
     text, events, parameter = SCENES[name]
-    result, errors, differences = _at_events_once(text)
-    assert [e["kind"] for e in result.summary["events"]] == events
-    assert differences == 0
-    assert errors and max(errors) < 5e-11, errors
-    assert _agree(result, text, parameter, tolerance=2e-6) < 2e-6
-    adjoint = latdyn.run(latdyn.load_scene(yaml.safe_load(_adjoint(text))))
-    assert _largest_gap(adjoint.summary["probe_sensitivities"], result.summary["probe_sensitivities"]) <= 1e-10
+    events_take_no_difference_and_runs_agree(text, events, parameter, 5e-11, 2e-6)
 
 
 def test_the_guided_mass_through_the_cli_loop_on_and_off(tmp_path):
