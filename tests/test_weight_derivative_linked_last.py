@@ -22,9 +22,7 @@ import json
 
 import numpy as np
 import pytest
-import yaml
 
-import latdyn
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_in_loop_links import CHAIN
 from tests.test_weight_derivative_linked import turned_state
