@@ -138,7 +138,7 @@ def chained_outputs(terms) -> list:
     reads = {c.name: [r for r in c.reads if r in names] for c in continuous}
     #: a parameter's slope starts at a controller with partials ∂f/∂p, or at one reading a force whose own laws a
     #: parameter moves (its ∂f/∂s ∂F/∂p, ControllerTerms.sensed_force_slopes), partials or none
-    reached = set(terms.partials) | {name for name, forces in getattr(terms, "forces_read", {}).items() if forces}
+    reached = set(terms.partials) | {name for name, forces in terms.forces_read.items() if forces}
     for c in continuous:   # file order: a controller reads only earlier ones
         if any(r in reached for r in reads[c.name]):
             reached.add(c.name)
@@ -195,7 +195,7 @@ class ControllerPartials:
         stated = [c.name for c in terms.continuous if c.states and c.limits is not None]
         #: controllers reading a force whose own laws a parameter moves: their outputs' derivatives ∂f/∂s carry its
         #: ∂F/∂p (ControllerTerms.sensed_force_slopes) on both paths
-        readers = [c.name for c in terms.continuous if not c.states and getattr(terms, "forces_read", {}).get(c.name)]
+        readers = [c.name for c in terms.continuous if not c.states and terms.forces_read.get(c.name)]
         if getattr(owner.kernels, "backend", None) != "c" or not (terms.partials or rate_expressions or stated
                                                                    or readers):
             return None
