@@ -18,7 +18,6 @@ import latdyn
 from latdyn.analyses.weight_derivative import (_coupling_part, _driven_load_part, _hinge_part, _sparse, exact_couplings,
                                                exact_hinges, exact_hinges_by_rates, linked_exact_hinges, rest_support,
                                                times, transposed_times)
-from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from latdyn.assembly.prepare import prepare
 from latdyn.model.kernels import load_kernels
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
@@ -30,8 +29,7 @@ from tests.test_weight_derivative_couplings import \
 from tests.test_weight_derivative_couplings import \
     test_through_the_latch_the_sensitivities_agree_and_the_loop_keeps_the_bits as _through_the_latch
 from tests.test_weight_derivative_linked_rest import _at_events
-from tests.test_sensitivities_rate_stiffness import moving_state
-from tests.test_weight_derivative_rates import WHEEL_STOP, _evaluations_in_the_rates_term, _richardson_by_rates
+from tests.test_weight_derivative_rates import WHEEL_STOP, _evaluations_in_the_rates_term, _rates_term, _richardson_by_rates
 from tests.test_weight_derivative_rest import CONTROLLED_BOOM, _boom_state, _rotation, _row
 
 #: the controlled boom's PD of the arm's hinge reading, beside its angle and rate, the spar's tip's velocity relative
@@ -287,15 +285,8 @@ def test_a_controller_of_points_and_rates_moves_with_the_rates_without_a_differe
     couplings' ∂(K w)/∂v δv (3 columns) is SymPy's mixed second derivatives times the sensors' generated gradients,
     with no evaluation of the model (86d57d9 differenced it, two evaluations a column), within 1e-9 of the Richardson
     reference's largest entry (measured 2.5e-14 on the arm's; 86d57d9's difference 2.0e-11)."""
-    prepared, state, rng = moving_state(text)
-    owner = TransientSensitivities(prepared)
-    n = prepared.model.n_dofs
-    w, dv = rng.normal(size=n), rng.normal(size=(n, 3))
-    assert owner.stiffness_moves_with_rates(state) and "controllers' couplings" in owner._rates_moving[1]
-    counts = _evaluations_in_the_rates_term(monkeypatch)
-    computed = owner._stiffness_by_rates(state, w, dv)
+    prepared, state, w, dv, computed, counts, moving = _rates_term(monkeypatch, text)
     assert counts == [0]
-    monkeypatch.undo()
-    reference = _richardson_by_rates(prepared, state, w, dv, owner._rates_moving[1])
+    reference = _richardson_by_rates(prepared, state, w, dv, moving)
     assert np.abs(reference).max() > 0.0
     assert np.abs(computed - reference).max() <= 1e-9 * np.abs(reference).max()

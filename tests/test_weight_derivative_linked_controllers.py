@@ -138,11 +138,18 @@ def events_take_no_difference_and_runs_agree(text: str, events: list, parameter:
 def test_the_slider_crank_through_the_cli_loop_on_and_off(tmp_path):
     """The slider-crank with the controller of cables' lengths through ``latdyn run``: the loop off writing the same
     bytes, and the API's event sensitivities the CLI's, made without a difference of W_rest."""
-    run, out = latdyn_run(tmp_path, CRANK_LENGTH, quiet=True)
+    cli_writes_the_apis_event_sensitivities(tmp_path, CRANK_LENGTH, ["stop"])
+
+
+def cli_writes_the_apis_event_sensitivities(tmp_path, text: str, events: list) -> None:
+    """``latdyn run`` of ``text``: its events of the kinds ``events``, the loop of steps off writing the same bytes,
+    and the API's run (:func:`_at_events_once`, the events test's when this process made it) with the same event
+    sensitivities, made without a difference of W_rest."""
+    run, out = latdyn_run(tmp_path, text, quiet=True)
     assert run.returncode == 0, run.stderr
     summary = summary_of(out)
-    assert [e["kind"] for e in summary["events"]] == ["stop"]
+    assert [e["kind"] for e in summary["events"]] == events
     the_loop_off_writes_the_same(tmp_path, out)
-    result, _, differences = _at_events_once(CRANK_LENGTH)   # the events test's run, when this process made it
+    result, _, differences = _at_events_once(text)
     assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
     assert differences == 0

@@ -18,17 +18,15 @@ whole runs' sensitivities against Richardson central differences of whole runs a
 method's; the guided mass through the CLI, loop on and off."""
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 
-from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
 from tests.test_sensitivities_in_loop_links import CHAIN
 from tests.test_weight_derivative_linked import turned_state
-from tests.test_weight_derivative_linked_controllers import GIMBAL_OFFSET, events_take_no_difference_and_runs_agree
+from tests.test_weight_derivative_linked_controllers import (GIMBAL_OFFSET, cli_writes_the_apis_event_sensitivities,
+                                                             events_take_no_difference_and_runs_agree)
 from tests.test_weight_derivative_linked_rates import richardson_of_the_generated_product
-from tests.test_weight_derivative_linked_rest import BEAD_FOLLOWER, _at_events_once
+from tests.test_weight_derivative_linked_rest import BEAD_FOLLOWER
 
 #: the gimbal latching, a PD of the boom's start (an offset from the inner ring, a dependent node): its global y, its
 #: velocity's y (v + ω × T r, sensor kind 6) and its velocity's z in the tip body's axes (kind 13), nonlinear in them
@@ -127,11 +125,4 @@ def test_the_events_take_no_difference_and_the_runs_agree_with_richardson(name):
 def test_the_guided_mass_through_the_cli_loop_on_and_off(tmp_path):
     """The guided mass with its driven loads through ``latdyn run``: the loop off writing the same bytes, and the API's
     event sensitivities the CLI's, made without a difference of W_rest."""
-    run, out = latdyn_run(tmp_path, BEAD_PD, quiet=True)
-    assert run.returncode == 0, run.stderr
-    summary = summary_of(out)
-    assert [e["kind"] for e in summary["events"]] == ["stop"]
-    the_loop_off_writes_the_same(tmp_path, out)
-    result, _, differences = _at_events_once(BEAD_PD)   # the events test's run, when this process made it
-    assert json.loads(json.dumps(result.summary["event_sensitivities"])) == summary["event_sensitivities"]
-    assert differences == 0
+    cli_writes_the_apis_event_sensitivities(tmp_path, BEAD_PD, ["stop"])

@@ -112,6 +112,20 @@ def _richardson_by_rates(prepared, state, w: np.ndarray, dv: np.ndarray, blocks:
     return out
 
 
+def _rates_term(monkeypatch, text: str):
+    """(prepared, state, w, δv (3 columns), ∂(K w)/∂v δv, the evaluations it made, the blocks moving) at a turned,
+    moving state of ``text``."""
+    prepared, state, rng = moving_state(text)
+    owner = TransientSensitivities(prepared)
+    n = prepared.model.n_dofs
+    w, dv = rng.normal(size=n), rng.normal(size=(n, 3))
+    assert owner.stiffness_moves_with_rates(state) and "controllers' couplings" in owner._rates_moving[1]
+    counts = _evaluations_in_the_rates_term(monkeypatch)
+    computed = owner._stiffness_by_rates(state, w, dv)
+    monkeypatch.undo()
+    return prepared, state, w, dv, computed, counts, owner._rates_moving[1]
+
+
 def _evaluations_in_the_rates_term(monkeypatch) -> list:
     """[the model's evaluations made inside each call of ``TransientSensitivities._stiffness_by_rates``] (the
     adjoint's transpose calls it too)."""

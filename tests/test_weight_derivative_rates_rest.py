@@ -14,12 +14,10 @@ import pytest
 
 import latdyn
 import yaml
-from latdyn.analyses.transient_sensitivities import TransientSensitivities
-from tests.test_sensitivities_rate_stiffness import moving_state
 from tests.test_weight_derivative_controllers_rest import RELATIVE, SPAR
 from tests.test_weight_derivative_couplings import FORCE, LOAD, latdyn_run_through_the_latch_agrees
 from tests.test_weight_derivative_force_sensors import SECTION, TENSION
-from tests.test_weight_derivative_rates import _evaluations_in_the_rates_term, _richardson_by_rates
+from tests.test_weight_derivative_rates import _evaluations_in_the_rates_term, _rates_term, _richardson_by_rates
 from tests.test_weight_derivative_rest import CONTROLLED_BOOM
 
 PD = '  pd: {output: "-Kp*sin(angle - 0.3) - Kd*rate*(1 + angle**2)"}'
@@ -68,20 +66,6 @@ assert "pull**2" in LOAD_TENSION
 SCENES = {"offset_velocity": OFFSET_VELOCITY, "relative_velocity": RELATIVE, "spar_relative_velocity": SPAR,
           "chain": CHAIN, "input_state": INPUT_STATE, "tension": TENSION, "joint_force": DAMPED_FORCE,
           "load_velocity": LOAD_VELOCITY, "load_chain": LOAD_CHAIN, "load_tension": LOAD_TENSION}
-
-
-def _rates_term(monkeypatch, text: str):
-    """(prepared, state, w, δv (3 columns), ∂(K w)/∂v δv, the evaluations it made, the blocks moving) at a turned,
-    moving state of ``text``."""
-    prepared, state, rng = moving_state(text)
-    owner = TransientSensitivities(prepared)
-    n = prepared.model.n_dofs
-    w, dv = rng.normal(size=n), rng.normal(size=(n, 3))
-    assert owner.stiffness_moves_with_rates(state) and "controllers' couplings" in owner._rates_moving[1]
-    counts = _evaluations_in_the_rates_term(monkeypatch)
-    computed = owner._stiffness_by_rates(state, w, dv)
-    monkeypatch.undo()
-    return prepared, state, w, dv, computed, counts, owner._rates_moving[1]
 
 
 @pytest.mark.parametrize("name", list(SCENES))
