@@ -331,22 +331,6 @@ def test_a_guides_compliant_stop_equals_the_forward_method():
     assert _adjoint_error(forward, adjoint) < 1e-10
 
 
-def test_geometry_beside_rigid_links_stays_refused_by_the_adjoint():
-    """Beside rigid links or guides the forward method refuses geometry parameters today (its refusal comes first,
-    naming solve.sensitivities); the adjoint's own refusal (``adjoint_refusal``, naming solve.sensitivity_method) stands
-    behind it, for when the forward method takes them: its start and ∂r/∂X through the reduction are not transposed
-    here. Checked on the adjoint's refusal itself, the forward method's not being lifted on this branch."""
-    from latdyn.analyses.sensitivities import adjoint_refusal
-
-    text = (KNEE_3D.replace("elements: 2, y_axis: [0, 1, 0]}", "elements: 2, y_axis: [0, 1, 0], rigid: true}")
-            .replace("analysis: transient,", "analysis: transient, sensitivity_method: adjoint,"))
-    assert text.count("rigid: true") == 1 and "sensitivity_method: adjoint" in text
-    refused = adjoint_refusal(latdyn.load_scene(yaml.safe_load(text)))
-    assert refused is not None and refused.key == "solve.sensitivity_method"
-    assert "beams.a.rigid" in str(refused) and "bodies.knee.at[0]" in str(refused)
-    assert adjoint_refusal(latdyn.load_scene(yaml.safe_load(EVERY_PROBE))) is None
-
-
 def test_the_boom_interrupted_before_its_latch_resumes_to_the_same_derivatives(tmp_path, monkeypatch):
     """The stored trajectory rides in the checkpoint; the geometry's derivatives are made anew from the scene on
     resume: interrupted at t = 0.2 (before the latch), resumed, sensitivities.csv and summary.json's probe and event
@@ -358,21 +342,3 @@ def test_the_boom_interrupted_before_its_latch_resumes_to_the_same_derivatives(t
     resumed, uninterrupted = (json.loads((folder / "summary.json").read_text()) for folder in (out, whole))
     assert resumed["probe_sensitivities"] == uninterrupted["probe_sensitivities"]
     assert resumed["event_sensitivities"] == uninterrupted["event_sensitivities"]
-
-
-def test_geometry_beside_a_controller_the_adjoint_has_not_checked_stays_refused():
-    """Likewise behind the forward method's refusal today: a controller reading a point (its sensed value moves with
-    the geometry) beside a geometry parameter is refused by the adjoint's own refusal, one reading the hinge's angle
-    and rate taken (tests/test_sensitivities_refusals_lifted.py's PLACED_PD equals the forward method to 2.2e-12,
-    measured; docs/parameters.md, "Geometry parameters by the adjoint")."""
-    from latdyn.analyses.sensitivities import adjoint_refusal
-    from tests.test_sensitivities_refusals_lifted import PLACED_PD
-
-    taken = PLACED_PD.replace("solve: {", "solve: {sensitivity_method: adjoint, ")
-    assert taken != PLACED_PD and adjoint_refusal(latdyn.load_scene(yaml.safe_load(taken))) is None
-    reading = (taken.replace('output: "Kp*(ref - hinge) - Kd*rate + ff*ref"',
-                             'output: "Kp*(ref - hinge) - Kd*rate + tz"')
-               .replace("  probes:\n", "  probes:\n    tz: {point: b.end, quantity: position, component: z}\n"))
-    assert reading.count("tz") == 2
-    refused = adjoint_refusal(latdyn.load_scene(yaml.safe_load(reading)))
-    assert refused is not None and refused.key == "solve.sensitivity_method" and "reading points" in str(refused)

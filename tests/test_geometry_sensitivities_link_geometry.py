@@ -10,7 +10,8 @@ inertia and not the reduction's J moves, and the dependent nodes move with δo (
 translates by T_A δ: ``ReferenceGeometry._add_shifts`` (K d + C δv + M δa before the reduction and the projection's
 d × F_S on A's rotational rows), on the per-step path. Each case was refused on 40bf44a and is checked against
 Richardson-extrapolated central differences of whole runs (≤ 1e-6 of each probe's largest), through the API and the
-CLI (to the bit), the loop of steps on and off (to the bit). The discrete adjoint refuses them, naming the rigid link.
+CLI (to the bit), the loop of steps on and off (to the bit). The discrete adjoint takes them (its derivatives the
+forward method's: tests/test_adjoint_geometry_linked.py; refused, naming the rigid link, on 5a68b93).
 Still refused, naming what moves: a hinge axis on a link, and beside a shift on a part that turns events, controllers
 and probes other than points' (global axes), hinges' and guides' (a ring's offset, a link's length: taken since,
 tests/test_geometry_sensitivities_link_length.py)."""
@@ -167,28 +168,6 @@ def assert_the_cli_equals_the_api(tmp_path, scene: str, columns) -> None:
     for column in columns:
         at = rows[0].index(column)
         assert np.array_equal([float(row[at]) for row in rows[1:]], api.sensitivities[tuple(column.split("/"))])
-
-
-@pytest.mark.parametrize("text", ["GIMBAL_HINGE_POINT", "CART", "INNER_POINT"])
-def test_the_adjoint_refuses_them_naming_the_link_or_guide(tmp_path, text):
-    """The discrete adjoint does not take geometry beside rigid links or guides: SceneError naming
-    solve.sensitivity_method, the geometry key and the rigid link, through the API, and exit 2 without a traceback
-    through the CLI."""
-    assert_the_adjoint_refuses(tmp_path, globals()[text], "beams.pend.rigid" if text == "CART" else "beams.gim1.rigid")
-
-
-def assert_the_adjoint_refuses(tmp_path, text: str, key: str) -> None:
-    """``text`` with ``sensitivity_method: adjoint``: SceneError naming solve.sensitivity_method, "beside rigid links or
-    guides" and ``key`` through the API, exit 2 naming the key without a traceback through the CLI."""
-    scene = text.replace("solve: {analysis: transient,", "solve: {analysis: transient, sensitivity_method: adjoint,")
-    assert "sensitivity_method: adjoint" in scene
-    with pytest.raises(SceneError) as refused:
-        latdyn.run(latdyn.load_scene(yaml.safe_load(scene)))
-    message = str(refused.value)
-    assert refused.value.key == "solve.sensitivity_method" and "beside rigid links or guides" in message, message
-    assert key in message, message
-    run, _ = latdyn_run(tmp_path, scene)
-    assert run.returncode == 2 and "solve.sensitivity_method" in run.stderr and "Traceback" not in run.stderr
 
 
 #: what stays refused: the inner ring's hinge point on the outer ring beside its latch, the guide's origin on the arm's

@@ -9,7 +9,8 @@ fixed in the link node's axes (a part that turns): the subtree below translates 
 ``link_inertia_moved``: the generated ``joint_body`` at (δm, c, δI) and ``joint_body_D_com`` along δc. Each case was
 refused on 0d1fc61 and is checked against Richardson-extrapolated central differences of whole runs (≤ 1e-6 of each
 probe's largest), through the API and the CLI (to the bit); the loop of steps refuses them (both runs take the per-step
-path, to the bit); the discrete adjoint refuses them, naming the rigid link. Still refused, naming what moves: a
+path, to the bit); the discrete adjoint takes them (tests/test_adjoint_geometry_linked.py; refused on 5a68b93).
+Still refused, naming what moves: a
 link's length beside events, controllers and probes other than points' (global axes), hinges' and guides'; a length
 moved together with the link's own offsets, from a free end point, or closing a slider-crank loop."""
 from __future__ import annotations
@@ -23,7 +24,7 @@ from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
 from tests.sensitivity_equality import assert_same_sensitivities, runs_with_the_loop_on_and_off
 from tests.test_geometry_sensitivities_link_geometry import CART, END_OFFSET, _static_path_agrees, \
-    assert_the_adjoint_refuses, assert_the_cli_equals_the_api
+    assert_the_cli_equals_the_api
 from tests.test_sensitivities_events import _run as _api_run
 from tests.test_sensitivities_guide_energies import _agree
 from tests.test_sensitivities_rigid_links import GIMBAL, PLACED
@@ -128,12 +129,6 @@ def test_through_the_cli_equals_the_api(tmp_path):
     """``latdyn run`` of OUTER as typed: sensitivities.csv's columns and summary.json's probe sensitivities those of
     ``latdyn.run`` on the same text, to the bit."""
     assert_the_cli_equals_the_api(tmp_path, OUTER, ("tip_x/X", "vi/X", "a1/X", "r2/X", "a2/rho"))
-
-
-def test_the_adjoint_refuses_them_naming_the_link(tmp_path):
-    """The discrete adjoint does not take geometry beside rigid links: SceneError naming solve.sensitivity_method and
-    the rigid link through the API, exit 2 without a traceback through the CLI."""
-    assert_the_adjoint_refuses(tmp_path, RING, "beams.gim1.rigid")
 
 
 #: what stays refused: the ring offset beside gim2's latch; beside a section probe on the boom; gim1's length moved

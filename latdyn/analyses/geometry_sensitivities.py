@@ -73,10 +73,9 @@ point or closing a loop, its y_axis or hinge axes, a slider-crank's closed loop:
 generated), guides beside a
 given initial_velocity.angular (the slides' initial rates move with the points), cables, controllers, arc length (its
 first step's length moves with ∂K/∂p, not generated), a kernel variant generated without the reference derivatives.
-The discrete adjoint takes geometry parameters: the start's move, ∂r/∂p and the probes' moves of this module
-transposed (latdyn/analyses/adjoint_sensitivities.py), not yet beside rigid links or guides or beside controllers
-reading points, cables or joints' forces or driving loads (latdyn/analyses/sensitivities.py
-``_adjoint_geometry_refusal``).
+The discrete adjoint takes geometry parameters wherever this module does: the start's move, ∂r/∂p and the probes'
+moves of this module transposed (latdyn/analyses/adjoint_sensitivities.py), beside rigid links, guides and controllers
+too (tests/test_adjoint_geometry_linked.py).
 """
 from __future__ import annotations
 

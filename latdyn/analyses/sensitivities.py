@@ -214,7 +214,9 @@ def refusal(scene) -> SceneError | None:
 def adjoint_refusal(scene) -> SceneError | None:
     """The SceneError naming ``solve.sensitivity_method`` that refuses the adjoint for ``scene``, or None
     (latdyn/analyses/adjoint_sensitivities.py: through latches, rigid stops, compliant stops' onsets (a hinge's or a
-    guide's) and cables, beside laws in t too, with rigid links and guides and geometry parameters, friction slipping,
+    guide's) and cables, beside laws in t too, with rigid links and guides and geometry parameters (beside them and
+    beside controllers too: what the forward method takes, its start's move, ∂r/∂p and probes' moves transposed),
+    friction slipping,
     sticking and released (a stick beside what its transpose does not take is refused when the joint sticks:
     ``AdjointSensitivities._refuse_a_stick``), through
     controllers with states and sampled ones, latdyn/analyses/adjoint_controller_states.py; the forward method's
@@ -225,44 +227,10 @@ def adjoint_refusal(scene) -> SceneError | None:
         why = f"the adjoint differentiates transient runs only, not a {scene.solve.analysis} analysis"
     elif scene.solve.adaptive:
         why = "the adjoint differentiates fixed-step runs, not the step sizes of adaptive steps (adaptive: true)"
-    elif _adjoint_geometry_refusal(scene) is not None:
-        why = _adjoint_geometry_refusal(scene)
     if why is None:
         return None
     return SceneError(scene.file, key, f"{why}; expected sensitivity_method: forward (the default) here "
                                        "(docs/parameters.md, \"The discrete adjoint\")")
-
-
-def _adjoint_geometry_refusal(scene) -> str | None:
-    """Why the adjoint does not take ``scene``'s geometry parameters, or None: it takes them where the forward method
-    does on 86d57d9's terms (latdyn/analyses/geometry_sensitivities.py ``geometry_refusal``), whose start moves the free
-    nodes alone: beside rigid links or guides (their reduction moves the start and ∂r/∂X) and beside controllers reading
-    points, cables or joint forces or driving loads (their sensed values' ∂/∂X) — not transposed, nor checked, here — it
-    refuses them, whatever the forward method takes."""
-    used = next((used for name in scene.solve.sensitivities for used in scene.parameters.depending_on(name)
-                 if GEOMETRY_KEY.match(used)), None)
-    if used is None:
-        return None
-    linked = next((f"beams.{name}.rigid" for name, beam in scene.beams.items() if beam.rigid), None) or next(
-        (f"bodies.{name}.guide" for name, body in scene.bodies.items() if body.guide is not None), None)
-    if linked is not None:
-        return (f"the adjoint does not take geometry parameters ({used}) beside rigid links or guides ({linked}) yet: "
-                "their reduction moves the start and ∂r/∂X")
-    controllers = getattr(scene, "controllers", None) or {}
-    probes = {p.name: p for p in scene.output.probes}
-    for c in controllers.values():   # the sensors checked beside geometry: section forces, joints' angles and rates
-        sensed = [probes[read] for read in c.reads if read in probes]
-        joints = ("angle", "position", "rate")
-        if any(not (p.kind == "element" or (p.kind in ("hinge", "guide") and p.quantity in joints)) for p in sensed):
-            return (f"the adjoint does not take geometry parameters ({used}) beside a controller reading points, "
-                    f"cables or joint forces ({c.name}) yet; controllers reading section forces and joints' angles "
-                    "and rates it takes")
-    driven = next((key for key in laws_naming(scene, set(controllers))
-                   if not (key.endswith(".hinge.torque") or key.endswith(".guide.force"))), None)
-    if driven is not None:
-        return (f"the adjoint does not take geometry parameters ({used}) beside a controller driving {driven} yet; "
-                "hinge torques and guide forces it takes")
-    return None
 
 
 def _law_in_time(scene):
