@@ -16,7 +16,7 @@ max and min, every event time's) are the forward method's, relative to each outp
 rail whose guide origin moves 1.7e-11, the inner ring's hinge point on the turning outer ring 3.5e-12, the outer ring
 moved (the link's length and direction, its inertia with them) 4.5e-12, the gimbal's
 latch beside its moved base 1.3e-11, the knee's PD reading its moved point 2.2e-12, the gimbal's PD reading the outer
-ring's height 1.2e-11.
+ring's height 1.2e-11; the loop of steps on and off to the bit.
 
 A rest beside a geometry parameter: the released boom of tests/test_sensitivities_hinge_on_stop.py (RELEASE: 13 rattles
 on its stop, released for good at 1.26 s) by the tip's z differs from the forward method by 4.3e-9 on the end angle,
@@ -132,3 +132,16 @@ def test_the_released_boom_by_a_geometry_parameter_agrees_with_richardson(runs):
     expected_time = (4 * times[1] - times[0]) / 3
     assert adjoint.summary["event_sensitivities"][0]["dt"]["zt"] == pytest.approx(expected_time, rel=1e-6, abs=1e-9)
 
+
+
+@pytest.mark.parametrize("name", ["gimbal-hinge-point", "cart-rail-origin"])
+def test_the_loop_of_steps_on_and_off_gives_the_same_adjoint(monkeypatch, name):
+    """Beside the rigid link and the guide, by X: the forward pass's steps stored by the loop of steps (30 and 60 of
+    them) and the reverse pass's native steps give the Python path's derivatives to the bit."""
+    from tests.test_adjoint_in_loop import _run as _run_switched
+
+    text = _adjoint(LINKED[name])
+    native, python = _run_switched(text, monkeypatch, True), _run_switched(text, monkeypatch, False)
+    assert native.summary["sensitivity_steps_in_loop"] == native.native_reverse == native.summary["steps"]
+    assert python.summary["sensitivity_steps_in_loop"] == 0 and python.native_reverse == 0
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
