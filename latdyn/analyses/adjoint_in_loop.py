@@ -13,8 +13,10 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 (:meth:`AdjointLoop.record_rows`). Every event, landing, Newton cut and the step after them takes the Python path as
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
-(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, external work or dissipated energy probes,
-NumPy kernels; the energies of the state, the momenta and geometry parameters are taken, and explicit time dependence
+(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers with states and sampled controllers —
+continuous ones without states are taken, the loop evaluating them as the run without sensitivities does —, external
+work or dissipated energy probes, NumPy kernels; the energies of the state, the momenta and geometry parameters are
+taken, and explicit time dependence
 beside events: the loop starts from a grid point, where δt is 0, and the steps whose end moves in time come from
 Python) and those with cables, which :func:`refusal` refuses itself: decided once, at the start. On a model with
 rigid links or guides the loop's step is the compiled step's reduction, as the forward method's loop takes it (its
@@ -30,8 +32,10 @@ whose S takes the sparse LU is taken natively too, with the band LU with pivotin
 links or guides M, C and the exact K are the compiled step's reduction on the minimum coordinates
 (csrc/linked_matrices.c ``latdyn_linked_exact_values``, as the forward method's step: S on its dense pattern, or
 above DENSE_LIMIT coordinates or on a sparse storage its reduced pattern; the NumPy path takes the same values,
-``Assembler.linked_exact_matrix_values``, AdjointSensitivities._transposed_step_system); (∂r/∂p)ᵀw stays the reduced
-∂r/∂p's product from Python there. For the same runs (:func:`refusal`).
+``Assembler.linked_exact_matrix_values``, AdjointSensitivities._transposed_step_system); (∂r/∂p)ᵀw there is the
+reduced ∂r/∂p's product, that ∂r/∂p left by the same native call where the forward method's loop would differentiate
+the run (csrc/sensitivity_loop.c ``parameter_columns``: :class:`ReverseSteps`), else formed from Python. For the same
+runs (:func:`refusal`).
 
 The derivatives are those of the Python and NumPy paths to the bit (``ADJOINT_IN_LOOP`` and ``REVERSE_NATIVE`` off:
 tests/test_adjoint_in_loop.py, tests/test_adjoint_in_loop_links.py; docs/performance.md, "The adjoint's passes in C",
