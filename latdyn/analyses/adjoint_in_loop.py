@@ -65,7 +65,7 @@ def refusal(owner) -> str | None:
     # laws in t beside events: the loop takes its steps from a grid point (δt = 0 there, each step's ∂r/∂t δt_n
     # nothing), the steps whose end moves in time come from Python (latdyn/analyses/adjoint_time.py)
     # continuous controllers without states: the loop evaluates them as the run without sensitivities does, and
-    # neither pass keeps anything of theirs per step (their parameters' part is ∂r/∂p's, contracted from Python)
+    # neither pass keeps anything of theirs per step (their parameters' part is ∂r/∂p's, contracted as the others')
     return model_refusal(owner, timed=True, continuous_controllers=True)
 
 
@@ -201,8 +201,8 @@ class ReverseSteps:
         #: reverse steps taken natively over the run
         self.steps = 0
 
-    def step(self, new, h: float, rotations: tuple, bars: list, index: int):
-        """w (n, m) of the reverse step at the stored end state ``new`` (the trajectory's entry ``index``) of a step
+    def step(self, new, h: float, rotations: tuple, bars: list, stored: int):
+        """w (n, m) of the reverse step at the stored end state ``new`` (the trajectory's entry ``stored``) of a step
         of size ``h`` (``rotations``: its (J, Jᵀ, Rᵀ) operators), ``bars`` [q̄, v̄, v̇̄, ā] replaced by their values
         before the step; None where this numbering takes the NumPy path (nothing changed). A singular S raises
         SolverError as that path does."""
@@ -221,7 +221,7 @@ class ReverseSteps:
                 owner.controllers.compiled.bind()
             if owner.derivative_laws is not None:
                 owner.derivative_laws.bind()
-        self._grid = index if self.contracts else -1
+        self._grid = stored if self.contracts else -1
         tangent, tangent_t, turn_t = rotations
         n, m = owner.model.n_dofs, bars[0].shape[1]
         for index, bar in enumerate(bars):
