@@ -104,6 +104,14 @@ output:
 """
 
 
+#: the cart bouncing off its guide's stop (e = 0.8, t = 0.29 s) under loads of t: after the stop the reverse steps at
+#: stored states off the time grid read the laws' values at their own times
+CART_STOP_LOADS_IN_T = CART_MAST.replace(
+    'rest: "rest"}', 'rest: "rest", limits: [-0.02, 0.012], restitution: 0.8}').replace(
+    'force: ["P", 0, 0]', 'force: ["P*(1 + sin(20*t))", 0, "0.3*Q*t"]').replace("t_end: 0.4", "t_end: 0.3")
+assert CART_STOP_LOADS_IN_T.count("sin(20*t)") == 1 and "limits" in CART_STOP_LOADS_IN_T
+
+
 def test_the_cli_takes_the_gimbal_under_a_pd_natively_and_writes_the_python_paths_files(tmp_path):
     """The gimbal whose outer hinge a PD drives, to just after its latch: ``latdyn run`` stores its smooth steps in the
     loop of steps (on the base every step came from Python: controllers) and writes the per-step path's
@@ -125,7 +133,8 @@ def test_the_cli_takes_the_gimbal_under_a_pd_natively_and_writes_the_python_path
         assert summary[key] == summary_of(reference)[key], key
 
 
-@pytest.mark.parametrize("text", [GIMBAL_PD, TRUSS_BAY, CART_MAST], ids=["gimbal, PD", "truss bay", "cart, mast"])
+@pytest.mark.parametrize("text", [GIMBAL_PD, TRUSS_BAY, CART_MAST, CART_STOP_LOADS_IN_T],
+                         ids=["gimbal, PD", "truss bay", "cart, mast", "cart, stop, loads of t"])
 def test_the_reverse_steps_contract_the_loops_parameter_columns(text, monkeypatch):
     """Each native reverse step contracts w with the reduced ∂r/∂p it left (the Python contraction,
     ``AdjointSensitivities.residual_transposed_product``, only at the steps from Python: those of the events and after
