@@ -13,8 +13,10 @@ Its rows are recorded on the loop's way (csrc/rows.c), each the index of the sto
 (:meth:`AdjointLoop.record_rows`). Every event, landing, Newton cut and the step after them takes the Python path as
 before. The runs whose every step
 is taken from Python are those the forward method's loop refuses whatever their parameters' kinds
-(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers, external work or dissipated energy probes,
-NumPy kernels; the energies of the state, the momenta and geometry parameters are taken, and explicit time dependence
+(:func:`latdyn.analyses.sensitivities_in_loop.model_refusal`: controllers with states and sampled controllers —
+continuous ones without states are taken, the loop evaluating them as the run without sensitivities does —, external
+work or dissipated energy probes, NumPy kernels; the energies of the state, the momenta and geometry parameters are
+taken, and explicit time dependence
 beside events: the loop starts from a grid point, where δt is 0, and the steps whose end moves in time come from
 Python) and those with cables, which :func:`refusal` refuses itself: decided once, at the start. On a model with
 rigid links or guides the loop's step is the compiled step's reduction, as the forward method's loop takes it (its
@@ -30,8 +32,10 @@ whose S takes the sparse LU is taken natively too, with the band LU with pivotin
 links or guides M, C and the exact K are the compiled step's reduction on the minimum coordinates
 (csrc/linked_matrices.c ``latdyn_linked_exact_values``, as the forward method's step: S on its dense pattern, or
 above DENSE_LIMIT coordinates or on a sparse storage its reduced pattern; the NumPy path takes the same values,
-``Assembler.linked_exact_matrix_values``, AdjointSensitivities._transposed_step_system); (∂r/∂p)ᵀw stays the reduced
-∂r/∂p's product from Python there. For the same runs (:func:`refusal`).
+``Assembler.linked_exact_matrix_values``, AdjointSensitivities._transposed_step_system); (∂r/∂p)ᵀw there is the
+reduced ∂r/∂p's product, that ∂r/∂p left by the same native call where the forward method's loop would differentiate
+the run (csrc/sensitivity_loop.c ``parameter_columns``: :class:`ReverseSteps`), else formed from Python. For the same
+runs (:func:`refusal`).
 
 The derivatives are those of the Python and NumPy paths to the bit (``ADJOINT_IN_LOOP`` and ``REVERSE_NATIVE`` off:
 tests/test_adjoint_in_loop.py, tests/test_adjoint_in_loop_links.py; docs/performance.md, "The adjoint's passes in C",
@@ -60,7 +64,9 @@ def refusal(owner) -> str | None:
         return "cables"
     # laws in t beside events: the loop takes its steps from a grid point (δt = 0 there, each step's ∂r/∂t δt_n
     # nothing), the steps whose end moves in time come from Python (latdyn/analyses/adjoint_time.py)
-    return model_refusal(owner, timed=True)
+    # continuous controllers without states: the loop evaluates them as the run without sensitivities does, and
+    # neither pass keeps anything of theirs per step (their parameters' part is ∂r/∂p's, contracted as the others')
+    return model_refusal(owner, timed=True, continuous_controllers=True)
 
 
 def accepted(trajectory: list) -> list:
@@ -163,32 +169,43 @@ REVERSE_NATIVE = True
 class ReverseSteps:
     """The reverse pass's smooth steps in one native call each (csrc/adjoint_reverse.c ``latdyn_adjoint_reverse_step``:
     M, C, the exact K, S factorised, w = S⁻ᵀz̄ and the bars carried back), for ``owner``'s runs that
-    :func:`refusal` lets through; the contraction with ∂r/∂p stays the caller's
-    (:meth:`AdjointSensitivities.residual_transposed_product`). Laid out per numbering as the forward method's loop
-    lays out its struct (:class:`latdyn.analyses.sensitivities_in_loop.SensitivityLoop`, without its parameters'
-    parts), on the sparse LU too (a failed pivot: the band LU that stands in, as on the NumPy path)."""
+    :func:`refusal` lets through. Laid out per numbering as the forward method's loop lays out its struct
+    (:class:`latdyn.analyses.sensitivities_in_loop.SensitivityLoop`), on the sparse LU too (a failed pivot: the band
+    LU that stands in, as on the NumPy path). The contraction with ∂r/∂p: on a model with rigid links or guides whose
+    parameters the forward method's loop differentiates in C (``sensitivities_in_loop.refusal`` None), the reduced
+    ∂r/∂p that loop forms (csrc/sensitivity_loop.c ``parameter_columns``, in the same call, the derivative laws'
+    values of t tabulated at the stored states' times, ``times``), contracted here
+    (:meth:`residual_transposed_product`: the Python path's ``residual_derivatives(…).T @ w`` on the same array, to
+    the bit); else the caller's (:meth:`AdjointSensitivities.residual_transposed_product`), and the layout without
+    the parameters' section and load parts."""
 
-    def __init__(self, owner):
-        from latdyn.analyses.sensitivities_in_loop import SensitivityLoop
+    def __init__(self, owner, times: list):
+        from latdyn.analyses import sensitivities_in_loop
 
-        class _Layout(SensitivityLoop):   # the step's matrices and S; no parameter forces (the caller contracts)
-            def _sections(self) -> None:
+        class _Layout(sensitivities_in_loop.SensitivityLoop):   # the step's matrices and S; no section or load
+            def _sections(self) -> None:                          # forces (the caller contracts)
                 self.data.n_uses = 0
 
             def _loads(self) -> None:
                 self.data.n_pairs = 0
 
         self.owner = owner
-        self.layout = _Layout(owner)
+        #: whether each native step leaves the reduced ∂r/∂p for :meth:`residual_transposed_product`
+        self.contracts = owner.model.links is not None and sensitivities_in_loop.refusal(owner) is None
+        self.layout = (sensitivities_in_loop.SensitivityLoop if self.contracts else _Layout)(owner)
+        self._times = list(times)   # row i of the laws' tables: the stored state i + 1's time
+        self._tabulated_for = None
         self._scheme = None
         self._work = np.zeros(0)
+        self._grid = -1
         #: reverse steps taken natively over the run
         self.steps = 0
 
-    def step(self, new, h: float, rotations: tuple, bars: list):
-        """w (n, m) of the reverse step at the stored end state ``new`` of a step of size ``h`` (``rotations``: its
-        (J, Jᵀ, Rᵀ) operators), ``bars`` [q̄, v̄, v̇̄, ā] replaced by their values before the step; None where this
-        numbering takes the NumPy path (nothing changed). A singular S raises SolverError as that path does."""
+    def step(self, new, h: float, rotations: tuple, bars: list, stored: int):
+        """w (n, m) of the reverse step at the stored end state ``new`` (the trajectory's entry ``stored``) of a step
+        of size ``h`` (``rotations``: its (J, Jᵀ, Rᵀ) operators), ``bars`` [q̄, v̄, v̇̄, ā] replaced by their values
+        before the step; None where this numbering takes the NumPy path (nothing changed). A singular S raises
+        SolverError as that path does."""
         import ctypes
 
         from latdyn.errors import SolverError
@@ -196,6 +213,15 @@ class ReverseSteps:
         layout, owner = self.layout, self.owner
         if not layout._layout():   # noqa: SLF001 - per numbering
             return None
+        if self.contracts and self._tabulated_for is not layout._for:   # noqa: SLF001 - a numbering's layout: its
+            layout.tabulate_at(self._times, 0)                         # uses' tables at the stored states' times
+            self._tabulated_for = layout._for   # noqa: SLF001
+        if self.contracts and (layout.data.n_partials or layout.data.n_hinge_uses):   # the inputs and controllers'
+            if layout.data.n_partials:                                                # outputs their laws read
+                owner.controllers.compiled.bind()
+            if owner.derivative_laws is not None:
+                owner.derivative_laws.bind()
+        self._grid = stored if self.contracts else -1
         tangent, tangent_t, turn_t = rotations
         n, m = owner.model.n_dofs, bars[0].shape[1]
         for index, bar in enumerate(bars):
@@ -220,17 +246,28 @@ class ReverseSteps:
         info = native.library.latdyn_adjoint_reverse_step(
             native.model_ref, native.work_ref, ctypes.addressof(d), ctypes.byref(native.configuration(new)),
             float(new.t), float(h), self._scheme.ctypes.data, m, f, blocks, blocks_t, turned_t,
-            *(bar.ctypes.data for bar in bars), w.ctypes.data, self._work.ctypes.data)
+            *(bar.ctypes.data for bar in bars), w.ctypes.data, self._work.ctypes.data, self._grid)
         if info != 0:
             raise SolverError(f"the adjoint sensitivities at t = {new.t:.6g} need the step's exact iteration "
                               "matrix, which is singular there")
         self.steps += 1
         return w
 
+    def residual_transposed_product(self, w: np.ndarray):
+        """(k, m): (∂r/∂p)ᵀ w of the last :meth:`step`, from the reduced ∂r/∂p it left (the forward method's loop's
+        columns, ``parameter_columns``), as the Python path contracts the same array
+        (AdjointSensitivities.residual_transposed_product); None where the caller contracts (:attr:`contracts`)."""
+        if self._grid < 0:
+            return None
+        owner = self.owner
+        n, k = owner.model.n_dofs, len(owner.names)
+        return self.layout._buffers["total"].reshape(owner.model.n_total + 1, k)[:n].T @ w   # noqa: SLF001
 
-def reverse_steps(owner):
-    """:class:`ReverseSteps` for ``owner`` (an AdjointSensitivities), or None where its reverse pass takes every step
-    from NumPy and SciPy (:func:`refusal`, or the private switch off). Once a run."""
+
+def reverse_steps(owner, times: list):
+    """:class:`ReverseSteps` for ``owner`` (an AdjointSensitivities; ``times``: its stored states' after the start),
+    or None where its reverse pass takes every step from NumPy and SciPy (:func:`refusal`, or the private switch
+    off). Once a run."""
     if not REVERSE_NATIVE or refusal(owner) is not None:
         return None
-    return ReverseSteps(owner)
+    return ReverseSteps(owner, times)

@@ -769,7 +769,8 @@ class AdjointSensitivities(TransientSensitivities):
             self.controllers.sampled.held = np.zeros_like(self.controllers.sampled.held)
         from latdyn.analyses.adjoint_in_loop import reverse_steps
 
-        native = reverse_steps(self) if n else None   # the smooth steps in one native call each
+        native = reverse_steps(self, [entry["state"].t for entry in trajectory]) if n else None   # the smooth steps
+        # in one native call each
         for i in range(len(trajectory) - 1, -1, -1):
             for column, (c_q, c_v, c_vdot, explicit, *c_S) in seeds.get(i + 1, []):
                 q_bar[:, column] += c_q
@@ -865,10 +866,11 @@ class AdjointSensitivities(TransientSensitivities):
             rule = entry.get("rule")
             if states_t is None and rule is None and native is not None:   # csrc/adjoint_reverse.c: the step below
                 bars = [q_bar, v_bar, vdot_bar, a_bar]                     # in one call, w returned for ∂r/∂p's
-                w = native.step(new, h, (tangent, tangent_t, turn_t), bars)  # contraction
+                w = native.step(new, h, (tangent, tangent_t, turn_t), bars, i)  # contraction
                 if w is not None:
                     g_bar = np.zeros(m)
-                    gradient -= self.residual_transposed_product(new, w)
+                    product = native.residual_transposed_product(w)   # linked: ∂r/∂p left by the native step
+                    gradient -= product if product is not None else self.residual_transposed_product(new, w)
                     if entry.get("timed") and adjoint_time.moves_in_time(self):   # ∂r/∂t δt_n, transposed
                         t_bar = t_bar + adjoint_time.step_transposed(self, new, w)
                     q_bar, v_bar, vdot_bar, a_bar = bars

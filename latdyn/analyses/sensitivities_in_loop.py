@@ -325,7 +325,8 @@ def _body_refusal(owner, key: str, laws: dict) -> str | None:
     return None
 
 
-def model_refusal(owner, differentiated: bool = False, timed: bool = False) -> str | None:
+def model_refusal(owner, differentiated: bool = False, timed: bool = False,
+                  continuous_controllers: bool = False) -> str | None:
     """Why the run of ``owner`` (a TransientSensitivities) takes every step from Python whatever its parameters'
     kinds (no parameters, NumPy kernels, cables without their C kernels,
     controllers, explicit time dependence beside events, the work accounts' probes that :func:`_account_refusal`
@@ -338,7 +339,11 @@ def model_refusal(owner, differentiated: bool = False, timed: bool = False) -> s
     a model with rigid links or guides too (their columns reduced by Pᵀ after the controllers' and ∂r/∂t after the
     laws' rates, as the Python path's ``_on_free_coordinates``). ``timed``: explicit time dependence beside events
     taken whatever it is (the adjoint's forward pass, which stores the steps the loop takes from a grid point, where
-    δt is 0)."""
+    δt is 0). ``continuous_controllers``: continuous controllers without states taken whatever they read (the
+    adjoint's passes: the loop's step evaluates them in C as the run without sensitivities does, and a step stores
+    nothing of theirs; the reverse step's K and C hold their couplings as the Python path's evaluation does);
+    controllers with states or sampled ones refused (their S, f and held outputs stored and transposed per step in
+    Python, latdyn/analyses/adjoint_controller_states.py)."""
     scene, model = owner.scene, owner.model
     if not owner.names:
         return "no parameters"
@@ -349,7 +354,11 @@ def model_refusal(owner, differentiated: bool = False, timed: bool = False) -> s
         why = _cable_refusal(owner)
         if why is not None:
             return why
-    if scene.controllers:
+    if scene.controllers and continuous_controllers:
+        terms = owner.controllers
+        if terms.states is not None or terms.sampled is not None:
+            return "controllers with states or sampled controllers"
+    elif scene.controllers:
         why = _controller_refusal(owner) if differentiated else "controllers"
         if why is not None:
             return why
@@ -1312,18 +1321,23 @@ class SensitivityLoop:
 
     def _tabulate(self, grid_index: int, stop_index: int, control) -> None:
         """The derivative laws' values of t at each grid point from ``grid_index`` + 1 through ``stop_index`` into
-        the struct (the loads', hinges', joint bodies', stops' and friction's; laws of the state: in C)."""
+        the struct (:meth:`tabulate_at`; the step's end time as the loop of steps computes it)."""
+        self.tabulate_at([control.grid_time(grid) for grid in range(grid_index + 1, stop_index + 1)], grid_index + 1)
+
+    def tabulate_at(self, times: list, grid_index: int) -> None:
+        """The derivative laws' values of t at each of ``times`` into the struct, row ``grid_index`` the first (the
+        loads', hinges', joint bodies', stops' and friction's; laws of the state: in C): the loop's grid points, or
+        the discrete adjoint's stored states (latdyn/analyses/adjoint_in_loop.py ``ReverseSteps``, row i the stored
+        state i + 1)."""
         d, owner = self.data, self.owner
         if d.n_pairs:   # the derivative laws' values at each grid point the loop may reach (_load_pair_forces)
             pairs, _, place, _ = owner._load_layout()   # noqa: SLF001
             distinct, use = owner.load_laws_distinct()
-            table = np.zeros((stop_index - grid_index, len(pairs), 6))
-            for row, grid in enumerate(range(grid_index + 1, stop_index + 1)):
-                t = control.grid_time(grid)   # the step's end time, as the loop of steps computes it
+            table = np.zeros((len(times), len(pairs), 6))
+            for row, t in enumerate(times):
                 table[row][place] = 1.0 * np.array([owner._of_time(law, t) for law in distinct])[use]  # noqa: SLF001
             self._table = table
-            d.pair_values, d.values_from = table.ctypes.data, grid_index + 1
-        times = [control.grid_time(grid) for grid in range(grid_index + 1, stop_index + 1)]
+            d.pair_values, d.values_from = table.ctypes.data, grid_index
         if d.n_hinge_uses:   # the derivative laws' values (for the rest angle the stiffness's) at each grid point
             hinges = owner.model.hinges
             compiled = owner.derivative_laws   # the laws of the state compiled: in C; the others tabulated here
@@ -1337,7 +1351,7 @@ class SensitivityLoop:
             if owner.derivative_laws is not None:   # the inputs they read, bound for this call
                 owner.derivative_laws.bind()
             self._hinge_table = np.array(values, float).reshape(len(times), len(uses), 2)
-            d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index + 1
+            d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index
         if d.n_body_uses:   # the kernel's block and ∂c/∂p of each use at each grid point (ParameterDerivatives.body_block)
             from latdyn.model.model import rigid_link_inertia
 
@@ -1350,31 +1364,34 @@ class SensitivityLoop:
                     if along is not None:
                         table[row, u, 13:] = along
                 for u, (beam, b, _, value, _, law) in enumerate(links, len(uses)):   # add_link_section_forces' block
+                    if row and law.is_constant:   # a law without t: the first time's row (the same bits)
+                        table[row, u] = table[0, u]
+                        continue
                     moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
                     moved[value] = law.value(0.0, 0.0, t)
                     mass, _, turning = rigid_link_inertia(beam, **moved)
                     table[row, u, 0], table[row, u, 1:4], table[row, u, 4:13] = mass, owner.model.body_com[b], \
                         turning.reshape(9)
             self._body_table = table
-            d.body_values, d.values_from = table.ctypes.data, grid_index + 1
+            d.body_values, d.values_from = table.ctypes.data, grid_index
         if d.n_law_uses:   # the compliant stops' and friction's derivative laws at each grid point (_contact_forces)
             laws = [law for _, by_column in owner.joint_law_uses() for law in by_column.values()]
             self._law_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
-            d.law_values, d.values_from = self._law_table.ctypes.data, grid_index + 1
+            d.law_values, d.values_from = self._law_table.ctypes.data, grid_index
         if d.cables:   # the cables' derivative laws at each grid point (CableSensitivities.residual_derivatives)
             laws = [law for _, _, _, law in owner.cables.uses]
             self._cable_table = np.array([[law.value(0.0, 0.0, t) for law in laws] for t in times], float).reshape(
                 len(times), len(laws))
-            self._cable_data.values, self._cable_data.values_from = self._cable_table.ctypes.data, grid_index + 1
+            self._cable_data.values, self._cable_data.values_from = self._cable_table.ctypes.data, grid_index
         if d.accounts:
-            self._tabulate_accounts(times, grid_index)
+            self._tabulate_accounts(times, grid_index - 1)
         if d.geometry and self._geometry_data.n_arms:   # the moved loads' values at each grid point (_load_arms)
             geometry = owner.geometry
             self._arm_table = np.array([[geometry.load_arm_values(t, index, 1.0) for index, _, _ in
                                          geometry.moved_loads] for t in times], float)
             g = self._geometry_data
-            g.arm_values, g.values_from = self._arm_table.ctypes.data, grid_index + 1
+            g.arm_values, g.values_from = self._arm_table.ctypes.data, grid_index
 
     def _tabulate_accounts(self, times: list, grid_index: int) -> None:
         """The work accounts' laws at each grid point (``times``, from ``grid_index`` + 1): the damping laws'

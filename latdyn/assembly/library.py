@@ -487,7 +487,7 @@ def native_library() -> ctypes.CDLL:
                                                             P, P, P, I64, P, P]
         library.latdyn_adjoint_reverse_step.restype = I64
         library.latdyn_adjoint_reverse_step.argtypes = [model, work, P, configuration, ctypes.c_double, ctypes.c_double,
-                                                        P, I64, I64, P, P, P, P, P, P, P, P, P]
+                                                        P, I64, I64, P, P, P, P, P, P, P, P, P, I64]
         library.latdyn_sensitivity_update.restype = None
         library.latdyn_sensitivity_update.argtypes = [I64, I64, P, ctypes.c_double, ctypes.c_double, I64, P, P, P, P,
                                                       P]

@@ -11,7 +11,10 @@
  *     q̄⁰ = q̄ − Kᵀw,  v̄⁰ = v̄ − Cᵀw,  ū = Jᵀq̄⁰,  ā⁰ = ā + hγ v̄⁰ + h²β ū,
  *     q̄ ← Rᵀq̄⁰,  v̄ ← v̄⁰ + h ū,  ā ← h(1 − γ) v̄⁰ + h²(½ − β) ū − α_m/(1 − α_m) ā⁰,  v̇̄ ← α_f/(1 − α_m) ā⁰,
  *
- * w returned for the contraction with ∂r/∂p, which the caller takes (AdjointSensitivities.residual_transposed_product).
+ * w returned for the contraction with ∂r/∂p, which the caller takes (AdjointSensitivities.residual_transposed_product);
+ * where the caller asks (grid ≥ 0: a model with rigid links or guides whose parameters the forward method's loop
+ * differentiates in C), ∂r/∂p at c reduced by Pᵀ left in s->total as the forward step forms it (sensitivity_loop.c
+ * parameter_columns, the laws' values at row `grid` of the caller's tables), which the caller contracts with w.
  * The SensitivityLoop struct of sensitivity_loop.c holds the layout (latdyn/analyses/sensitivities_in_loop.py).
  *
  * Runtime code, written by hand: it holds no physics. The sums are taken in the order NumPy and SciPy take them on
@@ -36,11 +39,12 @@ static void pattern_transposed_product(const SensitivityStep *s, const double *A
 /* The reverse step (see the header) at the stored end state c (time t, size h; scheme: α_m, α_f, γ, β) for m
  * columns q_bar, v_bar, vdot_bar, a_bar (each n × m, row-major, updated in place), with the step's rotation blocks
  * on s's slots: tangent (J, for S), tangent_t and turn_t (Jᵀ, Rᵀ; f = 0: the identity), into w (n × m); work holds
- * 5 n m doubles. Returns 0, or the factorization's info where S is singular (nothing updated). */
+ * 5 n m doubles; grid ≥ 0: ∂r/∂p at c into s->total (see the header), −1: not. Returns 0, or the factorization's
+ * info where S is singular (nothing updated). */
 int64_t latdyn_adjoint_reverse_step(const Model *m, Work *w, SensitivityLoop *s, const Configuration *c, double t,
                                     double h, const double *scheme, int64_t cols, int64_t f, const double *tangent,
                                     const double *tangent_t, const double *turn_t, double *q_bar, double *v_bar,
-                                    double *vdot_bar, double *a_bar, double *w_out, double *work)
+                                    double *vdot_bar, double *a_bar, double *w_out, double *work, int64_t grid)
 {
     const int64_t n = m->n_dofs, size = n * cols;
     const double am = scheme[0], af = scheme[1], gamma = scheme[2], beta = scheme[3];
@@ -51,6 +55,7 @@ int64_t latdyn_adjoint_reverse_step(const Model *m, Work *w, SensitivityLoop *s,
                                    s->linked_body_D, s->linked_gather, s->linked_count, s->linked_storage, s->mck);
     else
         exact_matrices(m, w, s, c, t);   /* sensitivity_loop.c */
+    if (grid >= 0) parameter_columns(m, w, s, c, t, grid);   /* with the evaluation at c, as the forward step */
     int64_t info = latdyn_sensitivity_step(step, s->mck, tangent, beta_p, gamma_p, s->S, s->factor, s->pivots, 0,
                                            NULL, NULL, NULL, NULL, NULL);
     const Factorization *factorization = step->factorization;

@@ -603,6 +603,40 @@ static void exact_matrices(const Model *m, Work *w, SensitivityLoop *s, const Co
                                s->mck);
 }
 
+/* ∂r/∂p with the inertia forces at c (time t, the laws' tabulated values at grid point `grid`) into s->total
+ * ((n_total + 1) × k; with rigid links or guides reduced by Pᵀ in place, rows < n), with Work holding the evaluation
+ * at c (ParameterDerivatives.residual_derivatives: the hinges', the sections', the geometry parameters', the joint
+ * bodies', the compliant stops' and friction's, then the loads'): the forward step's right-hand side
+ * (sensitivity_loop_step) and the discrete adjoint's contraction (∂r/∂p)ᵀw (adjoint_reverse.c). */
+static void parameter_columns(const Model *m, Work *w, SensitivityLoop *s, const Configuration *c, double t,
+                              int64_t grid)
+{
+    const int64_t k = s->k;
+    memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
+    if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid, t);
+    for (int64_t f = 0; f < s->n_force_reads; ++f)   /* a read joint's ∂F/∂p: its row of the hinge laws' alone, */
+        for (int64_t col = 0; col < k; ++col)
+            s->force_slopes[f * k + col] = s->force_row[f] >= 0 ? s->total[s->force_row[f] * k + col] : 0.0;
+    if (s->n_law_uses && s->n_force_reads) joint_law_force_slopes(m, c, s, grid);   /* + its stops' and friction's */
+    for (int64_t i = 0; i < s->n_force_reads * k; ++i) s->force_slopes[i] = -s->force_slopes[i];   /* −∂f/∂p */
+    if (s->force_element != NULL) section_force_slopes(m, w, c, s);   /* a section force's ∂S/∂p */
+    for (int64_t f = 0; s->force_cable_element != NULL && f < s->n_force_reads; ++f)   /* a cable's tension's ∂N/∂p */
+        if (s->force_cable_element[f] >= 0)
+            cable_tension_slope(m, w, c, s->cables, grid, s->force_cable_element[f], k, s->force_slopes + f * k);
+    if (s->n_uses)
+        latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
+                                        s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
+                                        s->section_scratch);
+    if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
+    if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
+    if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
+    if (s->n_partials || s->sampled_held != NULL || s->states != NULL || s->n_force_reads)
+        controller_parameter_forces(m, w, c, s, t);
+    load_parameter_forces(m, c, s, grid);
+    if (s->cables != NULL) cable_parameter_forces(m, w, c, s->cables, k, grid, s->total);
+    if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
+}
+
 /* The sensitivities' step over the accepted step base → c of size h ending on grid point `grid` at time t
  * (scheme: α_m, α_f, γ, β; v_n, a_n, a_{n+1}: the free velocities at its start and the algorithmic accelerations before and after
  * it): s's carried columns replaced by those at c. Returns 0, or the factorization's info where S is
@@ -642,31 +676,7 @@ static int64_t sensitivity_loop_step(const Model *m, Work *w, SensitivityLoop *s
     else
         exact_matrices(m, w, s, c, t);
     if (s->states != NULL) controller_states_condensed(m, w, s->states, h, 0);
-    /* ∂r/∂p with the inertia forces (ParameterDerivatives.residual_derivatives: the hinges', the sections', the
-     * geometry parameters', the joint bodies', the compliant stops' and friction's, then the loads') */
-    memset(s->total, 0, sizeof(double) * (size_t)((m->n_total + 1) * k));
-    if (s->n_hinge_uses) hinge_parameter_forces(m, c, s, grid, t);
-    for (int64_t f = 0; f < s->n_force_reads; ++f)   /* a read joint's ∂F/∂p: its row of the hinge laws' alone, */
-        for (int64_t col = 0; col < k; ++col)
-            s->force_slopes[f * k + col] = s->force_row[f] >= 0 ? s->total[s->force_row[f] * k + col] : 0.0;
-    if (s->n_law_uses && s->n_force_reads) joint_law_force_slopes(m, c, s, grid);   /* + its stops' and friction's */
-    for (int64_t i = 0; i < s->n_force_reads * k; ++i) s->force_slopes[i] = -s->force_slopes[i];   /* −∂f/∂p */
-    if (s->force_element != NULL) section_force_slopes(m, w, c, s);   /* a section force's ∂S/∂p */
-    for (int64_t f = 0; s->force_cable_element != NULL && f < s->n_force_reads; ++f)   /* a cable's tension's ∂N/∂p */
-        if (s->force_cable_element[f] >= 0)
-            cable_tension_slope(m, w, c, s->cables, grid, s->force_cable_element[f], k, s->force_slopes + f * k);
-    if (s->n_uses)
-        latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
-                                        s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
-                                        s->section_scratch);
-    if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
-    if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
-    if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
-    if (s->n_partials || s->sampled_held != NULL || s->states != NULL || s->n_force_reads)
-        controller_parameter_forces(m, w, c, s, t);
-    load_parameter_forces(m, c, s, grid);
-    if (s->cables != NULL) cable_parameter_forces(m, w, c, s->cables, k, grid, s->total);
-    if (s->linked) latdyn_linked_reduce_columns(m, s->total, k, s->total);   /* Pᵀ, in place: rows < n */
+    parameter_columns(m, w, s, c, t, grid);
     for (int64_t i = 0; i < n; ++i) {   /* on the free coordinates, with the step size's column 0 */
         for (int64_t col = 0; col < k; ++col) s->explicit_[i * cols + col] = s->total[i * k + col];
         s->explicit_[i * cols + k] = 0.0;
