@@ -86,7 +86,8 @@ def shift_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     geometric term of the inertia forces' ∂r_all/∂t and P's move with the prescribed coordinates. One evaluation of
     the terms in t; before, the whole (∂K/∂p) w at two shifts and its first parameter's column (a parameter whose
     uses are differenced and one whose are generated took the other path)."""
-    from latdyn.analyses.parameter_stiffness import time_generated, time_stiffness_along
+    from latdyn.analyses.parameter_stiffness import (_linked_controllers_generated, linked_time_stiffness_along,
+                                                     time_generated, time_stiffness_along)
     from latdyn.analyses.transient_sensitivities import WEIGHT_STEP
     from latdyn.analyses.weight_derivative import geometric_product
 
@@ -94,10 +95,24 @@ def shift_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     linked = model.links is not None
     if not linked and time_generated(owner):
         return owner._on_free_coordinates(state, time_stiffness_along(owner, state, w)[:, None])[:, 0]   # noqa: SLF001
-    eta = WEIGHT_STEP * (owner.length or 1.0) / float(np.max(np.abs(w)))
-    ahead, behind = assembler.advance(state, eta * w), assembler.advance(state, -eta * w)
-    out = (np.asarray(owner.explicit_time(ahead, inertia=False), float)
-           - np.asarray(owner.explicit_time(behind, inertia=False), float)) / (2 * eta)
+    out = None
+    if linked and time_generated(owner) and _linked_controllers_generated(owner):
+        # the forward method's _linked_stiffness_along in δt_e: along u = P w, the prescribed motions through the
+        # reduction, and the geometric term of the static ∂r_all/∂t
+        n_asm = model.n_assembled
+        assembler.complete_links(state)
+        full = np.zeros(model.n_total + 1)
+        full[:n_asm] = np.asarray(assembler.evaluate(state, matrices=True).projection @ w).reshape(-1)
+        out = linked_time_stiffness_along(owner, state, w, full)
+        if out is not None:
+            static = np.asarray(owner.explicit_time(state, inertia=False, on_all=True), float)[:n_asm]
+            assembler.complete_links(state)   # J of the state in the links' buffers
+            out = out + geometric_product(assembler, state, static, w)
+    if out is None:
+        eta = WEIGHT_STEP * (owner.length or 1.0) / float(np.max(np.abs(w)))
+        ahead, behind = assembler.advance(state, eta * w), assembler.advance(state, -eta * w)
+        out = (np.asarray(owner.explicit_time(ahead, inertia=False), float)
+               - np.asarray(owner.explicit_time(behind, inertia=False), float)) / (2 * eta)
     if linked:   # _geometric_derivative's terms in δt_e
         k = len(owner.names)
         held, owner.time_shift = owner.time_shift, np.ones(k)

@@ -128,7 +128,8 @@ from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
 __all__ = ["controller_parameter_along", "exact_parameters", "held_angles_along", "linked_controller_parameter_along",
-           "sampled_held_along", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
+           "linked_time_stiffness_along", "sampled_held_along", "stiffness_along", "stiffness_along_all",
+           "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -218,9 +219,10 @@ def time_generated(owner) -> bool:
     if found is None:
         timed = owner.explicit_time
         laws = timed.laws
-        found = ((not timed.prescribed or owner.model.links is None)
-                 and all(_generated_use(laws, key, by) for key, by in laws.derivatives.items()))
+        found = all(_generated_use(laws, key, by) for key, by in laws.derivatives.items())
         owner._time_stiffness_exact = found
+    if owner.model.links is not None and owner.explicit_time.prescribed:
+        return found and _controllers_in_time_generated(owner) and _linked_prescribed_generated(owner)
     return found and _controllers_in_time_generated(owner) and _prescribed_generated(owner)
 
 
@@ -273,6 +275,91 @@ def _prescribed_along(owner, state, w: np.ndarray, total: np.ndarray) -> None:
             total += _cable_rates_product(assembler, taut, full, rates[1][:, None])[:, 0]
 
 
+def _linked_prescribed_generated(owner) -> bool:
+    """Whether :func:`linked_prescribed_along` forms the prescribed motions' part of the time shift on a model with
+    rigid links or guides: no continuous controller's coupling entry (a sensor on a node the motion carries moves
+    its entry with the output's second derivatives by reads the motion and w move, and a rate sensor's entry is of
+    C), no load a controller drives, and no damped cable (its K moves with the rates, which the reduction completes
+    for the dependent nodes in ∂r/∂t and holds in K): the static C then has no column the motion moves (a hinge's
+    damper is on its own angle, a free coordinate or a prescribed one's reaction row), so ∂r_all/∂t is K δq_all
+    there and the dependent rates' move in time, ∂(J v)/∂q_p q̇_p + J_·p q̈_p, meets no block. Checked per call (the
+    couplings are renumbered at a latch)."""
+    assembler = owner.assembler
+    control = assembler.control
+    if len(np.asarray(getattr(control, "coupling_rows", np.zeros(0)))) or np.any(
+            np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64))) == 1):
+        return False
+    cables = owner.model.cables
+    return cables is None or not np.any(np.asarray(cables.damping) != 0.0)
+
+
+def linked_prescribed_along(owner, state, w: np.ndarray, full: np.ndarray) -> tuple:
+    """The prescribed motions' part of ∂(∂r/∂t)/∂q w on a model with rigid links or guides, exactly, where
+    :func:`_linked_prescribed_generated`: (its part on the assembled coordinates (n_total + 1,), which the caller
+    reduces by Pᵀ; its part on the free coordinates (n,)). The static ∂r_min/∂t through the motions is
+    (latdyn/analyses/prescribed_rates.py, csrc/linked_prescribed_rates.c)
+
+        ∂r_min/∂t = Pᵀ K_all u + ∂Pᵀ/∂q_p[q̇_p] · r_all,   u = δq_all in time: q̇_p, and J_·p q̇_p on the dependent rows
+
+    (C_all has no column u or the dependent rates' move reaches: :func:`_linked_prescribed_generated`). Along w, the
+    free coordinates moving by w and the dependent ones by U = P w (``full``), at every rate held (the evaluation's
+    K, ``TransientSensitivities._advanced_at_held_rates``):
+
+        Pᵀ ∂(K_all u)/∂q_all U                     the generated H parts at the direction u (the unlinked
+                                                   :func:`_prescribed_along`'s, on every assembled coordinate)
+      + Pᵀ K_all ∂(J_·p q̇_p)/∂q w                 the dependent nodes' move in time moved along w (the compiled links'
+                                                   rates' derivative at the prescribed rates,
+                                                   ``weight_derivative._rates_jacobian_derivative``)
+      + ∂(Pᵀ ∂r_all/∂t)/∂q w at fixed ∂r_all/∂t    (the caller's geometric term of the static ∂r_all/∂p, which holds it)
+      + ∂Pᵀ/∂q_p[q̇_p] · K_all U                   r_all moved along w (``latdyn_linked_geometric_product`` on the
+                                                   prescribed columns)
+      + ∂/∂q(∂Pᵀ/∂q_p[q̇_p])[w] · r_all            the links' second derivatives (``linked_geometric_rate_in_time`` of
+                                                   the static r_all: the mixed derivative of Pᵀ(q_f ⊕ ε w, q_p(t + τ)) y
+                                                   in the two scalars ε, τ, taken in either order).
+
+    K_all the static evaluation's blocks (csrc/prescribed_rates.c's, ``PrescribedRates.static_blocks_times``). Before,
+    a central difference of the whole static ∂r/∂p along w (two evaluations at each weighing)."""
+    import ctypes
+
+    from latdyn.analyses.weight_derivative import (_cable_part, _generated, _load_part, _rates_jacobian_derivative,
+                                                   linked_geometric_rate_in_time)
+
+    model, assembler = owner.model, owner.assembler
+    motions = owner.explicit_time.motions
+    size, n, n_asm = model.n_total + 1, model.n_dofs, model.n_assembled
+    rates = motions.rates(float(state.t))
+    _, _, moves = motions.linked_moves(state, inertia=False)
+    u = moves[0]
+    assembled = np.zeros(size)
+    for rows, cols, values in (_generated(assembler, state, None, 1.0, False, full=u),
+                               _load_part(assembler, state, None, 1.0, full=u),
+                               _cable_part(assembler, state, None, 1.0, full=u)):
+        np.add.at(assembled, rows, values * full[cols])
+    dependent = model.node_dofs[model.links.dependent].ravel()
+    moved_in_time = np.zeros(size)
+    moved_in_time[dependent] = _rates_jacobian_derivative(assembler, state, np.zeros(n), prescribed=rates[0]) @ w
+    moved_in_time[model.n_total] = 0.0
+    on = (moved_in_time != 0.0).astype(np.int64)
+    if np.any(on):
+        assembled += motions.static_blocks_times(state, on, np.stack([moved_in_time, np.zeros(size), np.zeros(size)]))
+    along = np.zeros(size)
+    along[:n_asm] = full[:n_asm]
+    on = (along != 0.0).astype(np.int64)
+    by_w = motions.static_blocks_times(state, on, np.stack([along, np.zeros(size), np.zeros(size)]))
+    residual = np.zeros(size)
+    residual[:n_asm] = np.asarray(assembler.evaluate_assembled(state, False, 1.0, False).residual)[:n_asm]
+    native = assembler.native()
+    assembler.complete_links(state)   # J of the state in the links' buffers
+    marked, vector, product = (np.ascontiguousarray(motions.mask(), np.int64), np.ascontiguousarray(rates[0]),
+                               np.zeros(size))
+    by_w[n_asm:] = 0.0
+    native.library.latdyn_linked_geometric_product(native.model_ref, ctypes.byref(native.configuration(state)),
+                                                   by_w.ctypes.data, marked.ctypes.data, vector.ctypes.data,
+                                                   product.ctypes.data)
+    free = product[:n] + linked_geometric_rate_in_time(assembler, state, residual[:n_asm], w, rates[0])
+    return assembled, free
+
+
 def _controllers_in_time_generated(owner) -> bool:
     """Whether the continuous controllers' explicit ∂y/∂t (ExplicitTime's one-column ControllerTerms, t its column)
     moves along w exactly (:func:`controller_parameter_along` forms it): none names t, or every controller's second
@@ -315,6 +402,21 @@ def time_stiffness_along(owner, state, w: np.ndarray, full: np.ndarray | None = 
     if timed.laws.controllers is not None:
         out = out + controller_parameter_along(owner, state, w, terms=timed.laws.controllers)[:, 0]
     return out
+
+
+def linked_time_stiffness_along(owner, state, w: np.ndarray, full: np.ndarray):
+    """∂(∂r_min/∂t)/∂q w (n,) of the static residual on a model with rigid links or guides, where
+    :func:`time_generated`, but for the reduction's geometric term of the static ∂r_all/∂t (the caller's, with the
+    other columns of ∂r_all/∂p): :func:`time_stiffness_along` along u = P w (``full``) reduced by Pᵀ, and the
+    prescribed motions' part (:func:`linked_prescribed_along`); None where a controller's terms are not formed."""
+    out = time_stiffness_along(owner, state, w, full=full)
+    if out is None:
+        return None
+    free = np.zeros(owner.model.n_dofs)
+    if owner.explicit_time.prescribed:
+        assembled, free = linked_prescribed_along(owner, state, w, full)
+        out = out + assembled
+    return owner._on_free_coordinates(state, out[:, None])[:, 0] + free
 
 
 def _reels_along(owner, state, full: np.ndarray, total: np.ndarray) -> None:

@@ -151,10 +151,10 @@ class PrescribedRates:
                                                    int(bool(inertia)), *pointers[2:], out.ctypes.data)
         return out
 
-    def _evaluated(self, state, inertia: bool, rates: np.ndarray | None) -> tuple:
+    def _evaluated(self, state, inertia: bool, rates: np.ndarray | None, mask: np.ndarray | None = None) -> tuple:
         """The native model evaluated at ``state`` with the blocks (the inertia tangent with ``inertia``), and the
-        addresses of the mask, the rates, the joint bodies' inertia stiffness (or None), the loads' columns and the
-        couplings (or None) that the C calls take, the arrays held until the next call."""
+        addresses of the mask (default :meth:`mask`), the rates, the joint bodies' inertia stiffness (or None), the
+        loads' columns and the couplings (or None) that the C calls take, the arrays held until the next call."""
         assembler, model = self.owner.assembler, self.owner.model
         native = assembler.native(True)
         native.evaluate(state, True, 1.0, inertia, inertia)
@@ -162,14 +162,34 @@ class PrescribedRates:
         if inertia and len(model.body_nodes):
             body = np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), float)
         rates = np.ascontiguousarray(self.rates(float(state.t)) if rates is None else rates, float)
-        self._held = arrays = (self.mask(), rates, body, self.load_columns(), self.couplings())
+        mask = self.mask() if mask is None else np.ascontiguousarray(mask, np.int64)
+        self._held = arrays = (mask, rates, body, self.load_columns(), self.couplings())
         return native, tuple(None if a is None else a.ctypes.data for a in arrays)
+
+    def static_blocks_times(self, state, mask: np.ndarray, moves: np.ndarray) -> np.ndarray:
+        """K[:, mask] δq + C[:, mask] δv (n_total + 1,) of the static evaluation's blocks at ``state`` (K without
+        the inertia tangent, as W's), ``moves`` (3, n_total + 1) the columns' δq, δv (δa unread), every block
+        csrc/prescribed_rates.c ``latdyn_prescribed_time_rate`` takes (elements, joint bodies' weight, hinges, loads,
+        cables, couplings): the static ∂r_all/∂t's own products along other columns (latdyn/analyses/
+        parameter_stiffness.py ``linked_prescribed_along``)."""
+        native, pointers = self._evaluated(state, False, moves, mask)
+        out = np.empty(self.owner.model.n_total + 1)
+        native.library.latdyn_prescribed_time_rate(native.model_ref, native.work_ref, pointers[0], pointers[1], 0,
+                                                   *pointers[2:], out.ctypes.data)
+        return out
 
     def linked(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> tuple:
         """(∂r_all/∂t (n_total + 1,), every coordinate's row before the reduction; ∂r_min/∂t (n,)) through the
         prescribed motions of a model with rigid links or guides at ``state``: the dependent nodes that hang from a
         prescribed coordinate move with it (module docstring; csrc/linked_prescribed_rates.c
         ``latdyn_linked_prescribed_time_rate``, which the loop of steps calls too)."""
+        total, out, _ = self.linked_moves(state, inertia, rates)
+        return total, out
+
+    def linked_moves(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> tuple:
+        """:meth:`linked`'s (∂r_all/∂t, ∂r_min/∂t) and the move in time of every coordinate it took, (3, n_total + 1):
+        δq, δv, δa on the prescribed coordinates (their laws' rates) and the dependent ones (J_·p q̇_p, …), 0
+        elsewhere."""
         from latdyn.assembly.linked import linked_pattern
 
         assembler, model = self.owner.assembler, self.owner.model
@@ -183,7 +203,9 @@ class PrescribedRates:
             native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), pointers[0], pointers[1],
             int(bool(inertia)), *pointers[2:], scratch_mask.ctypes.data, moved.ctypes.data, total.ctypes.data,
             out.ctypes.data)
-        return total, out[:model.n_dofs].copy()
+        moves = moved.reshape(3, size).copy()
+        moves[:, scratch_mask == 0] = 0.0
+        return total, out[:model.n_dofs].copy(), moves
 
 
 def load_block_columns(assembler) -> np.ndarray:

@@ -139,7 +139,7 @@ from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters, held_angles_along,
-                                                 linked_controller_parameter_along,
+                                                 linked_controller_parameter_along, linked_time_stiffness_along,
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
@@ -1153,12 +1153,13 @@ class TransientSensitivities(ParameterDerivatives):
             if beside is None:
                 return None
             total += beside
+        out = self._on_free_coordinates(state, total)
         if self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift):
-            timed = time_stiffness_along(self, state, w, full=full)   # ∂(∂r_all/∂t)/∂q u δt_e, the laws' rates in t
+            # ∂(∂r_min/∂t)/∂q w δt_e: the laws' rates in t along u, the prescribed motions through the reduction
+            timed = linked_time_stiffness_along(self, state, w, full)
             if timed is None:
                 return None
-            total += np.outer(timed, self.time_shift)
-        out = self._on_free_coordinates(state, total)
+            out += np.outer(timed, self.time_shift)
         static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
         return out + self._geometric_products(state, static, w)
 

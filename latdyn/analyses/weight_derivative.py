@@ -2365,12 +2365,14 @@ def linked_geometric_rate_in_time(assembler, state, y: np.ndarray, w: np.ndarray
     return geometric_second_product(assembler, state, y, w, motion_rates)
 
 
-def _rates_jacobian_derivative(assembler, state, w: np.ndarray) -> np.ndarray:
+def _rates_jacobian_derivative(assembler, state, w: np.ndarray, prescribed: np.ndarray | None = None) -> np.ndarray:
     """∂(J w)/∂q (6 n_dep × n) at ``state``: the dependent nodes' rates' derivative by the free coordinates at fixed
     free rates w, every other rate (the prescribed coordinates') 0 — ∂P/∂q[δq] w is its product with δq on the
-    dependent rows (P = [I; J]). The compiled links' own (csrc/links.c ``dependent_rates_tangent``: the generated
-    edge kernels' ``*_rates_D_q`` composed along the tree) at a copy of the state with those rates; the links'
-    buffers completed again at the state after it."""
+    dependent rows (P = [I; J]). ``prescribed`` (n_total + 1,): the prescribed coordinates' rates instead of 0 (with
+    w = 0, ∂(J_·p q̇_p)/∂q: the move in time of the dependent nodes moved along q, ``linked_prescribed_along`` of
+    latdyn/analyses/parameter_stiffness.py). The compiled links' own (csrc/links.c ``dependent_rates_tangent``: the
+    generated edge kernels' ``*_rates_D_q`` composed along the tree) at a copy of the state with those rates; the
+    links' buffers completed again at the state after it."""
     from latdyn.assembly.assembler import unpack_free
     from latdyn.assembly.linked import _rates_tangent
 
@@ -2380,6 +2382,15 @@ def _rates_jacobian_derivative(assembler, state, w: np.ndarray) -> np.ndarray:
     for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
         getattr(moved, name)[...] = 0.0
     unpack_free(model, w, moved.v, moved.w, moved.theta_dot)
+    if prescribed is not None:   # a prescribed node's rates on its coordinates (spatial ω on its turns), an angle's
+        on = set(int(d) for d in model.prescribed_coordinates())
+        for i, dofs in enumerate(model.node_dofs):
+            for k, d in enumerate(dofs):
+                if int(d) in on:
+                    (moved.v if k < 3 else moved.w)[i, k % 3] = prescribed[d]
+        for j, d in enumerate(model.hinge_dofs):
+            if int(d) in on:
+                moved.theta_dot[j] = prescribed[d]
     native = assembler.native()
     native.complete_links(moved)
     columns = links.columns(model)
