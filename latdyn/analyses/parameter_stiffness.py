@@ -302,8 +302,9 @@ def linked_prescribed_along(owner, state, w: np.ndarray, full: np.ndarray) -> tu
         ∂r_min/∂t = Pᵀ K_all u + ∂Pᵀ/∂q_p[q̇_p] · r_all,   u = δq_all in time: q̇_p, and J_·p q̇_p on the dependent rows
 
     (C_all has no column u or the dependent rates' move reaches: :func:`_linked_prescribed_generated`). Along w, the
-    free coordinates moving by w and the dependent ones by U = P w (``full``), at every rate held (the evaluation's
-    K, ``TransientSensitivities._advanced_at_held_rates``):
+    free coordinates moving by w and the dependent ones by U = P w (``full``), every rate held (the evaluation's K,
+    ``TransientSensitivities._advanced_at_held_rates``), the mixed derivative of r_min(q_f ⊕ ε w, q_p(t + τ)) in the
+    two scalars ε, τ:
 
         Pᵀ ∂(K_all u)/∂q_all U                     the generated H parts at the direction u (the unlinked
                                                    :func:`_prescribed_along`'s, on every assembled coordinate)
@@ -311,14 +312,20 @@ def linked_prescribed_along(owner, state, w: np.ndarray, full: np.ndarray) -> tu
                                                    rates' derivative at the prescribed rates,
                                                    ``weight_derivative._rates_jacobian_derivative``)
       + ∂(Pᵀ ∂r_all/∂t)/∂q w at fixed ∂r_all/∂t    (the caller's geometric term of the static ∂r_all/∂p, which holds it)
-      + ∂Pᵀ/∂q_p[q̇_p] · K_all U                   r_all moved along w (``latdyn_linked_geometric_product`` on the
+      + ∂Pᵀ/∂q_p[q̇_p] · ∂r_all/∂q U               r_all moved along w (``latdyn_linked_geometric_product`` on the
                                                    prescribed columns)
       + ∂/∂q(∂Pᵀ/∂q_p[q̇_p])[w] · r_all            the links' second derivatives (``linked_geometric_rate_in_time`` of
-                                                   the static r_all: the mixed derivative of Pᵀ(q_f ⊕ ε w, q_p(t + τ)) y
-                                                   in the two scalars ε, τ, taken in either order).
+                                                   the static r_all; the mixed derivative of Pᵀ y taken in either
+                                                   order, the two scalars moving different coordinates).
 
-    K_all the static evaluation's blocks (csrc/prescribed_rates.c's, ``PrescribedRates.static_blocks_times``). Before,
-    a central difference of the whole static ∂r/∂p along w (two evaluations at each weighing)."""
+    K_all in the first two is the impulse weight's (``PrescribedRates.blocks_times`` without the elements' gravity
+    tangent, which W's K does not hold, as the unlinked :func:`_prescribed_along`'s); ∂r_all/∂q in the fourth the
+    static residual's, r_all's own. The central difference of the static ∂r/∂p along w this replaced held the
+    elements' gravity tangent's move in both (the static ∂r/∂t is K u with it): on a cart latching on a guide on a
+    slewing base under gravity, carrying a flexible boom, 7e-7 of the block off this at a turned state (6.7e-12
+    without gravity), and the whole runs' sensitivities 1.8e-7 (k), 1.1e-7 (m), 1.0e-7 (F) off Richardson
+    differences where they are 3.1e-8, 6.2e-9, 3.5e-9 now (tests/test_weight_derivative_linked_held.py). Before, that
+    difference took two evaluations of the static ∂r/∂p at each weighing."""
     import ctypes
 
     from latdyn.analyses.weight_derivative import (_cable_part, _generated, _load_part, _rates_jacobian_derivative,
@@ -341,11 +348,11 @@ def linked_prescribed_along(owner, state, w: np.ndarray, full: np.ndarray) -> tu
     moved_in_time[model.n_total] = 0.0
     on = (moved_in_time != 0.0).astype(np.int64)
     if np.any(on):
-        assembled += motions.static_blocks_times(state, on, np.stack([moved_in_time, np.zeros(size), np.zeros(size)]))
+        assembled += motions.blocks_times(state, on, np.stack([moved_in_time, np.zeros(size), np.zeros(size)]), False)
     along = np.zeros(size)
     along[:n_asm] = full[:n_asm]
     on = (along != 0.0).astype(np.int64)
-    by_w = motions.static_blocks_times(state, on, np.stack([along, np.zeros(size), np.zeros(size)]))
+    by_w = motions.blocks_times(state, on, np.stack([along, np.zeros(size), np.zeros(size)]), True)
     residual = np.zeros(size)
     residual[:n_asm] = np.asarray(assembler.evaluate_assembled(state, False, 1.0, False).residual)[:n_asm]
     native = assembler.native()

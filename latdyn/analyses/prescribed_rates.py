@@ -166,13 +166,15 @@ class PrescribedRates:
         self._held = arrays = (mask, rates, body, self.load_columns(), self.couplings())
         return native, tuple(None if a is None else a.ctypes.data for a in arrays)
 
-    def static_blocks_times(self, state, mask: np.ndarray, moves: np.ndarray) -> np.ndarray:
-        """K[:, mask] δq + C[:, mask] δv (n_total + 1,) of the static evaluation's blocks at ``state`` (K without
-        the inertia tangent, as W's), ``moves`` (3, n_total + 1) the columns' δq, δv (δa unread), every block
-        csrc/prescribed_rates.c ``latdyn_prescribed_time_rate`` takes (elements, joint bodies' weight, hinges, loads,
-        cables, couplings): the static ∂r_all/∂t's own products along other columns (latdyn/analyses/
-        parameter_stiffness.py ``linked_prescribed_along``)."""
-        native, pointers = self._evaluated(state, False, moves, mask)
+    def blocks_times(self, state, mask: np.ndarray, moves: np.ndarray, gravity_tangent: bool) -> np.ndarray:
+        """K[:, mask] δq + C[:, mask] δv (n_total + 1,) at ``state``, ``moves`` (3, n_total + 1) the columns' δq, δv
+        (δa unread), every block csrc/prescribed_rates.c ``latdyn_prescribed_time_rate`` takes (elements, joint
+        bodies' weight, hinges, loads, cables, couplings): products of the static ∂r_all/∂t's own blocks along other
+        columns (latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along``). K the static residual's tangent
+        with ``gravity_tangent`` (the elements' −∂Q/∂q in it, csrc/evaluate.c), else the impulse weight's, of the
+        evaluation with the inertia forces (its tangent without the elements' gravity tangent, which that
+        evaluation holds in the inertia tangent: W's K)."""
+        native, pointers = self._evaluated(state, not gravity_tangent, moves, mask)
         out = np.empty(self.owner.model.n_total + 1)
         native.library.latdyn_prescribed_time_rate(native.model_ref, native.work_ref, pointers[0], pointers[1], 0,
                                                    *pointers[2:], out.ctypes.data)
