@@ -80,10 +80,13 @@ def shift_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     """(n,): the coefficient of the event's time shift δt_e in the forward method's (∂K/∂p) w at ``state``
     (``TransientSensitivities._stiffness_derivative``, with rigid links or guides ``_geometric_derivative`` too), the
     static residual's ∂(∂r/∂t)/∂q w alone, by the forward method's own path: where the laws' rates in t are generated
-    (latdyn/analyses/parameter_stiffness.py ``time_generated``; no rigid links or guides) their
-    ``time_stiffness_along``; else the central difference of ∂r/∂t along w that the forward method's difference of
-    the static ∂r/∂p holds (its step, :data:`WEIGHT_STEP` ℓ/|w|_∞), with rigid links or guides the reduction's
-    geometric term of the inertia forces' ∂r_all/∂t and P's move with the prescribed coordinates. One evaluation of
+    (latdyn/analyses/parameter_stiffness.py ``time_generated``) their ``time_stiffness_along``, with rigid links or
+    guides where the controllers' terms are formed through the reduction too (``linked_time_stiffness_along``, a
+    prescribed motion's part with it, and the geometric term of the static ∂r_all/∂t, as the forward method's
+    ``_linked_stiffness_along``; a difference before linkedheld); else the central difference of ∂r/∂t along w that
+    the forward method's difference of the static ∂r/∂p holds (its step, :data:`WEIGHT_STEP` ℓ/|w|_∞); with rigid
+    links or guides the reduction's geometric term of the inertia forces' ∂r_all/∂t and P's move with the prescribed
+    coordinates beside either. One evaluation of
     the terms in t; before, the whole (∂K/∂p) w at two shifts and its first parameter's column (a parameter whose
     uses are differenced and one whose are generated took the other path)."""
     from latdyn.analyses.parameter_stiffness import (_linked_controllers_generated, linked_time_stiffness_along,

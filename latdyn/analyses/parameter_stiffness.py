@@ -52,10 +52,13 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   of that one column t (below); a prescribed motion (since prestime; 0d1fc61 differenced every parameter with it),
   whose static ∂r/∂t is K_·p q̇_p + C_·p q̈_p, by the H parts of latdyn/analyses/weight_derivative.py with their
   direction on every coordinate, ∂(K u)/∂q w at u = q̇_p, and a damped cable's ∂(K_c w)/∂v a at a = q̈_p
-  (:func:`_prescribed_along`; no new kernel) — not on a model with rigid links or guides, nor where a continuous
-  controller's coupling has an entry in a prescribed coordinate's column (:func:`_prescribed_generated`: a sensor on
-  a prescribed body; that entry moves with the output's second derivative by a free and a prescribed read, not
-  taken: the difference).
+  (:func:`_prescribed_along`; no new kernel) — not where a continuous controller's coupling has an entry in a
+  prescribed coordinate's column (:func:`_prescribed_generated`: a sensor on a prescribed body; that entry moves with
+  the output's second derivative by a free and a prescribed read, not taken: the difference); with rigid links or
+  guides through the reduction, the dependent nodes hanging from the prescribed coordinates (:func:`linked_prescribed_along`,
+  since linkedheld; the difference before held the elements' gravity tangent's move, which W's K does not), not
+  beside a continuous controller's coupling, a load a controller drives or a damped cable
+  (:func:`_linked_prescribed_generated`: the difference).
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
@@ -98,8 +101,9 @@ added exactly (``TransientSensitivities._linked_stiffness_along``). Beside contr
 :func:`controller_parameter_along`, sampled controllers' held outputs and controllers' states included, its sensors'
 generated gradients by the assembled coordinates, a dependent node's too), projected by Pᵀ, their part of ∂r_all/∂p
 in the geometric term, and an event's time shift where :func:`time_generated` (:func:`time_stiffness_along` at
-``full`` = P w) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
-test_weight_derivative_linked_parameters.py). Not generated, the whole static ∂r/∂p
+``full`` = P w; a prescribed motion's part through the reduction, :func:`linked_time_stiffness_along`, since
+linkedheld) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
+test_weight_derivative_linked_parameters.py, tests/test_weight_derivative_linked_held.py). Not generated, the whole static ∂r/∂p
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
 controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
@@ -107,7 +111,8 @@ every parameter of a run whose state an event moved in time through a prescribed
 controller's coupling entry in a prescribed column, or a controller's output in t whose second derivatives along q are
 not generated (:func:`time_generated`; a reel and the other controllers in t are generated since timehand, 40bf44a
 differenced them; prescribed motions otherwise since prestime), and with rigid links or guides every parameter beside
-held angles, a time shift not generated, a controller reading a joint's force whose laws a parameter moves or a
+held angles (refused: a joint that sticks on such a model, ``TransientSensitivities._refuse_what_a_held_angle_moves``;
+the difference is for none), a time shift not generated, a controller reading a joint's force whose laws a parameter moves or a
 controller outside ``_exact_controllers`` (their terms through the reduction are not separated; a parameter moving the
 links' own data, a geometry parameter, keeps it too). That difference
 moves the configuration with every assembled rate held, the dependent nodes' too

@@ -99,7 +99,8 @@ The same parts serve the event's time shift through prescribed motions on a mode
 (latdyn/analyses/parameter_stiffness.py ``_prescribed_along``, since prestime): :func:`_generated`, :func:`_load_part`
 and :func:`_cable_part` with their direction ``full`` at u = q̇_p on the prescribed coordinates give ∂(K u)/∂q, times
 w, and :func:`_cable_rates_product` at a = q̈_p a damped cable's ∂(C a)/∂q w; no new kernel. With rigid links or
-guides that shift keeps the difference.
+guides the same parts at the motion's direction on the dependent nodes too, along P w, beside the links' terms
+(latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along``, since linkedheld).
 
 Rigid links and guides: the reduced weight is W_red = Pᵀ W_all P + s ∂(Pᵀ r_all)/∂q (latdyn/assembly/linked.py: W_all
 the blocks on the assembled coordinates, free and dependent, P = [I; J] the projection, r_all the residual before the
@@ -159,7 +160,8 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   wrench by D δx_p; no evaluation of the model, no difference); at an event moved in time (δt_e) with prescribed
   motions, P moves with the prescribed coordinates too: the geometric term of the inertia forces moved in time,
   ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, the same composition along the prescribed coordinates' rates q̇_p
-  (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
+  (:func:`linked_geometric_rate_in_time`; the static residual's part with ∂r/∂t's own,
+  latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along``);
 * differenced, the blocks not generated anywhere (as H_rest: the couplings not of :func:`exact_couplings` and the
   loads their controllers drive, the hinges outside :func:`exact_hinges`), the couplings and driven loads of a
   controller outside :func:`_linked_chain_controllers` (a free joint's force whose laws are not generated along the
