@@ -340,7 +340,9 @@ def linked_prescribed_along(owner, state, w: np.ndarray, full: np.ndarray) -> tu
     motions = owner.explicit_time.motions
     size, n, n_asm = model.n_total + 1, model.n_dofs, model.n_assembled
     rates = motions.rates(float(state.t))
-    _, _, moves = motions.linked_moves(state, inertia=False)
+    along = np.zeros(size)
+    along[:n_asm] = full[:n_asm]
+    _, _, moves, (by_w, residual) = motions.linked_moves(state, inertia=False, along=along)   # one static evaluation
     u = moves[0]
     assembled = np.zeros(size)
     for rows, cols, values in (_generated(assembler, state, None, 1.0, False, full=u),
@@ -354,17 +356,12 @@ def linked_prescribed_along(owner, state, w: np.ndarray, full: np.ndarray) -> tu
     on = (moved_in_time != 0.0).astype(np.int64)
     if np.any(on):
         assembled += motions.blocks_times(state, on, np.stack([moved_in_time, np.zeros(size), np.zeros(size)]), False)
-    along = np.zeros(size)
-    along[:n_asm] = full[:n_asm]
-    on = (along != 0.0).astype(np.int64)
-    by_w = motions.blocks_times(state, on, np.stack([along, np.zeros(size), np.zeros(size)]), True)
-    residual = np.zeros(size)
-    residual[:n_asm] = np.asarray(assembler.evaluate_assembled(state, False, 1.0, False).residual)[:n_asm]
     native = assembler.native()
     assembler.complete_links(state)   # J of the state in the links' buffers
     marked, vector, product = (np.ascontiguousarray(motions.mask(), np.int64), np.ascontiguousarray(rates[0]),
                                np.zeros(size))
     by_w[n_asm:] = 0.0
+    residual = np.where(np.arange(size) < n_asm, residual, 0.0)
     native.library.latdyn_linked_geometric_product(native.model_ref, ctypes.byref(native.configuration(state)),
                                                    by_w.ctypes.data, marked.ctypes.data, vector.ctypes.data,
                                                    product.ctypes.data)
