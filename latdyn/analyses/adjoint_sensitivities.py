@@ -126,8 +126,8 @@ from latdyn.analyses.parameter_stiffness import held_angles_along
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
                                            rates_taken_anew)
-from latdyn.analyses.transient_sensitivities import (WEIGHT_STEP, TransientSensitivities, _NodeRotations,
-                                                      _StepColumns, friction_key, stop_key)
+from latdyn.analyses.transient_sensitivities import (TransientSensitivities, _NodeRotations, _StepColumns,
+                                                      friction_key, stop_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
@@ -1035,7 +1035,7 @@ class AdjointSensitivities(TransientSensitivities):
 
         - the restart as after a stop (:meth:`_restart_transposed`), with the held angles' terms of its ∂r/∂p (K's
           columns of them at the state after it, :meth:`_held_columns`) and of its weight's (∂K/∂p)v̇ (their
-          difference along v̇, :meth:`_held_stiffness_columns`): θ̄ += (K_θ + dt² ∂K_θ/∂q[v̇])ᵀ ū;
+          move along v̇, generated: :meth:`_held_stiffness_columns`): θ̄ += (K_θ + dt² ∂K_θ/∂q[v̇])ᵀ ū;
         - the renumbering (:meth:`_renumbering_transposed`); a release's δq[θ_j] = δθ_j gives θ̄_j = q̄[θ_j] (the
           held δθ_j is 0 after it); a stick's δθ_j = δq[θ_j] before it gives q̄[θ_j] += θ̄_j, θ̄_j = 0;
         - a stick's jump, a stop's impulse with restitution 0 (:meth:`_impulse_transposed`), with the held angles'
@@ -1094,19 +1094,16 @@ class AdjointSensitivities(TransientSensitivities):
 
     def _held_stiffness_columns(self, state, w: np.ndarray, stuck: np.ndarray) -> np.ndarray:
         """(n, s): the held angles' part of the forward method's (∂K/∂p) w (:meth:`_terms_beside_stiffness_along`) for
-        a unit δθ of each joint of ``stuck``: the generated ``held_angles_along`` where it forms it, else the same
-        difference of W's K's held columns along w (step WEIGHT_STEP ℓ/|w|_∞)."""
+        a unit δθ of each joint of ``stuck``: the generated ``held_angles_along`` (``beam_stiffness_D_q`` at the held
+        slot times w), which forms every one the reverse pass meets — the held angles it leaves out, on a model with
+        rigid links or guides and reached by a controller's coupling, are refused at the stick
+        (:meth:`_refuse_a_stick`). Before linkedheld a difference of W's K's held columns along w stood behind it,
+        which no run reached."""
         saved, self.held = self.held, self._unit_held(stuck)
         try:
-            exact = held_angles_along(self, state, w)
+            return self._on_free_coordinates(state, held_angles_along(self, state, w))
         finally:
             self.held = saved
-        if exact is not None:
-            return self._on_free_coordinates(state, exact)
-        eta = WEIGHT_STEP * (self.length or 1.0) / float(np.max(np.abs(w)))
-        advance = self.assembler.advance
-        return (self._held_columns(advance(state, eta * w), stuck, False, False)
-                - self._held_columns(advance(state, -eta * w), stuck, False, False)) / (2 * eta)
 
     def _held_step_transposed(self, new, w: np.ndarray, theta_bar: np.ndarray) -> np.ndarray:
         """θ̄ before a step taken while joints were held by friction: the step's ∂r/∂p holds K's columns of their

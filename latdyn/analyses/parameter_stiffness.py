@@ -52,10 +52,13 @@ parameter's place has the same kernel's stiffness with them there, so (∂K/∂p
   of that one column t (below); a prescribed motion (since prestime; 0d1fc61 differenced every parameter with it),
   whose static ∂r/∂t is K_·p q̇_p + C_·p q̈_p, by the H parts of latdyn/analyses/weight_derivative.py with their
   direction on every coordinate, ∂(K u)/∂q w at u = q̇_p, and a damped cable's ∂(K_c w)/∂v a at a = q̈_p
-  (:func:`_prescribed_along`; no new kernel) — not on a model with rigid links or guides, nor where a continuous
-  controller's coupling has an entry in a prescribed coordinate's column (:func:`_prescribed_generated`: a sensor on
-  a prescribed body; that entry moves with the output's second derivative by a free and a prescribed read, not
-  taken: the difference).
+  (:func:`_prescribed_along`; no new kernel) — not where a continuous controller's coupling has an entry in a
+  prescribed coordinate's column (:func:`_prescribed_generated`: a sensor on a prescribed body; that entry moves with
+  the output's second derivative by a free and a prescribed read, not taken: the difference); with rigid links or
+  guides through the reduction, the dependent nodes hanging from the prescribed coordinates (:func:`linked_prescribed_along`,
+  since linkedheld; the difference before held the elements' gravity tangent's move, which W's K does not), not
+  beside a continuous controller's coupling, a load a controller drives or a damped cable
+  (:func:`_linked_prescribed_generated`: the difference).
 
 Beside continuous or sampled controllers and angles friction holds, ∂r/∂p holds their terms too (the controllers'
 outputs' explicit ∂y/∂p, chained, held and states' terms; K's columns of the held angles times their δθ): the
@@ -98,8 +101,9 @@ added exactly (``TransientSensitivities._linked_stiffness_along``). Beside contr
 :func:`controller_parameter_along`, sampled controllers' held outputs and controllers' states included, its sensors'
 generated gradients by the assembled coordinates, a dependent node's too), projected by Pᵀ, their part of ∂r_all/∂p
 in the geometric term, and an event's time shift where :func:`time_generated` (:func:`time_stiffness_along` at
-``full`` = P w) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
-test_weight_derivative_linked_parameters.py). Not generated, the whole static ∂r/∂p
+``full`` = P w; a prescribed motion's part through the reduction, :func:`linked_time_stiffness_along`, since
+linkedheld) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
+test_weight_derivative_linked_parameters.py, tests/test_weight_derivative_linked_held.py). Not generated, the whole static ∂r/∂p
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
 controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
@@ -107,7 +111,8 @@ every parameter of a run whose state an event moved in time through a prescribed
 controller's coupling entry in a prescribed column, or a controller's output in t whose second derivatives along q are
 not generated (:func:`time_generated`; a reel and the other controllers in t are generated since timehand, 40bf44a
 differenced them; prescribed motions otherwise since prestime), and with rigid links or guides every parameter beside
-held angles, a time shift not generated, a controller reading a joint's force whose laws a parameter moves or a
+held angles (refused: a joint that sticks on such a model, ``TransientSensitivities._refuse_what_a_held_angle_moves``;
+the difference is for none), a time shift not generated, a controller reading a joint's force whose laws a parameter moves or a
 controller outside ``_exact_controllers`` (their terms through the reduction are not separated; a parameter moving the
 links' own data, a geometry parameter, keeps it too). That difference
 moves the configuration with every assembled rate held, the dependent nodes' too
@@ -128,7 +133,8 @@ from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
 __all__ = ["controller_parameter_along", "exact_parameters", "held_angles_along", "linked_controller_parameter_along",
-           "sampled_held_along", "stiffness_along", "stiffness_along_all", "time_generated", "time_stiffness_along"]
+           "linked_time_stiffness_along", "sampled_held_along", "stiffness_along", "stiffness_along_all",
+           "time_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -218,9 +224,10 @@ def time_generated(owner) -> bool:
     if found is None:
         timed = owner.explicit_time
         laws = timed.laws
-        found = ((not timed.prescribed or owner.model.links is None)
-                 and all(_generated_use(laws, key, by) for key, by in laws.derivatives.items()))
+        found = all(_generated_use(laws, key, by) for key, by in laws.derivatives.items())
         owner._time_stiffness_exact = found
+    if owner.model.links is not None and owner.explicit_time.prescribed:
+        return found and _controllers_in_time_generated(owner) and _linked_prescribed_generated(owner)
     return found and _controllers_in_time_generated(owner) and _prescribed_generated(owner)
 
 
@@ -273,6 +280,95 @@ def _prescribed_along(owner, state, w: np.ndarray, total: np.ndarray) -> None:
             total += _cable_rates_product(assembler, taut, full, rates[1][:, None])[:, 0]
 
 
+def _linked_prescribed_generated(owner) -> bool:
+    """Whether :func:`linked_prescribed_along` forms the prescribed motions' part of the time shift on a model with
+    rigid links or guides: no continuous controller's coupling entry (a sensor on a node the motion carries moves
+    its entry with the output's second derivatives by reads the motion and w move, and a rate sensor's entry is of
+    C), no load a controller drives, and no damped cable (its K moves with the rates, which the reduction completes
+    for the dependent nodes in ∂r/∂t and holds in K): the static C then has no column the motion moves (a hinge's
+    damper is on its own angle, a free coordinate or a prescribed one's reaction row), so ∂r_all/∂t is K δq_all
+    there and the dependent rates' move in time, ∂(J v)/∂q_p q̇_p + J_·p q̈_p, meets no block. Checked per call (the
+    couplings are renumbered at a latch)."""
+    assembler = owner.assembler
+    control = assembler.control
+    if len(np.asarray(getattr(control, "coupling_rows", np.zeros(0)))) or np.any(
+            np.asarray(getattr(control, "actuator_kind", np.zeros(0, np.int64))) == 1):
+        return False
+    cables = owner.model.cables
+    return cables is None or not np.any(np.asarray(cables.damping) != 0.0)
+
+
+def linked_prescribed_along(owner, state, w: np.ndarray, full: np.ndarray) -> tuple:
+    """The prescribed motions' part of ∂(∂r/∂t)/∂q w on a model with rigid links or guides, exactly, where
+    :func:`_linked_prescribed_generated`: (its part on the assembled coordinates (n_total + 1,), which the caller
+    reduces by Pᵀ; its part on the free coordinates (n,)). The static ∂r_min/∂t through the motions is
+    (latdyn/analyses/prescribed_rates.py, csrc/linked_prescribed_rates.c)
+
+        ∂r_min/∂t = Pᵀ K_all u + ∂Pᵀ/∂q_p[q̇_p] · r_all,   u = δq_all in time: q̇_p, and J_·p q̇_p on the dependent rows
+
+    (C_all has no column u or the dependent rates' move reaches: :func:`_linked_prescribed_generated`). Along w, the
+    free coordinates moving by w and the dependent ones by U = P w (``full``), every rate held (the evaluation's K,
+    ``TransientSensitivities._advanced_at_held_rates``), the mixed derivative of r_min(q_f ⊕ ε w, q_p(t + τ)) in the
+    two scalars ε, τ:
+
+        Pᵀ ∂(K_all u)/∂q_all U                     the generated H parts at the direction u (the unlinked
+                                                   :func:`_prescribed_along`'s, on every assembled coordinate)
+      + Pᵀ K_all ∂(J_·p q̇_p)/∂q w                 the dependent nodes' move in time moved along w (the compiled links'
+                                                   rates' derivative at the prescribed rates,
+                                                   ``weight_derivative._rates_jacobian_derivative``)
+      + ∂(Pᵀ ∂r_all/∂t)/∂q w at fixed ∂r_all/∂t    (the caller's geometric term of the static ∂r_all/∂p, which holds it)
+      + ∂Pᵀ/∂q_p[q̇_p] · ∂r_all/∂q U               r_all moved along w (``latdyn_linked_geometric_product`` on the
+                                                   prescribed columns)
+      + ∂/∂q(∂Pᵀ/∂q_p[q̇_p])[w] · r_all            the links' second derivatives (``linked_geometric_rate_in_time`` of
+                                                   the static r_all; the mixed derivative of Pᵀ y taken in either
+                                                   order, the two scalars moving different coordinates).
+
+    K_all in the first two is the impulse weight's (``PrescribedRates.blocks_times`` without the elements' gravity
+    tangent, which W's K does not hold, as the unlinked :func:`_prescribed_along`'s); ∂r_all/∂q in the fourth the
+    static residual's, r_all's own. The central difference of the static ∂r/∂p along w this replaced held the
+    elements' gravity tangent's move in both (the static ∂r/∂t is K u with it): on a cart latching on a guide on a
+    slewing base under gravity, carrying a flexible boom, 7e-7 of the block off this at a turned state (6.7e-12
+    without gravity), and the whole runs' sensitivities 1.8e-7 (k), 1.1e-7 (m), 1.0e-7 (F) off Richardson
+    differences where they are 3.1e-8, 6.2e-9, 3.5e-9 now (tests/test_weight_derivative_linked_held.py). Before, that
+    difference took two evaluations of the static ∂r/∂p at each weighing."""
+    import ctypes
+
+    from latdyn.analyses.weight_derivative import (_cable_part, _generated, _load_part, _rates_jacobian_derivative,
+                                                   linked_geometric_rate_in_time)
+
+    model, assembler = owner.model, owner.assembler
+    motions = owner.explicit_time.motions
+    size, n, n_asm = model.n_total + 1, model.n_dofs, model.n_assembled
+    rates = motions.rates(float(state.t))
+    along = np.zeros(size)
+    along[:n_asm] = full[:n_asm]
+    _, _, moves, (by_w, residual) = motions.linked_moves(state, inertia=False, along=along)   # one static evaluation
+    u = moves[0]
+    assembled = np.zeros(size)
+    for rows, cols, values in (_generated(assembler, state, None, 1.0, False, full=u),
+                               _load_part(assembler, state, None, 1.0, full=u),
+                               _cable_part(assembler, state, None, 1.0, full=u)):
+        np.add.at(assembled, rows, values * full[cols])
+    dependent = model.node_dofs[model.links.dependent].ravel()
+    moved_in_time = np.zeros(size)
+    moved_in_time[dependent] = _rates_jacobian_derivative(assembler, state, np.zeros(n), prescribed=rates[0]) @ w
+    moved_in_time[model.n_total] = 0.0
+    on = (moved_in_time != 0.0).astype(np.int64)
+    if np.any(on):
+        assembled += motions.blocks_times(state, on, np.stack([moved_in_time, np.zeros(size), np.zeros(size)]), False)
+    native = assembler.native()
+    assembler.complete_links(state)   # J of the state in the links' buffers
+    marked, vector, product = (np.ascontiguousarray(motions.mask(), np.int64), np.ascontiguousarray(rates[0]),
+                               np.zeros(size))
+    by_w[n_asm:] = 0.0
+    residual = np.where(np.arange(size) < n_asm, residual, 0.0)
+    native.library.latdyn_linked_geometric_product(native.model_ref, ctypes.byref(native.configuration(state)),
+                                                   by_w.ctypes.data, marked.ctypes.data, vector.ctypes.data,
+                                                   product.ctypes.data)
+    free = product[:n] + linked_geometric_rate_in_time(assembler, state, residual[:n_asm], w, rates[0])
+    return assembled, free
+
+
 def _controllers_in_time_generated(owner) -> bool:
     """Whether the continuous controllers' explicit ∂y/∂t (ExplicitTime's one-column ControllerTerms, t its column)
     moves along w exactly (:func:`controller_parameter_along` forms it): none names t, or every controller's second
@@ -315,6 +411,21 @@ def time_stiffness_along(owner, state, w: np.ndarray, full: np.ndarray | None = 
     if timed.laws.controllers is not None:
         out = out + controller_parameter_along(owner, state, w, terms=timed.laws.controllers)[:, 0]
     return out
+
+
+def linked_time_stiffness_along(owner, state, w: np.ndarray, full: np.ndarray):
+    """∂(∂r_min/∂t)/∂q w (n,) of the static residual on a model with rigid links or guides, where
+    :func:`time_generated`, but for the reduction's geometric term of the static ∂r_all/∂t (the caller's, with the
+    other columns of ∂r_all/∂p): :func:`time_stiffness_along` along u = P w (``full``) reduced by Pᵀ, and the
+    prescribed motions' part (:func:`linked_prescribed_along`); None where a controller's terms are not formed."""
+    out = time_stiffness_along(owner, state, w, full=full)
+    if out is None:
+        return None
+    free = np.zeros(owner.model.n_dofs)
+    if owner.explicit_time.prescribed:
+        assembled, free = linked_prescribed_along(owner, state, w, full)
+        out = out + assembled
+    return owner._on_free_coordinates(state, out[:, None])[:, 0] + free
 
 
 def _reels_along(owner, state, full: np.ndarray, total: np.ndarray) -> None:

@@ -145,37 +145,63 @@ class PrescribedRates:
         with rigid links or guides see :meth:`linked`."""
         if self.owner.model.links is not None:
             return self.linked(state, inertia, rates)[0]
-        native, pointers = self._evaluated(state, inertia, rates)
+        native, pointers, _ = self._evaluated(state, inertia, rates)
         out = np.empty(self.owner.model.n_total + 1)
         native.library.latdyn_prescribed_time_rate(native.model_ref, native.work_ref, pointers[0], pointers[1],
                                                    int(bool(inertia)), *pointers[2:], out.ctypes.data)
         return out
 
-    def _evaluated(self, state, inertia: bool, rates: np.ndarray | None) -> tuple:
+    def _evaluated(self, state, inertia: bool, rates: np.ndarray | None, mask: np.ndarray | None = None) -> tuple:
         """The native model evaluated at ``state`` with the blocks (the inertia tangent with ``inertia``), and the
-        addresses of the mask, the rates, the joint bodies' inertia stiffness (or None), the loads' columns and the
-        couplings (or None) that the C calls take, the arrays held until the next call."""
+        addresses of the mask (default :meth:`mask`), the rates, the joint bodies' inertia stiffness (or None), the
+        loads' columns and the couplings (or None) that the C calls take, the arrays held until the next call; and the
+        evaluation's residual and reactions (n_total + 1,)."""
         assembler, model = self.owner.assembler, self.owner.model
         native = assembler.native(True)
-        native.evaluate(state, True, 1.0, inertia, inertia)
+        residual, _ = native.evaluate(state, True, 1.0, inertia, inertia)
         body = None
         if inertia and len(model.body_nodes):
             body = np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), float)
         rates = np.ascontiguousarray(self.rates(float(state.t)) if rates is None else rates, float)
-        self._held = arrays = (self.mask(), rates, body, self.load_columns(), self.couplings())
-        return native, tuple(None if a is None else a.ctypes.data for a in arrays)
+        mask = self.mask() if mask is None else np.ascontiguousarray(mask, np.int64)
+        self._held = arrays = (mask, rates, body, self.load_columns(), self.couplings())
+        return native, tuple(None if a is None else a.ctypes.data for a in arrays), residual
+
+    def blocks_times(self, state, mask: np.ndarray, moves: np.ndarray, gravity_tangent: bool) -> np.ndarray:
+        """K[:, mask] δq + C[:, mask] δv (n_total + 1,) at ``state``, ``moves`` (3, n_total + 1) the columns' δq, δv
+        (δa unread), every block csrc/prescribed_rates.c ``latdyn_prescribed_time_rate`` takes (elements, joint
+        bodies' weight, hinges, loads, cables, couplings): products of the static ∂r_all/∂t's own blocks along other
+        columns (latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along``). K the static residual's tangent
+        with ``gravity_tangent`` (the elements' −∂Q/∂q in it, csrc/evaluate.c), else the impulse weight's, of the
+        evaluation with the inertia forces (its tangent without the elements' gravity tangent, which that
+        evaluation holds in the inertia tangent: W's K)."""
+        native, pointers, _ = self._evaluated(state, not gravity_tangent, moves, mask)
+        out = np.empty(self.owner.model.n_total + 1)
+        native.library.latdyn_prescribed_time_rate(native.model_ref, native.work_ref, pointers[0], pointers[1], 0,
+                                                   *pointers[2:], out.ctypes.data)
+        return out
 
     def linked(self, state, inertia: bool = True, rates: np.ndarray | None = None) -> tuple:
         """(∂r_all/∂t (n_total + 1,), every coordinate's row before the reduction; ∂r_min/∂t (n,)) through the
         prescribed motions of a model with rigid links or guides at ``state``: the dependent nodes that hang from a
         prescribed coordinate move with it (module docstring; csrc/linked_prescribed_rates.c
         ``latdyn_linked_prescribed_time_rate``, which the loop of steps calls too)."""
+        total, out, _, _ = self.linked_moves(state, inertia, rates)
+        return total, out
+
+    def linked_moves(self, state, inertia: bool = True, rates: np.ndarray | None = None,
+                     along: np.ndarray | None = None) -> tuple:
+        """:meth:`linked`'s (∂r_all/∂t, ∂r_min/∂t), the move in time of every coordinate it took, (3, n_total + 1):
+        δq, δv, δa on the prescribed coordinates (their laws' rates) and the dependent ones (J_·p q̇_p, …), 0
+        elsewhere, and, of the same evaluation, (K[:, on] along (n_total + 1,), on where ``along`` is not 0, the
+        residual and reactions r_all (n_total + 1,)) with ``along`` (without ``inertia`` the static K, the elements'
+        gravity tangent in it: :meth:`blocks_times`), else None."""
         from latdyn.assembly.linked import linked_pattern
 
         assembler, model = self.owner.assembler, self.owner.model
         linked_pattern(assembler, assembler.native(True))   # its links laid out for the numbering now (evaluate_linked)
         assembler.complete_links(state)
-        native, pointers = self._evaluated(state, inertia, rates)
+        native, pointers, residual = self._evaluated(state, inertia, rates)
         size = model.n_total + 1
         scratch_mask, moved = np.empty(size, np.int64), np.empty(3 * size)
         total, out = np.empty(size), np.empty(size)
@@ -183,7 +209,17 @@ class PrescribedRates:
             native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), pointers[0], pointers[1],
             int(bool(inertia)), *pointers[2:], scratch_mask.ctypes.data, moved.ctypes.data, total.ctypes.data,
             out.ctypes.data)
-        return total, out[:model.n_dofs].copy()
+        moves = moved.reshape(3, size).copy()
+        moves[:, scratch_mask == 0] = 0.0
+        if along is None:
+            return total, out[:model.n_dofs].copy(), moves, None
+        on = np.ascontiguousarray(along != 0.0, np.int64)
+        columns = np.ascontiguousarray(np.stack([along, np.zeros(size), np.zeros(size)]))
+        by_along = np.empty(size)
+        native.library.latdyn_prescribed_time_rate(native.model_ref, native.work_ref, on.ctypes.data,
+                                                   columns.ctypes.data, int(bool(inertia)), *pointers[2:],
+                                                   by_along.ctypes.data)
+        return total, out[:model.n_dofs].copy(), moves, (by_along, residual)
 
 
 def load_block_columns(assembler) -> np.ndarray:

@@ -139,7 +139,7 @@ from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters, held_angles_along,
-                                                 linked_controller_parameter_along,
+                                                 linked_controller_parameter_along, linked_time_stiffness_along,
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_stiffness_along)
@@ -1035,7 +1035,8 @@ class TransientSensitivities(ParameterDerivatives):
         moves the state in time (a reel's, a continuous controller's output in t and, since prestime, a prescribed
         motion's otherwise are generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With
         rigid links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`, the controllers'
-        terms along P w with them) where no held angle or time shift adds terms and the controllers' are formed, else
+        terms along P w with them, the time shift's where :func:`~latdyn.analyses.parameter_stiffness.time_generated`,
+        a prescribed motion's through the reduction too) where the controllers' are formed, else
         the difference of the static ∂r/∂p without the elements' gravity
         load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia
         forces' geometric term."""
@@ -1129,8 +1130,8 @@ class TransientSensitivities(ParameterDerivatives):
             outputs.values[:] = held
 
     def _linked_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
-        """(∂K/∂p) w (n, k) with rigid links or guides (no held angles or time shift: their terms are in the static
-        ∂r/∂p too) for the parameters of ``exact_parameters``, or None where a controller's terms are not formed
+        """(∂K/∂p) w (n, k) with rigid links or guides (no held angles: a stick there is refused) for the parameters
+        of ``exact_parameters``, or None where a controller's terms are not formed
         (latdyn/analyses/parameter_stiffness.py ``linked_controller_parameter_along`` None: the caller differences):
         K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all, so
         (∂K_red/∂p) w = Pᵀ (∂K_all/∂p)(P w) + ∂Pᵀ/∂q[w] · ∂r_all/∂p — the generated parts (the section values' and
@@ -1153,12 +1154,13 @@ class TransientSensitivities(ParameterDerivatives):
             if beside is None:
                 return None
             total += beside
+        out = self._on_free_coordinates(state, total)
         if self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift):
-            timed = time_stiffness_along(self, state, w, full=full)   # ∂(∂r_all/∂t)/∂q u δt_e, the laws' rates in t
+            # ∂(∂r_min/∂t)/∂q w δt_e: the laws' rates in t along u, the prescribed motions through the reduction
+            timed = linked_time_stiffness_along(self, state, w, full)
             if timed is None:
                 return None
-            total += np.outer(timed, self.time_shift)
-        out = self._on_free_coordinates(state, total)
+            out += np.outer(timed, self.time_shift)
         static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
         return out + self._geometric_products(state, static, w)
 
@@ -1302,8 +1304,8 @@ class TransientSensitivities(ParameterDerivatives):
         """(n, k): at an event moved in time (``time_shift`` δt_e) on a model with rigid links or guides and
         prescribed motions, ∂/∂t of the reduction's geometric term ∂Pᵀ/∂q[w] · r_inertia (r_inertia the inertia
         forces' part of r_all: r_all with them less without) times δt_e — the part of ∂(K w)/∂t δt_e that
-        neither the static ∂r/∂t differenced along w (:meth:`_stiffness_derivative`: its geometric term is of the
-        static r_all) nor the inertia forces' ∂r_all/∂t through ∂Pᵀ/∂q[w] (below) holds: P moves with the
+        neither the static ∂r/∂t's along w (:meth:`_stiffness_derivative`: its geometric term is of the static
+        r_all) nor the inertia forces' ∂r_all/∂t through ∂Pᵀ/∂q[w] (below) holds: P moves with the
         prescribed coordinates (:func:`latdyn.analyses.weight_derivative.linked_geometric_rate_in_time`). Zeros
         elsewhere (left out before: 3e-6 of the slewing gimbal's sensitivities after its latch,
         tests/test_sensitivities_slewing_latch.py)."""

@@ -99,7 +99,8 @@ The same parts serve the event's time shift through prescribed motions on a mode
 (latdyn/analyses/parameter_stiffness.py ``_prescribed_along``, since prestime): :func:`_generated`, :func:`_load_part`
 and :func:`_cable_part` with their direction ``full`` at u = q̇_p on the prescribed coordinates give ∂(K u)/∂q, times
 w, and :func:`_cable_rates_product` at a = q̈_p a damped cable's ∂(C a)/∂q w; no new kernel. With rigid links or
-guides that shift keeps the difference.
+guides the same parts at the motion's direction on the dependent nodes too, along P w, beside the links' terms
+(latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along``, since linkedheld).
 
 Rigid links and guides: the reduced weight is W_red = Pᵀ W_all P + s ∂(Pᵀ r_all)/∂q (latdyn/assembly/linked.py: W_all
 the blocks on the assembled coordinates, free and dependent, P = [I; J] the projection, r_all the residual before the
@@ -159,7 +160,8 @@ reduction, with the inertia forces at the state's rates). :func:`configuration_t
   wrench by D δx_p; no evaluation of the model, no difference); at an event moved in time (δt_e) with prescribed
   motions, P moves with the prescribed coordinates too: the geometric term of the inertia forces moved in time,
   ∂/∂t(∂(Pᵀ y)/∂q[w]) at fixed y, the same composition along the prescribed coordinates' rates q̇_p
-  (:func:`linked_geometric_rate_in_time`; the static residual's part is in its ∂r/∂t differenced along w);
+  (:func:`linked_geometric_rate_in_time`; the static residual's part with ∂r/∂t's own,
+  latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along``);
 * differenced, the blocks not generated anywhere (as H_rest: the couplings not of :func:`exact_couplings` and the
   loads their controllers drive, the hinges outside :func:`exact_hinges`), the couplings and driven loads of a
   controller outside :func:`_linked_chain_controllers` (a free joint's force whose laws are not generated along the
@@ -2365,12 +2367,14 @@ def linked_geometric_rate_in_time(assembler, state, y: np.ndarray, w: np.ndarray
     return geometric_second_product(assembler, state, y, w, motion_rates)
 
 
-def _rates_jacobian_derivative(assembler, state, w: np.ndarray) -> np.ndarray:
+def _rates_jacobian_derivative(assembler, state, w: np.ndarray, prescribed: np.ndarray | None = None) -> np.ndarray:
     """∂(J w)/∂q (6 n_dep × n) at ``state``: the dependent nodes' rates' derivative by the free coordinates at fixed
     free rates w, every other rate (the prescribed coordinates') 0 — ∂P/∂q[δq] w is its product with δq on the
-    dependent rows (P = [I; J]). The compiled links' own (csrc/links.c ``dependent_rates_tangent``: the generated
-    edge kernels' ``*_rates_D_q`` composed along the tree) at a copy of the state with those rates; the links'
-    buffers completed again at the state after it."""
+    dependent rows (P = [I; J]). ``prescribed`` (n_total + 1,): the prescribed coordinates' rates instead of 0 (with
+    w = 0, ∂(J_·p q̇_p)/∂q: the move in time of the dependent nodes moved along q, ``linked_prescribed_along`` of
+    latdyn/analyses/parameter_stiffness.py). The compiled links' own (csrc/links.c ``dependent_rates_tangent``: the
+    generated edge kernels' ``*_rates_D_q`` composed along the tree) at a copy of the state with those rates; the
+    links' buffers completed again at the state after it."""
     from latdyn.assembly.assembler import unpack_free
     from latdyn.assembly.linked import _rates_tangent
 
@@ -2380,6 +2384,15 @@ def _rates_jacobian_derivative(assembler, state, w: np.ndarray) -> np.ndarray:
     for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
         getattr(moved, name)[...] = 0.0
     unpack_free(model, w, moved.v, moved.w, moved.theta_dot)
+    if prescribed is not None:   # a prescribed node's rates on its coordinates (spatial ω on its turns), an angle's
+        on = set(int(d) for d in model.prescribed_coordinates())
+        for i, dofs in enumerate(model.node_dofs):
+            for k, d in enumerate(dofs):
+                if int(d) in on:
+                    (moved.v if k < 3 else moved.w)[i, k % 3] = prescribed[d]
+        for j, d in enumerate(model.hinge_dofs):
+            if int(d) in on:
+                moved.theta_dot[j] = prescribed[d]
     native = assembler.native()
     native.complete_links(moved)
     columns = links.columns(model)
