@@ -131,15 +131,19 @@ def test_a_stuck_joints_torque_and_an_elements_moment_equal_the_forward_method()
     assert _equal_to_the_forward_method(BRAKED_FORCES, adjoint) <= 1e-10
 
 
-def test_a_free_joints_force_driven_by_a_sensor_of_a_stuck_joint_stays_refused(tmp_path):
+@pytest.mark.parametrize("probe, why", [
+    ("arm_torque: {hinge: arm.start, quantity: torque}", "beside probe 'arm_torque', the force of a joint"),
+    ("pd_out: {controller: pd}", "beside probe 'pd_out' (a controller's)")])
+def test_a_free_joints_force_sensing_a_stuck_joint_and_a_controller_probe_stay_refused(tmp_path, probe, why):
     """The arm's torque, which the PD drives from the ring's angle: while the ring is stuck neither method forms that
-    force's derivative by the held angle (the forward method's forms read the couplings on the free coordinates), so the
-    adjoint refuses it when the ring sticks, naming the ring's friction and the probe (a guard: refused on 5a68b93 as
-    "beside controllers")."""
-    text = GIMBAL_PD.replace("    tip_y:", "    arm_torque: {hinge: arm.start, quantity: torque}\n    tip_y:")
+    force's derivative by the held angle (the forward method's forms read the couplings on the free coordinates); and a
+    controller's output probe (its forms of the held angle are not formed). The adjoint refuses each when the ring is
+    stuck (from t = 0), naming the ring's friction and the probe, exit 2 without a traceback from the CLI (guards:
+    refused on 5a68b93 as "beside controllers")."""
+    text = GIMBAL_PD.replace("    tip_y:", f"    {probe}\n    tip_y:").replace("t_end: 0.5,", "t_end: 0.05,")
     with pytest.raises(SceneError) as raised:
         _run(text)
-    assert raised.value.key == "beams.post.end.hinge.friction" and "beside probe 'arm_torque'" in str(raised.value)
+    assert raised.value.key == "beams.post.end.hinge.friction" and why in str(raised.value)
     completed, _ = latdyn_run(tmp_path, text, quiet=True)
     assert completed.returncode == 2 and "beams.post.end.hinge.friction" in completed.stderr
     assert "Traceback" not in completed.stderr
