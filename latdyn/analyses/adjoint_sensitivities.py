@@ -77,9 +77,10 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
-friction sticks or releases beside other events, geometry parameters, controllers or probes other than points and
-joints' angles and rates (refused when it sticks, :meth:`_refuse_a_stick`; friction slipping, and its sticks and
-releases otherwise, are taken: the forward method's stick — a stop's impulse with restitution 0, the held angle's
+friction sticks or releases beside geometry parameters, a controller's probe or the force of a joint a controller
+drives from the stuck joint, or with another event at one instant or while stuck (refused when it sticks,
+:meth:`_refuse_a_stick`; friction slipping, and its sticks and releases otherwise — beside latches, stops, cables,
+continuous controllers without states and joint-force and section-force probes too —, are taken: the forward method's stick — a stop's impulse with restitution 0, the held angle's
 δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
 its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
 bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`), a hinge resting on
