@@ -77,8 +77,7 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
-friction sticks or releases beside geometry parameters, a controller's probe or the force of a joint a controller
-drives from the stuck joint, or with another event at one instant or while stuck (refused when it sticks,
+friction sticks or releases beside geometry parameters or a controller's probe, or with another event at one instant or while stuck (refused when it sticks,
 :meth:`_refuse_a_stick`; friction slipping, and its sticks and releases otherwise — beside latches, stops, cables,
 continuous controllers without states and joint-force and section-force probes too —, are taken: the forward method's stick — a stop's impulse with restitution 0, the held angle's
 δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
@@ -117,7 +116,8 @@ from latdyn.analyses.controller_probe_sensitivities import is_controller_probe, 
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
+from latdyn.analyses.joint_force_sensitivities import (held_sensor_forms, is_joint_force, joint_force_forms,
+                                                       joint_of)
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.parameter_stiffness import held_angles_along
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives, probe_forms
@@ -199,11 +199,7 @@ class AdjointSensitivities(TransientSensitivities):
                 why = "with nothing else free (the stuck joints the only coordinates)"
             else:
                 other = [probe.name for probe in self.probes if not _held_angle_probe(probe)]
-                sensed = self._forces_sensing(joint)
-                why = (f"beside probe {other[0]!r} (a controller's)" if other else
-                       f"beside probe {sensed[0]!r}, the force of a joint a controller drives from this joint's "
-                       "angle or rate (neither method forms that force's derivative by the held angle)"
-                       if sensed else None)
+                why = f"beside probe {other[0]!r} (a controller's)" if other else None
         if why is None:
             self._refused = False
             return
@@ -213,17 +209,6 @@ class AdjointSensitivities(TransientSensitivities):
                          "states and probes the forward method takes there, not this; expected "
                          "solve.sensitivity_method: forward (the default), which does (docs/parameters.md, "
                          "\"Friction\")")
-
-    def _forces_sensing(self, joint: int) -> list:
-        """The joint-force probes whose joint a continuous controller drives from ``joint``'s angle or rate (a coupling
-        on the driven joint's row in the column of ``joint``'s coordinate): while ``joint`` is held the forward method's
-        forms of such a force (:func:`joint_force_forms`, the couplings on the free coordinates) leave out its sensor's
-        δθ, so the sticks beside them are refused."""
-        control, model = self.assembler.control, self.model
-        rows, cols = np.asarray(control.coupling_rows), np.asarray(control.coupling_cols)
-        reading = rows[cols == model.hinge_dofs[joint]]
-        return [probe.name for probe in self.probes if is_joint_force(probe) and joint_of(model, probe) != joint
-                and model.hinge_dofs[joint_of(model, probe)] in reading]
 
     def _may_stick(self) -> bool:
         """Whether a joint of the model has friction that can hold it (static level > 0): the numbering each step is
@@ -1142,8 +1127,8 @@ class AdjointSensitivities(TransientSensitivities):
         :meth:`record`: δθ += held), zero elsewhere. A joint's force: the forward method's is its forms along (δq, δv,
         δv̇) plus ∂r_d/∂p on all coordinates, which holds the held forces (:meth:`_held_forces`, with the inertia
         tangent) — a held joint's reaction on row d moves by K[d, θ_j] δθ_j (:meth:`_held_forces` on all
-        coordinates); a free joint's law reads no held angle there (a controller's sensor of it is refused when the
-        joint sticks, :meth:`_refuse_a_stick`). Any other probe: :meth:`_probe_derivatives` on unit δθ columns of the
+        coordinates); a free joint's law by a controller's coupling to the held angle where one drives it from there
+        (:func:`latdyn.analyses.joint_force_sensitivities.held_sensor_forms`). Any other probe: :meth:`_probe_derivatives` on unit δθ columns of the
         joints friction holds (a section force through the element's angle slot, a point in a body's frame, a cable
         reads none), its explicit ∂y/∂p left out."""
         model = self.model
@@ -1158,6 +1143,8 @@ class AdjointSensitivities(TransientSensitivities):
                     out[stuck] = self._held_forces(state, True)[d]
                 finally:
                     self.held = saved
+            else:   # its law: a controller's sensor of a held angle (0 without one)
+                out[stuck] = held_sensor_forms(self, state, [j], stuck).get(j, 0.0)
             return out
         zero = np.zeros((model.n_dofs, len(stuck)))
         dx, dpi, dtheta = self._by_parameter(zero, state)
