@@ -77,10 +77,11 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
-friction sticks or releases beside geometry parameters or a controller's probe, or with another event at one instant or while stuck (refused when it sticks,
-:meth:`_refuse_a_stick`; friction slipping, and its sticks and releases otherwise — beside latches, stops, cables,
-continuous controllers without states and joint-force and section-force probes too —, are taken: the forward method's stick — a stop's impulse with restitution 0, the held angle's
-δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
+friction sticks or releases beside geometry parameters or a controller's probe, or with another event at one
+instant or while stuck (refused when it sticks, :meth:`_refuse_a_stick`; friction slipping, and its sticks and
+releases otherwise — beside latches, stops, cables, continuous controllers without states and joint-force and
+section-force probes too —, are taken: the forward method's stick — a stop's impulse with restitution 0, the held
+angle's δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
 its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
 bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`), a hinge resting on
 its rigid stop beside geometry parameters or controllers with states or sampled ones (exit 1 when it happens,
@@ -1128,9 +1129,9 @@ class AdjointSensitivities(TransientSensitivities):
         δv̇) plus ∂r_d/∂p on all coordinates, which holds the held forces (:meth:`_held_forces`, with the inertia
         tangent) — a held joint's reaction on row d moves by K[d, θ_j] δθ_j (:meth:`_held_forces` on all
         coordinates); a free joint's law by a controller's coupling to the held angle where one drives it from there
-        (:func:`latdyn.analyses.joint_force_sensitivities.held_sensor_forms`). Any other probe: :meth:`_probe_derivatives` on unit δθ columns of the
-        joints friction holds (a section force through the element's angle slot, a point in a body's frame, a cable
-        reads none), its explicit ∂y/∂p left out."""
+        (:func:`latdyn.analyses.joint_force_sensitivities.held_sensor_forms`). Any other probe:
+        :meth:`_probe_derivatives` on unit δθ columns of the joints friction holds (a section force through the
+        element's angle slot, a point in a body's frame, a cable reads none), its explicit ∂y/∂p left out."""
         model = self.model
         stuck = np.flatnonzero(model.stuck)
         out = np.zeros(len(model.hinges))
