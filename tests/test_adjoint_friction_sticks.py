@@ -151,19 +151,6 @@ def test_a_braked_arm_sticking_four_times_equals_the_forward_method():
     assert _equal_to_the_forward_method(BRAKED, _run(BRAKED)) <= 1e-10
 
 
-def test_a_joint_force_probe_beside_a_stick_stays_refused(tmp_path):
-    """The held angle's terms of a joint force's forms are not formed: a stick beside a torque probe is refused when the
-    joint sticks, naming its friction and the probe (SceneError through the API; exit 2 without a traceback from the
-    CLI)."""
-    with pytest.raises(SceneError) as raised:
-        _run(SLEWING_STOPS)
-    assert raised.value.key == "beams.arm.start.hinge.friction"
-    assert "beside probe 'torque'" in str(raised.value) and "solve.sensitivity_method: forward" in str(raised.value)
-    completed, _ = latdyn_run(tmp_path, SLEWING_STOPS, quiet=True)
-    assert completed.returncode == 2 and "beams.arm.start.hinge.friction" in completed.stderr
-    assert "Traceback" not in completed.stderr
-
-
 #: a block on a skew guide held by static friction from t = 0 (gravity's pull along it 3.27 N, F_s = 5 N) until a
 #: growing push breaks it away
 GUIDE = """

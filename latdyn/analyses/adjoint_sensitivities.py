@@ -81,10 +81,11 @@ accelerations before and after it (2n numbers); where the scene has events, the 
 step was taken on, the event it ends on, its size's rule (:meth:`_size_rule`) and after an event the state after
 the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``solve.sensitivity_method``):
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
-friction sticks or releases beside other events, geometry parameters, controllers or probes other than points and
-joints' angles and rates (refused when it sticks, :meth:`_refuse_a_stick`; friction slipping, and its sticks and
-releases otherwise, are taken: the forward method's stick — a stop's impulse with restitution 0, the held angle's
-δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
+friction sticks or releases beside geometry parameters or a controller's probe, or with another event at one
+instant or while stuck (refused when it sticks, :meth:`_refuse_a_stick`; friction slipping, and its sticks and
+releases otherwise — beside latches, stops, cables, continuous controllers without states and joint-force and
+section-force probes too —, are taken: the forward method's stick — a stop's impulse with restitution 0, the held
+angle's δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
 its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
 bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`), a hinge resting on
 its rigid stop beside controllers with states or sampled ones (exit 1 when it happens,
@@ -120,10 +121,11 @@ from latdyn.analyses.controller_probe_sensitivities import is_controller_probe, 
 from latdyn.analyses.energy_sensitivities import is_energy_or_momentum
 from latdyn.analyses.energy_sensitivities import probe_forms as energy_probe_forms
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
-from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_forms, joint_of
+from latdyn.analyses.joint_force_sensitivities import (held_sensor_forms, is_joint_force, joint_force_forms,
+                                                       joint_of)
 from latdyn.analyses.link_sensitivities import columns_moving
 from latdyn.analyses.parameter_stiffness import held_angles_along
-from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
+from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives, probe_forms
 from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
                                            rates_taken_anew)
 from latdyn.analyses.transient_sensitivities import (TransientSensitivities, _NodeRotations, _StepColumns,
@@ -185,34 +187,31 @@ class AdjointSensitivities(TransientSensitivities):
         reverse pass does not transpose its stick or release (``why``; else the checks below): the forward method's
         own refusals (:meth:`TransientSensitivities._refuse_what_a_held_angle_moves`: guides or rigid links, directions
         without inertia, energies, momenta, controllers with states or sampled ones), and this pass's: a stick beside
-        latches, stops or cables (a stick's time and the held angle beside an event's δt are not transposed), beside
-        geometry parameters or controllers, with nothing else free, and probes other than points and joint angles and
-        rates (a joint force, a section force, a cable: their forms of the held angle are not formed). Everything else
+        geometry parameters (the held angle's terms of the start's move are not formed), with nothing else free, and
+        beside a controller's probe (its forms of the held angle are not formed). The events the forward method takes
+        beside a stick are taken (a latch, a stop or a cable's change while no joint is stuck: :meth:`step`,
+        :meth:`_stick_or_release_stored`), continuous controllers without states, and probes of points, joints' angles,
+        rates and forces, section forces, cables and points in a body's frame (:meth:`_held_forms`). Everything else
         is transposed (:meth:`_friction_event_transposed`)."""
         from latdyn.errors import SceneError
 
         self._refused = True   # nothing for :meth:`finish` to write where the run is refused (exit 2)
         if why is None:
             self._refuse_what_a_held_angle_moves(state)   # SceneError: the forward method refuses it too
-            if self._with_events():
-                why = "beside latches, stops or cables"
-            elif self.geometry is not None:
+            if self.geometry is not None:
                 why = "beside geometry parameters"
-            elif self.controllers is not None:
-                why = "beside controllers"
             elif self.model.n_dofs == 0:
                 why = "with nothing else free (the stuck joints the only coordinates)"
             else:
                 other = [probe.name for probe in self.probes if not _held_angle_probe(probe)]
-                why = (f"beside probe {other[0]!r} (a joint force, a section force, a cable or a controller's)"
-                       if other else None)
+                why = f"beside probe {other[0]!r} (a controller's)" if other else None
         if why is None:
             self._refused = False
             return
         raise SceneError(self.scene.file, friction_key(self.model.hinges[joint]),
                          f"at t = {float(state.t):.6g} the joint sticks or slips {why}: the discrete adjoint "
-                         "differentiates a stick and a release where the probes are points and joint angles and "
-                         "rates and no other event, geometry parameter or controller comes beside them; expected "
+                         "differentiates a stick and a release beside the events, continuous controllers without "
+                         "states and probes the forward method takes there, not this; expected "
                          "solve.sensitivity_method: forward (the default), which does (docs/parameters.md, "
                          "\"Friction\")")
 
@@ -267,6 +266,9 @@ class AdjointSensitivities(TransientSensitivities):
             if event is not None and event[1] == "rest":   # put back on its stop: transposed, but not beside these
                 self._refuse_what_a_rest_meets(new, event[0])
             cable = self._cable_event(old, new, event)
+            if (event is not None or cable is not None) and self.model.stuck.any():   # the forward method's refusal
+                self._refuse_a_stick(new, int(np.flatnonzero(self.model.stuck)[0]),
+                                     "while another event (a latch, a stop, a cable's change) comes")
             # the projection at a step's end lands on nothing: its step's size is the step control's (the forward
             # method's ``landed``)
             landed = None if event is not None and event[1] == "rest" else event
@@ -336,6 +338,9 @@ class AdjointSensitivities(TransientSensitivities):
         elif event is not None or entry.get("cable") is not None or entry.get("friction") is not None:
             self._refuse_resting(new, j, "a hinge leaves its stop beside another event at one instant")
         self._refuse_what_a_rest_meets(new, j)
+        if self.model.stuck.any():   # the held angles' terms of the rest's restart are not transposed
+            self._refuse_a_stick(new, int(np.flatnonzero(self.model.stuck)[0]),
+                                 "while a hinge comes to rest on its stop or leaves it")
         if not self.model.resting[j]:
             entry.update({"rest": ("release", j), "after": new.copy(), "numbering_end": self._numbering()})
 
@@ -348,9 +353,11 @@ class AdjointSensitivities(TransientSensitivities):
         changed = np.flatnonzero(before != self.model.stuck)
         if not len(changed):
             return
-        if len(changed) > 1:
+        if len(changed) > 1:   # the forward method refuses both (TransientSensitivities._stick_or_release)
             self._refuse_a_stick(new, int(changed[0]), "with another joint at one instant")
         j = int(changed[0])
+        if entry.get("event") is not None or entry.get("cable") is not None:
+            self._refuse_a_stick(new, j, "at the instant of another event (a latch, a stop, a cable's change)")
         self._refuse_a_stick(new, j)
         entry.update({"friction": ("stick" if self.model.stuck[j] else "release", j),
                       "numbering_end": self._numbering(), "after": new.copy()})
@@ -799,9 +806,10 @@ class AdjointSensitivities(TransientSensitivities):
             if samples_t is not None:   # the held outputs the step was taken with
                 outputs[:] = entry["outputs"]
             if entry.get("friction") is not None:   # a stick's or release's restart, renumbering (and jump)
-                q_bar, v_bar, vdot_bar, theta_bar, by_event = self._friction_event_transposed(
+                q_bar, v_bar, vdot_bar, theta_bar, by_event, t_by_event = self._friction_event_transposed(
                     entry, q_bar, v_bar, vdot_bar + a_bar, theta_bar)
                 gradient += by_event
+                t_bar = t_bar + t_by_event
                 a_bar = np.zeros_like(v_bar)
             elif entry.get("rest") is not None:   # released from its stop at the step's end: a stop's restart
                 q_bar, v_bar, by_release, t_by_release = self._release_transposed(entry, q_bar, v_bar,
@@ -1041,13 +1049,16 @@ class AdjointSensitivities(TransientSensitivities):
         - a stick's jump, a stop's impulse with restitution 0 (:meth:`_impulse_transposed`), with the held angles'
           terms of its weight (the other joints friction holds): θ̄ −= (dt² ∂K_θ/∂q[Δv] + ∂(M a)_θ/∂a[Δv])ᵀ ū.
 
-        The restart sets δv̇ and δa afresh (the stick's ``dvdot`` 0): nothing of v̇̄ or ā passes. Returns (q̄, v̄, v̇̄,
-        θ̄ before it, (k, m) into the gradient); the model left on the numbering before it."""
+        The restart sets δv̇ and δa afresh (the stick's ``dvdot`` 0): nothing of v̇̄ or ā passes. Beside laws in t the
+        restart and the jump are at t_e + δt_e, as the forward method takes them (its ``time_shift`` there: δt_e
+        non-zero after an event until a step lands on the grid), their ∂/∂t onto t̄ (latdyn/analyses/adjoint_time.py).
+        Returns (q̄, v̄, v̇̄, θ̄ before it, (k, m) into the gradient, (m,) into t̄); the model left on the numbering before
+        it."""
         kind, j = entry["friction"]
         model, scale = self.model, self.scene.solve.dt * self.scene.solve.dt
         theta_bar = theta_bar.copy()
         self._restart_weight = None
-        q_bar, v_bar, _, gradient, _ = self._restart_transposed(entry, q_bar, v_bar, s_bar)
+        q_bar, v_bar, _, gradient, t_bar = self._restart_transposed(entry, q_bar, v_bar, s_bar)
         stuck = np.flatnonzero(model.stuck)   # on the numbering after it: the angles held through the restart
         if len(stuck) and model.n_dofs:
             after, u_bar = self._restart_u
@@ -1061,11 +1072,11 @@ class AdjointSensitivities(TransientSensitivities):
             theta_bar[j] = q_bar[model.hinge_dofs[j]]
         q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
         if kind == "release":
-            return q_bar, v_bar, np.zeros_like(v_bar), theta_bar, gradient
+            return q_bar, v_bar, np.zeros_like(v_bar), theta_bar, gradient, t_bar
         q_bar[model.hinge_dofs[j]] += theta_bar[j]   # the held δθ_j: δq[θ_j] at the stick
         theta_bar[j] = 0.0
-        v_bar, q_by_jump, vdot_by_jump, by_jump, _ = self._impulse_transposed({**entry, "event": (j, "stick", 0.0)},
-                                                                             v_bar)
+        v_bar, q_by_jump, vdot_by_jump, by_jump, t_by_jump = self._impulse_transposed(
+            {**entry, "event": (j, "stick", 0.0)}, v_bar)
         stuck = np.flatnonzero(model.stuck)   # the other joints friction holds through the jump
         if len(stuck):
             change, u_bar = self._impulse_weight
@@ -1074,7 +1085,7 @@ class AdjointSensitivities(TransientSensitivities):
             weight = (scale * self._held_stiffness_columns(new, change, stuck)
                       + self._held_columns(accelerated, stuck, True) - self._held_columns(at_rest, stuck, True))
             theta_bar[stuck] -= weight.T @ u_bar
-        return q_bar + q_by_jump, v_bar, vdot_by_jump, theta_bar, gradient + by_jump
+        return q_bar + q_by_jump, v_bar, vdot_by_jump, theta_bar, gradient + by_jump, t_bar + t_by_jump
 
     def _held_columns(self, state, stuck: np.ndarray, inertia: bool, element_gravity: bool = True) -> np.ndarray:
         """(n, s): the forward method's held forces (:meth:`TransientSensitivities._held_forces`: K's column of each
@@ -1117,16 +1128,37 @@ class AdjointSensitivities(TransientSensitivities):
 
     def _held_forms(self, probe, state) -> np.ndarray:
         """c_θ (n_hinges,): ``probe``'s derivative by each held angle's δθ at ``state`` (the forward method's
-        :meth:`record`: δθ += held, through :meth:`_probe_derivatives` on unit δθ columns of the joints friction
-        holds), zero elsewhere."""
+        :meth:`record`: δθ += held), zero elsewhere. A joint's force: the forward method's is its forms along (δq, δv,
+        δv̇) plus ∂r_d/∂p on all coordinates, which holds the held forces (:meth:`_held_forces`, with the inertia
+        tangent) — a held joint's reaction on row d moves by K[d, θ_j] δθ_j (:meth:`_held_forces` on all
+        coordinates); a free joint's law by a controller's coupling to the held angle where one drives it from there
+        (:func:`latdyn.analyses.joint_force_sensitivities.held_sensor_forms`). Any other probe:
+        :meth:`_probe_derivatives` on unit δθ columns of the joints friction holds (a section force through the
+        element's angle slot, a point in a body's frame, a cable reads none), its explicit ∂y/∂p left out."""
         model = self.model
         stuck = np.flatnonzero(model.stuck)
         out = np.zeros(len(model.hinges))
+        if is_joint_force(probe):
+            j = joint_of(model, probe)
+            d = model.hinge_dofs[j]
+            if d >= model.n_dofs:   # its reaction: row d of the held forces on all coordinates
+                saved, self.held = self.held, self._unit_held(stuck)
+                try:
+                    out[stuck] = self._held_forces(state, True)[d]
+                finally:
+                    self.held = saved
+            else:   # its law: a controller's sensor of a held angle (0 without one)
+                out[stuck] = held_sensor_forms(self, state, [j], stuck).get(j, 0.0)
+            return out
         zero = np.zeros((model.n_dofs, len(stuck)))
         dx, dpi, dtheta = self._by_parameter(zero, state)
         dtheta[stuck, np.arange(len(stuck))] += 1.0
-        rates = (self._rates_by_parameter(zero, zero, state) if probe.quantity in ("rate", "velocity") else None)
-        out[stuck] = self._probe_derivatives(probe, state, dx, dpi, dtheta, rates, explicit=False)
+        rates = (self._rates_by_parameter(zero, zero, state) if probe.quantity in ("rate", "velocity", "tension")
+                 else None)
+        if is_probe_here(probe):   # section forces, cables, points in a body's frame: along the unit columns alone
+            out[stuck] = probe_derivatives(self, probe, state, dx, dpi, dtheta, rates, explicit=False)
+        else:
+            out[stuck] = self._probe_derivatives(probe, state, dx, dpi, dtheta, rates, explicit=False)
         return out
 
     # ------------------------------------------------------------------ events transposed
@@ -1508,11 +1540,10 @@ class AdjointSensitivities(TransientSensitivities):
 
 def _held_angle_probe(probe) -> bool:
     """Whether the reverse pass seeds ``probe``'s forms of a held angle (:meth:`AdjointSensitivities._held_forms`, the
-    forward method's :meth:`_probe_derivatives` on the angle's δθ): a point (in global axes or a body's frame), a joint's
-    angle or rate."""
-    if is_joint_force(probe) or is_controller_probe(probe) or is_energy_or_momentum(probe):
-        return False
-    return probe.kind == "point" or (probe.kind == "hinge" and probe.quantity in ("angle", "rate"))
+    forward method's :meth:`record` on the angle's δθ): every probe but a controller's (its states' and held outputs'
+    terms of the held angle are not formed) and energies and momenta (the forward method refuses them beside a
+    stick)."""
+    return not (is_controller_probe(probe) or is_energy_or_momentum(probe))
 
 
 def _norm_at_zero(probe, forms: tuple) -> bool:

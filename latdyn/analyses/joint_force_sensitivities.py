@@ -38,7 +38,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["is_joint_force", "joint_of", "refusal", "joint_force_derivatives", "joint_force_forms"]
+__all__ = ["is_joint_force", "joint_of", "refusal", "joint_force_derivatives", "joint_force_forms",
+           "held_sensor_forms"]
 
 
 def is_joint_force(probe) -> bool:
@@ -143,6 +144,32 @@ def joint_force_forms(owner, state, joints=None) -> dict:
         M, C, K = assembler.exact_rows(state, rows)
         explicit = owner.residual_derivatives(state, 1.0, inertia=True, on_all=True)[rows]
         out.update({j: (K[i], C[i], M[i], explicit[i]) for i, j in enumerate(held)})
+    return out
+
+
+def held_sensor_forms(owner, state, joints: list, stuck: np.ndarray) -> dict:
+    """{joint index: (s,)} for the free ``joints`` whose force a continuous controller drives from the angle of a joint
+    of ``stuck`` (s joints friction holds): the force −a y moves with each held angle's δθ by −a ∂y/∂θ, the coupling
+    entry of the joint's row in the held angle's column (latdyn/assembly/control.py), which :func:`joint_force_forms`
+    leaves out (it reads the couplings on the free coordinates; a held angle is none). The forward method adds it times
+    the carried δθ (``TransientSensitivities._joint_forces``), the adjoint seeds it on θ̄ (``_held_forms``). A held
+    joint's rate and its δθ̇ are 0: the damping couplings add nothing. Joints without such a coupling are left out."""
+    model, wiring = owner.model, owner.assembler.control
+    held_dofs = model.hinge_dofs[np.asarray(stuck, np.int64)]
+    driven = {j: (wiring.coupling_rows == model.hinge_dofs[j]) & np.isin(wiring.coupling_cols, held_dofs)
+              for j in joints}
+    driven = {j: on for j, on in driven.items() if np.any(on)}
+    if not driven:
+        return {}
+    native = owner.assembler.native()
+    native.evaluate(state, True, 1.0, True, False)
+    stiffness = native.buffers["coupling_stiffness"]
+    out = {}
+    for j, on in driven.items():
+        column = np.zeros(len(held_dofs))
+        for entry in np.flatnonzero(on):
+            column[np.flatnonzero(held_dofs == wiring.coupling_cols[entry])] -= stiffness[entry]
+        out[j] = column
     return out
 
 

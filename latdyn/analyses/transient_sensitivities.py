@@ -146,7 +146,8 @@ from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exa
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives,
                                            rates_taken_anew)
-from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_force_derivatives, joint_force_forms, joint_of
+from latdyn.analyses.joint_force_sensitivities import (held_sensor_forms, is_joint_force, joint_force_derivatives,
+                                                       joint_force_forms, joint_of)
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
 from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight,
                                                geometric_product, linked_configuration_tangent,
@@ -1674,6 +1675,10 @@ class TransientSensitivities(ParameterDerivatives):
             if shifted:
                 self.time_shift = None
         free = [j for j in forces if self.model.hinge_dofs[j] < self.model.n_dofs]
+        stuck = np.flatnonzero(np.any(self.held, axis=1)) if self.held is not None else np.zeros(0, np.int64)
+        if len(stuck) and free:   # a controller driving a free joint from a held angle: its δθ (held_sensor_forms)
+            for j, column in held_sensor_forms(self, state, free, stuck).items():
+                forces[j] = forces[j] + column @ self.held[stuck]
         if shifted and free:
             rates = joint_force_forms(self.explicit_time.laws, state, free)
             for j in free:
