@@ -708,7 +708,7 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None, full: np
     if terms is None:
         return None
     forces_read = any(terms.forces_read.values())
-    if forces_read and not _joint_forces_read(owner, terms):
+    if forces_read and not _sensed_forces_generated(owner, terms):
         return None
     control = assembler.control
     total = np.zeros((model.n_total + 1, terms.k))
@@ -758,36 +758,59 @@ def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray,
     return total
 
 
-def _joint_forces_read(owner, terms) -> bool:
+def _sensed_forces_generated(owner, terms) -> bool:
     """Whether every force a continuous controller reads whose laws a parameter moves (``ControllerTerms.forces_read``)
-    is a free joint's torque or force (its ∂F/∂p = −∂f/∂p moves along q as :func:`_hinges` and :func:`_stops` give:
-    :func:`_moved_joint_forces_along`); a cable's tension, an element's section force or a placed point keep the
-    difference (no kernel gives their ∂F/∂p's move along q)."""
+    has its ∂F/∂p's move along q generated (:func:`_moved_forces_along`): a free joint's torque or force (its laws and
+    compliant stops, :func:`_hinges`, :func:`_stops`); a cable's tension whose EA, damping or ρA alone a parameter
+    moves (N linear in (EA, c), ρA moving no force); an element's section force whose section values alone a parameter
+    moves on a shear-rigid element (no geometry parameter; S linear in the stiffness values, :func:`_shear_rigid`).
+    The others keep the difference: a cable's rest length (N = EA (ℓ − L0)/L0 is not linear in it and no kernel gives
+    ∂²N/∂L0∂q), a shear-flexible element's section force (its axial force reads EI through μ; no kernel gives
+    ∂²S/∂σ∂q), a placed point and a section force that a geometry parameter moves (no kernel gives ∂²s/∂X∂q), a
+    stuck or locked joint's force (a reaction)."""
     from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
 
     model = owner.model
     read = {r for found in terms.forces_read.values() for r in found}
     for name in read:
         probe = terms.moved_forces[name]
-        if not is_joint_force(probe):
-            return False
-        j = joint_of(model, probe)
-        if model.hinge_dofs[j] >= model.n_dofs:   # a stuck or locked joint's force is a reaction
+        if is_joint_force(probe):
+            if model.hinge_dofs[joint_of(model, probe)] >= model.n_dofs:   # a stuck or locked joint's force
+                return False
+        elif probe.kind == "cable":
+            k = model.cables.names.index(probe.beam)
+            if any(cable == k and value == "rest_length" for cable, value, _, _ in owner.cables.uses):
+                return False
+        elif probe.kind != "element" or owner.geometry is not None or not _shear_rigid(model, probe):
             return False
     return True
 
 
-def _moved_joint_forces_along(owner, terms, state, w: np.ndarray) -> dict:
-    """{name: ∂(∂F/∂p)/∂q w (k,)} of the free joints' forces of :func:`_joint_forces_read`: F = −f (the joint's laws
-    and compliant stops, ``ControllerTerms.sensed_force_slopes``), so −∂(∂f/∂p)/∂θ w_θ, the generated ``hinge_force``
-    stiffness with the derivative law in the law's slot (:func:`_hinges`) and ``contact_stiffness_D_law``
-    (:func:`_stops`) along the joint's own angle alone (the rates held, as W's K)."""
-    from latdyn.analyses.joint_force_sensitivities import joint_of
+def _moved_forces_along(owner, terms, state, w: np.ndarray) -> dict:
+    """{name: ∂(∂F/∂p)/∂q w (k,)} of the forces of :func:`_sensed_forces_generated`, the rates held (as W's K):
+
+    * a free joint's force F = −f (its laws and compliant stops, ``ControllerTerms.sensed_force_slopes``): −∂(∂f/∂p)/∂θ
+      w_θ, the generated ``hinge_force`` stiffness with the derivative law in the law's slot (:func:`_hinges`) and
+      ``contact_stiffness_D_law`` (:func:`_stops`) along the joint's own angle alone;
+    * a cable's tension, its first element's N = EA (ℓ − L0)/L0 + c ℓ̇ (0 while slack): linear in (EA, c) at a fixed
+      rest length, so ∂N/∂p is N at (∂EA/∂p, ∂c/∂p) and its move along w the generated ``cable_tension``'s gradient
+      there times w on the element's ends (:func:`_tension_along`);
+    * an element's section force w0 S_k + w1 S_k+1 (latdyn.assembly.control ``_section_sensor``) on a shear-rigid
+      element: ∂S/∂p = (∂S/∂σ) δσ is S at the section [L0, δσ] (linear in the stiffness values there), so its move
+      along w is the generated ``beam_section_forces_D_q`` at that section times w (:func:`_section_force_along`)."""
+    from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
 
     model = owner.model
     out = {}
     for name in {r for found in terms.forces_read.values() for r in found}:
         probe = terms.moved_forces[name]
+        if probe.kind == "cable":
+            out[name] = _tension_along(owner, state, w, probe)
+            continue
+        if probe.kind == "element":
+            out[name] = _section_force_along(owner, state, w, probe)
+            continue
+        assert is_joint_force(probe), probe
         j = joint_of(model, probe)
         d = int(model.hinge_dofs[j])
         along = np.zeros(model.n_total + 1)
@@ -798,6 +821,73 @@ def _moved_joint_forces_along(owner, terms, state, w: np.ndarray) -> dict:
             _stops(owner, state, along, total)
         out[name] = -total[d]
     return out
+
+
+def _tension_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
+    """(k,) ∂(∂N/∂p)/∂q w of a cable's tension (:func:`_moved_forces_along`): the generated ``cable_tension``'s
+    gradient ∂N/∂[d1, π1, d2, π2] of its first element at (EA, c) = (∂EA/∂p, 0) or (0, ∂c/∂p), times w on the
+    element's ends; 0 while the element is slack (the sensor reads 0 there, csrc/evaluate.c)."""
+    from latdyn.analyses.weight_derivative import _cable_inputs
+
+    model = owner.model
+    cables = model.cables
+    k = cables.names.index(probe.beam)
+    element = int(np.flatnonzero(cables.cable == k)[0])
+    out = np.zeros(len(owner.names))
+    geometry, velocity, section, taut = _cable_inputs(owner.assembler, state, np.array([element]))
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    along = full[_scattered(model.node_dofs[cables.nodes[element]].reshape(12), model.n_total)]
+    if not taut[0] or not np.any(along):
+        return out
+    t = float(state.t)
+    for cable, value, column, law in owner.cables.uses:
+        if cable != k or value not in ("EA", "damping"):
+            continue
+        moved = section.copy()
+        moved[0, 2:4] = (law.value(0.0, 0.0, t), 0.0) if value == "EA" else (0.0, law.value(0.0, 0.0, t))
+        gradient = owner.kernels.cable_tension(geometry, velocity, np.ascontiguousarray(moved))[1]
+        out[column] += float(np.asarray(gradient, float).reshape(12) @ along)
+    return out
+
+
+def _section_force_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
+    """(k,) ∂(∂S/∂p)/∂q w of an element's section force w0 S_k + w1 S_k+1 (:func:`_moved_forces_along`) on a
+    shear-rigid element (:func:`_shear_rigid`). There S = [EA ε̄(Ψ), GJ φ_x2/L, EIy (φ_y2 − φ_y1)/L,
+    EIz (φ_z2 − φ_z1)/L] (codegen/formulation.py ``section_forces``; ε̄ reads the section only through the shear
+    factors μ = 1/(1 + 12 EI/(GA L²)), 1 here, and Ψ(q) not at all) is linear and homogeneous in (EA, GJ, EIy, EIz)
+    and free of the other values, so ∂S/∂σ δσ is S at the section [L0, δσ] and its move along w the generated
+    ``beam_section_forces_D_q``'s ∂S/∂q there times w_e, for each section use's derivative rows δσ
+    (``ParameterDerivatives._section_derivative_blocks``), weighed as csrc/parameter_forces.c ``section_force_slope``
+    weighs ∂S/∂σ."""
+    from latdyn.assembly.control import _section_sensor
+
+    model = owner.model
+    out = np.zeros(len(owner.names))
+    blocks = owner._section_derivative_blocks(state)
+    _, index, _, _, weights, _ = _section_sensor(model, probe)
+    e, first = index // 4, index % 4
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    along = full[_scattered(model.element_dofs[e], model.n_total)]
+    uses = np.flatnonzero(blocks[0] == e) if blocks is not None else np.zeros(0, np.int64)
+    if not len(uses) or not np.any(along):
+        return out
+    geometry = np.ascontiguousarray(np.repeat(owner.assembler.native().element_inputs(state)[0][e:e + 1], len(uses), 0))
+    by_q = np.asarray(owner.kernels.beam_section_forces_D_q(geometry, np.ascontiguousarray(blocks[2][uses]))[1],
+                      float).reshape(len(uses), 4, -1) @ along
+    weighed = weights[0] * by_q[:, first] + (weights[1] * by_q[:, first + 1] if first < 3 else 0.0)
+    np.add.at(out, blocks[1][uses], weighed)
+    return out
+
+
+def _shear_rigid(model, probe) -> bool:
+    """Whether the element a section-force ``probe`` reads is shear-rigid (its compliances 1/GAy, 1/GAz zero, the
+    last two of codegen/conventions.py SECTION_NAMES): its section forces are then linear in the stiffness values
+    (:func:`_section_force_along`); a shear-flexible one's axial force reads EI through μ, and keeps the
+    difference."""
+    e = int(model.beam_elements[probe.beam][probe.element])
+    return not np.any(model.element_sections[e, -2:])
 
 
 def held_angles_along(owner, state, w: np.ndarray):
@@ -926,7 +1016,7 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
                         terms.compiled.gradient(c, arguments))
             if forces is None:
                 forces = terms.sensed_force_slopes(state)
-                forces_along = _moved_joint_forces_along(owner, terms, state, w)
+                forces_along = _moved_forces_along(owner, terms, state, w)
             for read, i in terms.forces_read[c.name].items():
                 slope += gradient[i] * forces[read]
                 move += mixed[i] * forces[read] + gradient[i] * forces_along[read]

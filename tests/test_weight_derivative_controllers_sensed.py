@@ -1,0 +1,71 @@
+"""A controller reading a force whose own law a parameter moves, in the parameters' part of an event's impulse weight
+derivative, exact (latdyn/analyses/parameter_stiffness.py ``_moved_forces_along``; docs/parameters.md "The impulse
+weight's derivative"):
+
+* a cable's tension N = EA (ℓ − L0)/L0 + c ℓ̇ whose EA or damping a parameter moves: N is linear in (EA, c), so ∂N/∂p
+  is N at (∂EA/∂p, ∂c/∂p) and its move along w the generated ``cable_tension``'s gradient there times w;
+* an element's section force whose section values a parameter moves, on a shear-rigid element: S is linear in the
+  stiffness values there, so ∂S/∂p is S at the section [L0, δσ] and its move along w the generated
+  ``beam_section_forces_D_q`` there times w.
+
+Before, ``TransientSensitivities._terms_beside_stiffness_along`` took a central difference of the controllers' whole
+terms of ∂r/∂p along w (two configuration moves an event). Each test counts the moves (0 now) and holds the block
+against Richardson-extrapolated differences of the same block (tests/test_weight_derivative_controllers_held.py's
+helpers); the whole runs against Richardson differences of whole runs, the adjoint against the forward method."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from latdyn.analyses.transient_sensitivities import TransientSensitivities
+from tests.test_controller_stop_sensitivities import CHAINED
+from tests.test_weight_derivative_controllers_held import _assert_exact, _counted, _events_block
+from tests.test_weight_derivative_force_sensors import TENSION
+
+#: the controlled boom's PD reading the stay's tension (nonlinear in it) through the arm's latch, the stay's EA and
+#: its damping cs the parameters
+TENSION_EA = (TENSION.replace("damping: 0.4}", 'damping: "cs"}', 1)
+              .replace("Kp: 0.4, Kd: 0.05}", "Kp: 0.4, Kd: 0.05, cs: 0.4}", 1)
+              .replace("sensitivities: [Kp, k]", "sensitivities: [EA, cs, Kp]"))
+#: the wheel of tests/test_controller_stop_sensitivities.py through its rigid stop (e = 0.8, hit twice), its arm's
+#: EIz the parameter EI, pd reading the arm's root element's bending moment M_z (linearly and times the angle)
+SECTION_EIZ = (CHAINED.replace("parameters: {Kt: 2.0,", "parameters: {EI: 300.0, Kt: 2.0,")
+               .replace("EIz: 1.0e4,", 'EIz: "EI",')
+               .replace('pd: {output: "Kp*(lead - angle)', 'pd: {output: "Kp*(lead - angle) + 0.01*mz + 0.02*mz*angle')
+               .replace("sensitivities: [Kp, Kt]", "sensitivities: [EI, Kp]")
+               .replace("    angle: {", '    mz: {element: "arm.element[0]", quantity: moment_z}\n    angle: {', 1))
+assert '"cs"' in TENSION_EA and "[EA, cs, Kp]" in TENSION_EA
+assert 'EIz: "EI"' in SECTION_EIZ and "0.02*mz*angle" in SECTION_EIZ and "moment_z" in SECTION_EIZ
+
+
+@pytest.mark.parametrize("text, events, tolerance", [(TENSION_EA, ["latch"], 1e-11), (SECTION_EIZ, ["stop", "stop"], 1e-11)],
+                         ids=["tension-EA-latch", "section-EIz-stops"])
+def test_the_sensed_forces_blocks_are_exact_and_take_no_difference(monkeypatch, text, events, tolerance):
+    """The PD of the stay's tension by EA, cs and Kp at the arm's latch: the block measured 2.4e-12, 2.2e-13 and
+    3.8e-14 of each column's largest off Richardson differences of itself; pd of the root element's M_z by EI and Kp
+    at the wheel's two stops (below). No configuration move (two an event before: fails before on the moves)."""
+    result, seen = _events_block(monkeypatch, text)
+    assert [e["kind"] for e in result.summary["events"]] == events
+    _assert_exact(seen, tolerance)
+
+
+@pytest.mark.parametrize("text, name", [(TENSION_EA, "EA"), (SECTION_EIZ, "EI")], ids=["tension-EA-latch",
+                                                                                      "section-EIz-stops"])
+def test_through_the_events_the_sensitivities_agree_with_richardson(monkeypatch, text, name):
+    """Whole runs by the sensed force's own parameter against Richardson differences of whole runs
+    (tests/test_sensitivities_events.py ``_agree``, every probe and the event times), taken with no configuration move
+    at the events (two each before: fails before on the moves): measured below."""
+    import test_sensitivities_events as events
+
+    counts, original = [], TransientSensitivities._terms_beside_stiffness_along
+
+    def spy(self, state, w):
+        block, moves = _counted(self.assembler, lambda: original(self, state, w))
+        counts.append(moves)
+        return block
+
+    monkeypatch.setattr(TransientSensitivities, "_terms_beside_stiffness_along", spy)
+    result = events._run(text, name)
+    monkeypatch.undo()
+    assert counts and not any(counts)
+    assert events._agree(result, text, name, tolerance=1e-6, event_tolerance=1e-6) <= 1e-6
