@@ -72,8 +72,13 @@ process), times the sensors' generated gradients, through the chain of controlle
   turns with its node and frame, ``point_load_stiffness_D_q`` at the values a δy;
 * a controller reading a free joint's torque or force whose laws a parameter moves: ∂F/∂p = −∂f/∂p moves along the
   joint's own angle as the laws' part of (∂K/∂p) w does, the ``hinge_force`` stiffness with the derivative law in the
-  law's slot and ``contact_stiffness_D_law`` (:func:`_moved_joint_forces_along`), and the output's gradient by it
-  with SymPy's mixed second derivatives as the other reads;
+  law's slot and ``contact_stiffness_D_law`` (:func:`_moved_forces_along`), and the output's gradient by it
+  with SymPy's mixed second derivatives as the other reads; since ctrlexact likewise a cable's tension whose EA or
+  damping a parameter moves (N linear in (EA, c): ``cable_tension``'s gradient at (∂EA/∂p, ∂c/∂p) times w) and a
+  shear-rigid element's section force whose section values a parameter moves (S linear in the stiffness values:
+  ``beam_section_forces_D_q`` at the section [L0, δσ] times w) — before, the difference below, 6.0e-11 – 1.1e-10 of
+  each column off Richardson differences of the block at the 3D boom's latch, 2.4e-12 – 3.8e-14 now
+  (tests/test_weight_derivative_controllers_sensed.py);
 * the angles friction holds (:func:`held_angles_along`): a held angle is no free coordinate, so its K column times δθ_j
   moves along w as ∂(K e_j)/∂q w, the generated ``beam_stiffness_D_q`` at the unit on the held slot times w_e and the
   couplings' row of the held angle from the controllers' second derivatives (``_controller_curvatures``), with W's K:
@@ -82,9 +87,11 @@ process), times the sensors' generated gradients, through the chain of controlle
   whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now; the difference
   that remains below takes W's K's columns too, ``TransientSensitivities._held_forces`` without ``element_gravity``).
 
-Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a cable's tension,
-an element's section force or a point a geometry parameter places, whose laws a parameter moves (their ∂F/∂p's move
-along q has no kernel); a controller whose output's second derivatives along q are not generated
+Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a cable's tension
+whose rest length a parameter moves (N is not linear in L0; no kernel gives ∂²N/∂L0∂q), a shear-flexible element's
+section force whose section values a parameter moves (its axial force reads EI through μ = 1/(1 + 12 EI/(GA L²))), or
+a section force or a point a geometry parameter moves (no kernel gives ∂²s/∂X∂q) (:func:`_sensed_forces_generated`);
+a controller whose output's second derivatives along q are not generated
 (``weight_derivative._exact_controllers``: a free joint's force whose law's slope does not parse back as a law, a
 variant generated before the sensors' second-derivative kernels, an output whose second derivatives are not
 functions, or a controller reading those); a held angle whose column a load's controller's coupling or such a
@@ -679,8 +686,9 @@ def _mixed_laws(controller, partials: dict, moving: tuple):
 def controller_parameter_along(owner, state, w: np.ndarray, terms=None, full: np.ndarray | None = None):
     """(n_total + 1, k): the derivative along w of the controllers' terms of ∂r/∂p
     (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`) at ``state``, exact, or None where it is not formed
-    here (the caller differences those terms then): a controller reading a force other than a free joint's whose laws
-    a parameter moves (:func:`_joint_forces_read`), or one whose output's second derivatives along q are not generated
+    here (the caller differences those terms then): a controller reading a force whose laws a parameter moves where
+    that force's ∂F/∂p's move is not generated (:func:`_sensed_forces_generated`), or one whose output's second
+    derivatives along q are not generated
     (:func:`latdyn.analyses.weight_derivative._exact_controllers`). The sampled controllers' held outputs:
     :func:`sampled_held_along`. With a_p the reads of f_k that move along q (a
     sensor: its generated gradient ∂s/∂q, :func:`latdyn.analyses.weight_derivative._sensor_kinematics`; an earlier
@@ -693,8 +701,8 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None, full: np
 
     (0 while y_k is clipped at a limit), SymPy's mixed second derivatives (:func:`_mixed_laws`); a hinge actuator's
     row takes −a δ(dy/dp), a load component's the ``point_load`` kernel at a δ(dy/dp) plus
-    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame); F a free joint's force
-    whose laws a parameter moves, δ(∂F/∂p) :func:`_moved_joint_forces_along`. Before, a central difference of
+    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame); F a force whose laws a
+    parameter moves (a free joint's, a cable's tension, a section force), δ(∂F/∂p) :func:`_moved_forces_along`. Before, a central difference of
     :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there; sampled controllers
     and joint-force readers until ctrlhand).
     ``terms``: a ControllerTerms other than ``owner.controllers`` (its ``k`` columns: the adjoint's held δS map,
@@ -731,7 +739,7 @@ def linked_controller_parameter_along(owner, state, full: np.ndarray):
     dependent node's too, :func:`latdyn.analyses.weight_derivative._sensor_kinematics`) times u. The caller projects
     it by Pᵀ and adds the reduction's geometric term of ∂r_all/∂p. None (the caller keeps the difference) where
     :func:`controller_parameter_along` does not form it, and where a controller reads a joint's force whose laws a
-    parameter moves (its ∂F/∂p's move, :func:`_moved_joint_forces_along`, is on the free coordinates alone)."""
+    parameter moves (its ∂F/∂p's move, :func:`_moved_forces_along`, is on the free coordinates alone)."""
     terms = owner.controllers
     if terms is None:
         return None
