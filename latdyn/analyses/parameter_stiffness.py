@@ -73,8 +73,9 @@ process), times the sensors' generated gradients, through the chain of controlle
 * a controller reading a free joint's torque or force whose laws a parameter moves: ∂F/∂p = −∂f/∂p moves along the
   joint's own angle as the laws' part of (∂K/∂p) w does, the ``hinge_force`` stiffness with the derivative law in the
   law's slot and ``contact_stiffness_D_law`` (:func:`_moved_forces_along`), and the output's gradient by it
-  with SymPy's mixed second derivatives as the other reads; since ctrlexact likewise a cable's tension whose EA or
-  damping a parameter moves (N linear in (EA, c): ``cable_tension``'s gradient at (∂EA/∂p, ∂c/∂p) times w) and a
+  with SymPy's mixed second derivatives as the other reads; since ctrlexact likewise a cable's tension whose EA,
+  damping or rest length a parameter moves (N linear in (EA, c): ``cable_tension``'s gradient at (∂EA/∂p, ∂c/∂p)
+  times w; ∂²N/∂L0∂q = −(1/L0) ∂N_el/∂q) and a
   shear-rigid element's section force whose section values a parameter moves (S linear in the stiffness values:
   ``beam_section_forces_D_q`` at the section [L0, δσ] times w) — before, the difference below, 6.0e-11 – 1.1e-10 of
   each column off Richardson differences of the block at the 3D boom's latch, 2.4e-12 – 3.8e-14 now
@@ -87,8 +88,8 @@ process), times the sensors' generated gradients, through the chain of controlle
   whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now; the difference
   that remains below takes W's K's columns too, ``TransientSensitivities._held_forces`` without ``element_gravity``).
 
-Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a cable's tension
-whose rest length a parameter moves (N is not linear in L0; no kernel gives ∂²N/∂L0∂q), a shear-flexible element's
+Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a shear-flexible
+element's
 section force whose section values a parameter moves (its axial force reads EI through μ = 1/(1 + 12 EI/(GA L²))), or
 a section force or a point a geometry parameter moves (no kernel gives ∂²s/∂X∂q) (:func:`_sensed_forces_generated`);
 a controller whose output's second derivatives along q are not generated
@@ -769,13 +770,12 @@ def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray,
 def _sensed_forces_generated(owner, terms) -> bool:
     """Whether every force a continuous controller reads whose laws a parameter moves (``ControllerTerms.forces_read``)
     has its ∂F/∂p's move along q generated (:func:`_moved_forces_along`): a free joint's torque or force (its laws and
-    compliant stops, :func:`_hinges`, :func:`_stops`); a cable's tension whose EA, damping or ρA alone a parameter
-    moves (N linear in (EA, c), ρA moving no force); an element's section force whose section values alone a parameter
-    moves on a shear-rigid element (no geometry parameter; S linear in the stiffness values, :func:`_shear_rigid`).
-    The others keep the difference: a cable's rest length (N = EA (ℓ − L0)/L0 is not linear in it and no kernel gives
-    ∂²N/∂L0∂q), a shear-flexible element's section force (its axial force reads EI through μ; no kernel gives
-    ∂²S/∂σ∂q), a placed point and a section force that a geometry parameter moves (no kernel gives ∂²s/∂X∂q), a
-    stuck or locked joint's force (a reaction)."""
+    compliant stops, :func:`_hinges`, :func:`_stops`); a cable's tension (its EA, damping, rest length; ρA moves no
+    force); a shear-rigid element's section force whose section values alone a parameter moves (no geometry
+    parameter; S linear in the stiffness values, :func:`_shear_rigid`). The others keep the difference: a
+    shear-flexible element's section force (its axial force reads EI through μ; no kernel gives ∂²S/∂σ∂q), a placed
+    point and a section force that a geometry parameter moves (no kernel gives ∂²s/∂X∂q), a stuck or locked joint's
+    force (a reaction)."""
     from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
 
     model = owner.model
@@ -785,11 +785,9 @@ def _sensed_forces_generated(owner, terms) -> bool:
         if is_joint_force(probe):
             if model.hinge_dofs[joint_of(model, probe)] >= model.n_dofs:   # a stuck or locked joint's force
                 return False
-        elif probe.kind == "cable":
-            k = model.cables.names.index(probe.beam)
-            if any(cable == k and value == "rest_length" for cable, value, _, _ in owner.cables.uses):
-                return False
-        elif probe.kind != "element" or owner.geometry is not None or not _shear_rigid(model, probe):
+        elif probe.kind == "element" and (owner.geometry is not None or not _shear_rigid(model, probe)):
+            return False
+        elif probe.kind not in ("cable", "element"):   # a placed point
             return False
     return True
 
@@ -802,7 +800,8 @@ def _moved_forces_along(owner, terms, state, w: np.ndarray) -> dict:
       ``contact_stiffness_D_law`` (:func:`_stops`) along the joint's own angle alone;
     * a cable's tension, its first element's N = EA (ℓ − L0)/L0 + c ℓ̇ (0 while slack): linear in (EA, c) at a fixed
       rest length, so ∂N/∂p is N at (∂EA/∂p, ∂c/∂p) and its move along w the generated ``cable_tension``'s gradient
-      there times w on the element's ends (:func:`_tension_along`);
+      there times w on the element's ends; by the element's rest length L0, ∂N/∂L0 = −EA ℓ/L0² moves by
+      −(EA/L0²) ∂ℓ/∂q w = −(1/L0) ∂N_el/∂q w, ``cable_tension``'s gradient at c = 0 (:func:`_tension_along`);
     * an element's section force w0 S_k + w1 S_k+1 (latdyn.assembly.control ``_section_sensor``) on a shear-rigid
       element: ∂S/∂p = (∂S/∂σ) δσ is S at the section [L0, δσ] (linear in the stiffness values there), so its move
       along w is the generated ``beam_section_forces_D_q`` at that section times w (:func:`_section_force_along`)."""
@@ -834,7 +833,9 @@ def _moved_forces_along(owner, terms, state, w: np.ndarray) -> dict:
 def _tension_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
     """(k,) ∂(∂N/∂p)/∂q w of a cable's tension (:func:`_moved_forces_along`): the generated ``cable_tension``'s
     gradient ∂N/∂[d1, π1, d2, π2] of its first element at (EA, c) = (∂EA/∂p, 0) or (0, ∂c/∂p), times w on the
-    element's ends; 0 while the element is slack (the sensor reads 0 there, csrc/evaluate.c)."""
+    element's ends; by the rest length, N_el = EA (ℓ/L0 − 1) gives ∂²N/∂L0∂q = −(EA/L0²) ∂ℓ/∂q = −(1/L0) ∂N_el/∂q
+    (the gradient at c = 0), times the element's share of ∂L0/∂p (a reel's L0(t) share · L0 as
+    :func:`_cables`'s); 0 while the element is slack (the sensor reads 0 there, csrc/evaluate.c)."""
     from latdyn.analyses.weight_derivative import _cable_inputs
 
     model = owner.model
@@ -850,12 +851,18 @@ def _tension_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
         return out
     t = float(state.t)
     for cable, value, column, law in owner.cables.uses:
-        if cable != k or value not in ("EA", "damping"):
+        if cable != k or value not in ("EA", "damping", "rest_length"):
             continue
+        derivative = law.value(0.0, 0.0, t)
         moved = section.copy()
-        moved[0, 2:4] = (law.value(0.0, 0.0, t), 0.0) if value == "EA" else (0.0, law.value(0.0, 0.0, t))
+        if value == "rest_length":   # −(1/L0) ∂N_el/∂q (the gradient at c = 0) times share · ∂L0/∂p
+            moved[0, 3] = 0.0
+            scale = -cables.share[element] * derivative / section[0, 0]
+        else:                        # N at (∂EA/∂p, 0) or (0, ∂c/∂p)
+            moved[0, 2:4] = (derivative, 0.0) if value == "EA" else (0.0, derivative)
+            scale = 1.0
         gradient = owner.kernels.cable_tension(geometry, velocity, np.ascontiguousarray(moved))[1]
-        out[column] += float(np.asarray(gradient, float).reshape(12) @ along)
+        out[column] += scale * float(np.asarray(gradient, float).reshape(12) @ along)
     return out
 
 

@@ -1181,7 +1181,7 @@ class TransientSensitivities(ParameterDerivatives):
         second derivatives times the sensors' generated gradients, chained); a central difference (step
         :data:`WEIGHT_STEP` ℓ/|w|_∞, two evaluations) of what that does not form — the held angles' columns, and the
         controllers' terms where it returns None (a controller reading a force whose ∂F/∂p's move is not generated —
-        a cable's rest length, a shear-flexible section, a geometry parameter's section force or placed point —, a
+        a shear-flexible section, a geometry parameter's section force or placed point —, a
         controller whose second derivatives along q are not generated). The parameters' own terms beside
         them are generated (latdyn/analyses/parameter_stiffness.py)."""
         model, assembler = self.model, self.assembler
