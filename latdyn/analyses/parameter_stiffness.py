@@ -75,8 +75,14 @@ process), times the sensors' generated gradients, through the chain of controlle
   turns with its node and frame, ``point_load_stiffness_D_q`` at the values a δy;
 * a controller reading a free joint's torque or force whose laws a parameter moves: ∂F/∂p = −∂f/∂p moves along the
   joint's own angle as the laws' part of (∂K/∂p) w does, the ``hinge_force`` stiffness with the derivative law in the
-  law's slot and ``contact_stiffness_D_law`` (:func:`_moved_joint_forces_along`), and the output's gradient by it
-  with SymPy's mixed second derivatives as the other reads;
+  law's slot and ``contact_stiffness_D_law`` (:func:`_moved_forces_along`), and the output's gradient by it
+  with SymPy's mixed second derivatives as the other reads; since ctrlexact likewise a cable's tension whose EA,
+  damping or rest length a parameter moves (N linear in (EA, c): ``cable_tension``'s gradient at (∂EA/∂p, ∂c/∂p)
+  times w; ∂²N/∂L0∂q = −(1/L0) ∂N_el/∂q) and a
+  shear-rigid element's section force whose section values a parameter moves (S linear in the stiffness values:
+  ``beam_section_forces_D_q`` at the section [L0, δσ] times w) — before, the difference below, 6.0e-11 – 1.1e-10 of
+  each column off Richardson differences of the block at the 3D boom's latch, 2.4e-12 – 3.8e-14 now
+  (tests/test_weight_derivative_controllers_sensed.py);
 * the angles friction holds (:func:`held_angles_along`): a held angle is no free coordinate, so its K column times δθ_j
   moves along w as ∂(K e_j)/∂q w, the generated ``beam_stiffness_D_q`` at the unit on the held slot times w_e and the
   couplings' row of the held angle from the controllers' second derivatives (``_controller_curvatures``), with W's K:
@@ -85,9 +91,11 @@ process), times the sensors' generated gradients, through the chain of controlle
   whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now; the difference
   that remains below takes W's K's columns too, ``TransientSensitivities._held_forces`` without ``element_gravity``).
 
-Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a cable's tension,
-an element's section force or a point a geometry parameter places, whose laws a parameter moves (their ∂F/∂p's move
-along q has no kernel); a controller whose output's second derivatives along q are not generated
+Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a shear-flexible
+element's
+section force whose section values a parameter moves (its axial force reads EI through μ = 1/(1 + 12 EI/(GA L²))), or
+a section force or a point a geometry parameter moves (no kernel gives ∂²s/∂X∂q) (:func:`_sensed_forces_generated`);
+a controller whose output's second derivatives along q are not generated
 (``weight_derivative._exact_controllers``: a free joint's force whose law's slope does not parse back as a law, a
 variant generated before the sensors' second-derivative kernels, an output whose second derivatives are not
 functions, or a controller reading those); a held angle whose column a load's controller's coupling or such a
@@ -790,8 +798,9 @@ def _mixed_laws(controller, partials: dict, moving: tuple):
 def controller_parameter_along(owner, state, w: np.ndarray, terms=None, full: np.ndarray | None = None):
     """(n_total + 1, k): the derivative along w of the controllers' terms of ∂r/∂p
     (:meth:`latdyn.analyses.sensitivities.ControllerTerms.add`) at ``state``, exact, or None where it is not formed
-    here (the caller differences those terms then): a controller reading a force other than a free joint's whose laws
-    a parameter moves (:func:`_joint_forces_read`), or one whose output's second derivatives along q are not generated
+    here (the caller differences those terms then): a controller reading a force whose laws a parameter moves where
+    that force's ∂F/∂p's move is not generated (:func:`_sensed_forces_generated`), or one whose output's second
+    derivatives along q are not generated
     (:func:`latdyn.analyses.weight_derivative._exact_controllers`). The sampled controllers' held outputs:
     :func:`sampled_held_along`. With a_p the reads of f_k that move along q (a
     sensor: its generated gradient ∂s/∂q, :func:`latdyn.analyses.weight_derivative._sensor_kinematics`; an earlier
@@ -804,8 +813,8 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None, full: np
 
     (0 while y_k is clipped at a limit), SymPy's mixed second derivatives (:func:`_mixed_laws`); a hinge actuator's
     row takes −a δ(dy/dp), a load component's the ``point_load`` kernel at a δ(dy/dp) plus
-    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame); F a free joint's force
-    whose laws a parameter moves, δ(∂F/∂p) :func:`_moved_joint_forces_along`. Before, a central difference of
+    ``point_load_stiffness_D_q`` at a dy/dp along w (the load's turn with its node and frame); F a force whose laws a
+    parameter moves (a free joint's, a cable's tension, a section force), δ(∂F/∂p) :func:`_moved_forces_along`. Before, a central difference of
     :meth:`ControllerTerms.add` along w (kpstops found it dropped the chained outputs' move there; sampled controllers
     and joint-force readers until ctrlhand).
     ``terms``: a ControllerTerms other than ``owner.controllers`` (its ``k`` columns: the adjoint's held δS map,
@@ -819,7 +828,7 @@ def controller_parameter_along(owner, state, w: np.ndarray, terms=None, full: np
     if terms is None:
         return None
     forces_read = any(terms.forces_read.values())
-    if forces_read and not _joint_forces_read(owner, terms):
+    if forces_read and not _sensed_forces_generated(owner, terms):
         return None
     control = assembler.control
     total = np.zeros((model.n_total + 1, terms.k))
@@ -842,7 +851,7 @@ def linked_controller_parameter_along(owner, state, full: np.ndarray):
     dependent node's too, :func:`latdyn.analyses.weight_derivative._sensor_kinematics`) times u. The caller projects
     it by Pᵀ and adds the reduction's geometric term of ∂r_all/∂p. None (the caller keeps the difference) where
     :func:`controller_parameter_along` does not form it, and where a controller reads a joint's force whose laws a
-    parameter moves (its ∂F/∂p's move, :func:`_moved_joint_forces_along`, is on the free coordinates alone)."""
+    parameter moves (its ∂F/∂p's move, :func:`_moved_forces_along`, is on the free coordinates alone)."""
     terms = owner.controllers
     if terms is None:
         return None
@@ -869,36 +878,57 @@ def sampled_held_along(owner, state, w: np.ndarray, sampled, total: np.ndarray,
     return total
 
 
-def _joint_forces_read(owner, terms) -> bool:
+def _sensed_forces_generated(owner, terms) -> bool:
     """Whether every force a continuous controller reads whose laws a parameter moves (``ControllerTerms.forces_read``)
-    is a free joint's torque or force (its ∂F/∂p = −∂f/∂p moves along q as :func:`_hinges` and :func:`_stops` give:
-    :func:`_moved_joint_forces_along`); a cable's tension, an element's section force or a placed point keep the
-    difference (no kernel gives their ∂F/∂p's move along q)."""
+    has its ∂F/∂p's move along q generated (:func:`_moved_forces_along`): a free joint's torque or force (its laws and
+    compliant stops, :func:`_hinges`, :func:`_stops`); a cable's tension (its EA, damping, rest length; ρA moves no
+    force); a shear-rigid element's section force whose section values alone a parameter moves (no geometry
+    parameter; S linear in the stiffness values, :func:`_shear_rigid`). The others keep the difference: a
+    shear-flexible element's section force (its axial force reads EI through μ; no kernel gives ∂²S/∂σ∂q), a placed
+    point and a section force that a geometry parameter moves (no kernel gives ∂²s/∂X∂q), a stuck or locked joint's
+    force (a reaction)."""
     from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
 
     model = owner.model
     read = {r for found in terms.forces_read.values() for r in found}
     for name in read:
         probe = terms.moved_forces[name]
-        if not is_joint_force(probe):
+        if is_joint_force(probe):
+            if model.hinge_dofs[joint_of(model, probe)] >= model.n_dofs:   # a stuck or locked joint's force
+                return False
+        elif probe.kind == "element" and (owner.geometry is not None or not _shear_rigid(model, probe)):
             return False
-        j = joint_of(model, probe)
-        if model.hinge_dofs[j] >= model.n_dofs:   # a stuck or locked joint's force is a reaction
+        elif probe.kind not in ("cable", "element"):   # a placed point
             return False
     return True
 
 
-def _moved_joint_forces_along(owner, terms, state, w: np.ndarray) -> dict:
-    """{name: ∂(∂F/∂p)/∂q w (k,)} of the free joints' forces of :func:`_joint_forces_read`: F = −f (the joint's laws
-    and compliant stops, ``ControllerTerms.sensed_force_slopes``), so −∂(∂f/∂p)/∂θ w_θ, the generated ``hinge_force``
-    stiffness with the derivative law in the law's slot (:func:`_hinges`) and ``contact_stiffness_D_law``
-    (:func:`_stops`) along the joint's own angle alone (the rates held, as W's K)."""
-    from latdyn.analyses.joint_force_sensitivities import joint_of
+def _moved_forces_along(owner, terms, state, w: np.ndarray) -> dict:
+    """{name: ∂(∂F/∂p)/∂q w (k,)} of the forces of :func:`_sensed_forces_generated`, the rates held (as W's K):
+
+    * a free joint's force F = −f (its laws and compliant stops, ``ControllerTerms.sensed_force_slopes``): −∂(∂f/∂p)/∂θ
+      w_θ, the generated ``hinge_force`` stiffness with the derivative law in the law's slot (:func:`_hinges`) and
+      ``contact_stiffness_D_law`` (:func:`_stops`) along the joint's own angle alone;
+    * a cable's tension, its first element's N = EA (ℓ − L0)/L0 + c ℓ̇ (0 while slack): linear in (EA, c) at a fixed
+      rest length, so ∂N/∂p is N at (∂EA/∂p, ∂c/∂p) and its move along w the generated ``cable_tension``'s gradient
+      there times w on the element's ends; by the element's rest length L0, ∂N/∂L0 = −EA ℓ/L0² moves by
+      −(EA/L0²) ∂ℓ/∂q w = −(1/L0) ∂N_el/∂q w, ``cable_tension``'s gradient at c = 0 (:func:`_tension_along`);
+    * an element's section force w0 S_k + w1 S_k+1 (latdyn.assembly.control ``_section_sensor``) on a shear-rigid
+      element: ∂S/∂p = (∂S/∂σ) δσ is S at the section [L0, δσ] (linear in the stiffness values there), so its move
+      along w is the generated ``beam_section_forces_D_q`` at that section times w (:func:`_section_force_along`)."""
+    from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
 
     model = owner.model
     out = {}
     for name in {r for found in terms.forces_read.values() for r in found}:
         probe = terms.moved_forces[name]
+        if probe.kind == "cable":
+            out[name] = _tension_along(owner, state, w, probe)
+            continue
+        if probe.kind == "element":
+            out[name] = _section_force_along(owner, state, w, probe)
+            continue
+        assert is_joint_force(probe), probe
         j = joint_of(model, probe)
         d = int(model.hinge_dofs[j])
         along = np.zeros(model.n_total + 1)
@@ -909,6 +939,81 @@ def _moved_joint_forces_along(owner, terms, state, w: np.ndarray) -> dict:
             _stops(owner, state, along, total)
         out[name] = -total[d]
     return out
+
+
+def _tension_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
+    """(k,) ∂(∂N/∂p)/∂q w of a cable's tension (:func:`_moved_forces_along`): the generated ``cable_tension``'s
+    gradient ∂N/∂[d1, π1, d2, π2] of its first element at (EA, c) = (∂EA/∂p, 0) or (0, ∂c/∂p), times w on the
+    element's ends; by the rest length, N_el = EA (ℓ/L0 − 1) gives ∂²N/∂L0∂q = −(EA/L0²) ∂ℓ/∂q = −(1/L0) ∂N_el/∂q
+    (the gradient at c = 0), times the element's share of ∂L0/∂p (a reel's L0(t) share · L0 as
+    :func:`_cables`'s); 0 while the element is slack (the sensor reads 0 there, csrc/evaluate.c)."""
+    from latdyn.analyses.weight_derivative import _cable_inputs
+
+    model = owner.model
+    cables = model.cables
+    k = cables.names.index(probe.beam)
+    element = int(np.flatnonzero(cables.cable == k)[0])
+    out = np.zeros(len(owner.names))
+    geometry, velocity, section, taut = _cable_inputs(owner.assembler, state, np.array([element]))
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    along = full[_scattered(model.node_dofs[cables.nodes[element]].reshape(12), model.n_total)]
+    if not taut[0] or not np.any(along):
+        return out
+    t = float(state.t)
+    for cable, value, column, law in owner.cables.uses:
+        if cable != k or value not in ("EA", "damping", "rest_length"):
+            continue
+        derivative = law.value(0.0, 0.0, t)
+        moved = section.copy()
+        if value == "rest_length":   # −(1/L0) ∂N_el/∂q (the gradient at c = 0) times share · ∂L0/∂p
+            moved[0, 3] = 0.0
+            scale = -cables.share[element] * derivative / section[0, 0]
+        else:                        # N at (∂EA/∂p, 0) or (0, ∂c/∂p)
+            moved[0, 2:4] = (derivative, 0.0) if value == "EA" else (0.0, derivative)
+            scale = 1.0
+        gradient = owner.kernels.cable_tension(geometry, velocity, np.ascontiguousarray(moved))[1]
+        out[column] += scale * float(np.asarray(gradient, float).reshape(12) @ along)
+    return out
+
+
+def _section_force_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
+    """(k,) ∂(∂S/∂p)/∂q w of an element's section force w0 S_k + w1 S_k+1 (:func:`_moved_forces_along`) on a
+    shear-rigid element (:func:`_shear_rigid`). There S = [EA ε̄(Ψ), GJ φ_x2/L, EIy (φ_y2 − φ_y1)/L,
+    EIz (φ_z2 − φ_z1)/L] (codegen/formulation.py ``section_forces``; ε̄ reads the section only through the shear
+    factors μ = 1/(1 + 12 EI/(GA L²)), 1 here, and Ψ(q) not at all) is linear and homogeneous in (EA, GJ, EIy, EIz)
+    and free of the other values, so ∂S/∂σ δσ is S at the section [L0, δσ] and its move along w the generated
+    ``beam_section_forces_D_q``'s ∂S/∂q there times w_e, for each section use's derivative rows δσ
+    (``ParameterDerivatives._section_derivative_blocks``), weighed as csrc/parameter_forces.c ``section_force_slope``
+    weighs ∂S/∂σ."""
+    from latdyn.assembly.control import _section_sensor
+
+    model = owner.model
+    out = np.zeros(len(owner.names))
+    blocks = owner._section_derivative_blocks(state)
+    _, index, _, _, weights, _ = _section_sensor(model, probe)
+    e, first = index // 4, index % 4
+    full = np.zeros(model.n_total + 1)
+    full[:model.n_dofs] = w
+    along = full[_scattered(model.element_dofs[e], model.n_total)]
+    uses = np.flatnonzero(blocks[0] == e) if blocks is not None else np.zeros(0, np.int64)
+    if not len(uses) or not np.any(along):
+        return out
+    geometry = np.ascontiguousarray(np.repeat(owner.assembler.native().element_inputs(state)[0][e:e + 1], len(uses), 0))
+    by_q = np.asarray(owner.kernels.beam_section_forces_D_q(geometry, np.ascontiguousarray(blocks[2][uses]))[1],
+                      float).reshape(len(uses), 4, -1) @ along
+    weighed = weights[0] * by_q[:, first] + (weights[1] * by_q[:, first + 1] if first < 3 else 0.0)
+    np.add.at(out, blocks[1][uses], weighed)
+    return out
+
+
+def _shear_rigid(model, probe) -> bool:
+    """Whether the element a section-force ``probe`` reads is shear-rigid (its compliances 1/GAy, 1/GAz zero, the
+    last two of codegen/conventions.py SECTION_NAMES): its section forces are then linear in the stiffness values
+    (:func:`_section_force_along`); a shear-flexible one's axial force reads EI through μ, and keeps the
+    difference."""
+    e = int(model.beam_elements[probe.beam][probe.element])
+    return not np.any(model.element_sections[e, -2:])
 
 
 def held_angles_along(owner, state, w: np.ndarray):
@@ -1037,7 +1142,7 @@ def _controller_parameter_along(owner, terms, state, w: np.ndarray, exact: list,
                         terms.compiled.gradient(c, arguments))
             if forces is None:
                 forces = terms.sensed_force_slopes(state)
-                forces_along = _moved_joint_forces_along(owner, terms, state, w)
+                forces_along = _moved_forces_along(owner, terms, state, w)
             for read, i in terms.forces_read[c.name].items():
                 slope += gradient[i] * forces[read]
                 move += mixed[i] * forces[read] + gradient[i] * forces_along[read]
