@@ -1,6 +1,7 @@
-"""A shift on a part that turns beside latches, rigid stops and controllers of joints (issue 34; latdyn/analyses/
-geometry_sensitivities.py ``_turning_refusal``, ``ReferenceGeometry.moments_turned``; latdyn/analyses/
-transient_sensitivities.py ``_shifts_turned``; docs/parameters.md "Geometry parameters").
+"""A shift on a part that turns beside latches, rigid stops, friction, compliant stops and controllers of joints and
+points (issue 34; latdyn/analyses/geometry_sensitivities.py ``_turning_refusal``, ``ReferenceGeometry.moments_turned``;
+latdyn/analyses/transient_sensitivities.py ``_shifts_turned``; latdyn/analyses/sensitivities.py
+``ControllerTerms._shift_sensed``; docs/parameters.md "Geometry parameters").
 
 A gimbal's ring offset (the rings moved by X, gim1's length and direction) or the inner ring's hinge point on the outer
 ring (gim2's start point on a part that turns) shifts the subtree below by d = T_A δ, fixed in A's axes; the reduction's
@@ -9,8 +10,11 @@ event the impulse weight W = M + dt²K (K of the reduction, with its geometric t
 (∂K/∂p) w is the static ∂r/∂p differenced along w plus the inertia forces' geometric term: that difference holds d × F_S
 of the static forces, turned with A, but the inertia forces' d × F_S turns with A along w too, (Δπ_A × d) × F_S, which
 nothing held. Without it the gimbal's W w by X at its latch was 3.3e-6 off and every probe after the latch 1e-4 off
-Richardson differences of whole runs (the event times right: the hinge's angle holds no reference). Each whole-run case
-was refused on 5a68b93 (SceneError naming solve.sensitivities, "beside latches"); the weight's check fails there."""
+Richardson differences of whole runs (the event times right: the hinge's angle holds no reference). A controller
+reading a point on the shifted part: ∂r/∂X's K d (K on the assembled coordinates, the controller's coupling to the
+sensed node among its blocks) moves its output with the point's d, and its explicit ∂f/∂s ∂s/∂X held d again (0.35 off).
+Each whole-run case was refused on 5a68b93 (SceneError naming solve.sensitivities, "beside latches", "beside
+controllers"); the weight's check fails there."""
 from __future__ import annotations
 
 import numpy as np
@@ -39,6 +43,21 @@ RING_PD_LATCH = (RING_LATCH.replace("parameters: {X: 0.1,", "parameters: {X: 0.1
                  .replace('stiffness: "k1", rest_angle: "rest"}}}', 'stiffness: "k1", rest_angle: "rest", torque: "pd"}}}')
                  .replace("solve: {", 'controllers:\n  pd: {output: "Kp*(0.1 - a1) - Kd*r1"}\nsolve: {')
                  .replace("    a1: {", "    r1: {hinge: gim1.start, quantity: rate}\n    a1: {"))
+#: RING_PD_LATCH's PD reading the outer ring's x (a point on the shifted part) instead of the outer hinge's angle
+POINT_PD_LATCH = RING_PD_LATCH.replace("Kp*(0.1 - a1)", "Kp*(0.3 - ox)").replace(
+    "    r1: {", "    ox: {point: outer, quantity: position, component: x}\n    r1: {")
+#: the ring offset latching, the outer hinge driven by a PI of its angle (a state: a leaking integral of the error)
+PI_LATCH = (RING_LATCH.replace("parameters: {X: 0.1,", "parameters: {X: 0.1, Kp: 0.8, Ki: 2.0,")
+            .replace('stiffness: "k1", rest_angle: "rest"}}}', 'stiffness: "k1", rest_angle: "rest", torque: "ctl"}}}')
+            .replace("solve: {", 'controllers:\n  ctl: {output: "Kp*(0.1 - a1) + Ki*E", states: {E: "0.1 - a1 - 0.5*E"}}\n'
+                                 "solve: {"))
+#: the ring offset, the outer hinge slipping under Coulomb and viscous friction, the inner ring meeting a compliant stop
+#: at −0.1 rad (in contact from t ≈ 0.25 s)
+SOFT_SLIP = RING.replace(
+    'damping: "c2"}}}', 'damping: "c2", limits: [-0.1, 1.0], contact: {stiffness: 30.0, exponent: 1.5, damping: 0.1}}}}'
+).replace('rest_angle: "rest"}}}', 'rest_angle: "rest", friction: {coulomb: 0.02, static: 0.03, viscous: 0.01}}}}')
+assert "Kp*(0.3 - ox)" in POINT_PD_LATCH and "ox: {point: outer" in POINT_PD_LATCH and "states: {E" in PI_LATCH
+assert "contact: {stiffness: 30.0" in SOFT_SLIP and "coulomb: 0.02" in SOFT_SLIP
 assert "lock_at: -0.1" in RING_LATCH and "t_end: 0.4" in RING_LATCH and "restitution: 0.8" in RING_STOP
 assert "lock_at: -0.1" in INNER_LATCH and '"0.35 + X"' in INNER_LATCH and "{body: outer, offset" in INNER_LATCH
 assert RING_PD_LATCH.count("pd") == 2 and "r1: {hinge" in RING_PD_LATCH and "lock_at" in RING_PD_LATCH
@@ -46,14 +65,17 @@ assert RING_PD_LATCH.count("pd") == 2 and "r1: {hinge" in RING_PD_LATCH and "loc
 
 @pytest.mark.parametrize("text, events", [
     ("RING_LATCH", ["latch"]), ("RING_STOP", ["stop", "stop"]), ("INNER_LATCH", ["latch"]),
-    ("RING_PD_LATCH", ["latch"]),
-], ids=["ring-offset-latch", "ring-offset-stop", "hinge-point-latch", "ring-offset-pd-latch"])
+    ("RING_PD_LATCH", ["latch"]), ("POINT_PD_LATCH", ["latch"]), ("PI_LATCH", ["latch"]), ("SOFT_SLIP", []),
+], ids=["ring-offset-latch", "ring-offset-stop", "hinge-point-latch", "ring-offset-pd-latch", "point-pd-latch",
+        "pi-latch", "friction-and-compliant-stop"])
 def test_through_events_agrees_with_richardson(text, events):
     """Every probe's rows by X (relative to its largest; ≤ 1e-6) and each event time (≤ 1e-7 relative) against
     Richardson-extrapolated central differences of whole runs (1e-4 and 5e-5 of X). Refused on 5a68b93. Measured: the
     ring offset's latch 2.8e-8 (its time 8.9e-10), its two impacts 1.7e-8 (5.9e-9), the hinge point's latch 2.7e-8
-    (5.3e-10), the PD's latch 2.8e-8 (2.0e-9); without the shift's turn in the impulse weight 9.6e-5, 2.0e-4, 1.7e-4,
-    1.6e-4 (the event times as right)."""
+    (5.3e-10), the PD's latch 2.8e-8 (2.0e-9), the PD of the point's latch 2.5e-8 (1.5e-9), the PI's latch 2.3e-8
+    (1.5e-9), friction and the compliant stop 1.7e-8; without the shift's turn in the impulse weight 9.6e-5, 2.0e-4,
+    1.7e-4, 1.6e-4 (the event times as right); the PD of the point with its d counted twice (through K d and ∂f/∂s)
+    0.35 (without events too)."""
     scene = globals()[text]
     result = _run(scene, "X")
     assert [event["kind"] for event in result.summary["events"]] == events
@@ -113,21 +135,19 @@ def test_through_the_cli_equals_the_api(tmp_path):
     assert_the_cli_equals_the_api(tmp_path, RING_LATCH, ("tip_x/X", "a1/X", "vi/X", "r2/k1"))
 
 
-#: the PD reading the outer ring's x (a point on the shifted part) instead of the outer hinge's angle: refused (let
-#: through, its runs by X were 0.35 off Richardson differences of whole runs, without events too)
-POINT_PD = RING_PD_LATCH.replace("Kp*(0.1 - a1)", "Kp*(0.3 - ox)").replace(
-    "    r1: {", "    ox: {point: outer, quantity: position, component: x}\n    r1: {")
-assert "Kp*(0.3 - ox)" in POINT_PD and "ox: {point: outer" in POINT_PD
+#: RING_PD_LATCH's PD reading the inner hinge's spring torque too (a joint's force: not checked with the shift)
+TORQUE_PD = RING_PD_LATCH.replace("Kp*(0.1 - a1)", "Kp*(0.1 - a1) - 0.1*t2").replace(
+    "    r1: {", "    t2: {hinge: gim2.start, quantity: torque}\n    r1: {")
+assert "0.1*t2" in TORQUE_PD and "t2: {hinge: gim2.start" in TORQUE_PD
 
 
-def test_a_controller_reading_a_point_stays_refused(tmp_path):
+def test_a_controller_reading_a_joints_force_stays_refused(tmp_path):
     """Named (what moves, the controller and its sensor), through the API (SceneError naming solve.sensitivities) and
-    the CLI (exit 2, no traceback); friction and compliant stops beside the shift: tests/
-    test_geometry_sensitivities_link_length.py, tests/test_geometry_sensitivities_link_geometry.py."""
+    the CLI (exit 2, no traceback). A guard: 5a68b93 refused every controller beside the shift."""
     with pytest.raises(SceneError) as refused:
-        latdyn.run(latdyn.load_scene(yaml.safe_load(POINT_PD)))
-    expected = ("rigid link 'gim1''s length or direction, a part that turns, beside controller 'pd' reading the point "
-                "probe 'ox'")
+        latdyn.run(latdyn.load_scene(yaml.safe_load(TORQUE_PD)))
+    expected = ("rigid link 'gim1''s length or direction, a part that turns, beside controller 'pd' reading the hinge "
+                "probe 't2' (torque)")
     assert refused.value.key == "solve.sensitivities" and expected in str(refused.value), str(refused.value)
-    run, _ = latdyn_run(tmp_path, POINT_PD)
+    run, _ = latdyn_run(tmp_path, TORQUE_PD)
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr

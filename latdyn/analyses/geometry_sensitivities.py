@@ -55,9 +55,10 @@ d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges 
 by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
 + C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
 per-step path; through latches and rigid stops, the impulse weight's (∂K/∂p) w with ∂P/∂p's move along w (the inertia
-forces' d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`), and beside controllers of joints' angles and
-rates; refused beside friction, compliant stops, other controllers and probes whose explicit part does not hold the
-shift (:func:`_turning_refusal`). A rigid link's length or direction is taken where the body at its end (and all it
+forces' d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`), beside friction slipping, compliant stops and
+controllers of joints' angles and rates and points' positions (a sensed point's d carried by K d through the
+controller's coupling, not again by ∂f/∂s: latdyn/analyses/sensitivities.py ``ControllerTerms._shift_sensed``);
+refused beside other controllers and probes whose explicit part does not hold the shift (:func:`_turning_refusal`). A rigid link's length or direction is taken where the body at its end (and all it
 carries) moves relative to its start and the link's own offsets, y_axis and hinge axes do not (a gimbal's ring offset):
 the link's vector v = B − A is its end edge's o, fixed in the link node L's axes, so the subtree below shifts by T_L δv
 as above (A = L, which turns), and the link's joint-body block (m = ρA L, c = v/2, I = E D Eᵀ about c,
@@ -247,30 +248,37 @@ def _turning_refusal(scene, what: str) -> str | None:
     direction: its subtree shifted in the part's axes, :meth:`ReferenceGeometry._add_shifts`) is not exact here, or
     None. Taken in transient runs and static paths with point (in global axes), hinge and guide probes, through latches
     and rigid stops (the event's time from the joint's coordinate, which holds no reference; the impulse weight's
-    ∂/∂X with the shift's own move along w, :meth:`ReferenceGeometry.moments_turned`), beside controllers that read
-    joints' angles and rates, inputs and other controllers (no sensor that holds the shift). Not beside friction or
-    compliant stops (not checked with the shift), controllers reading anything else (a PD of a point on the shifted
-    part was 0.35 off Richardson differences of whole runs), or other probes (sections', bodies' axes, energies: their
+    ∂/∂X with the shift's own move along w, :meth:`ReferenceGeometry.moments_turned`), beside friction slipping and
+    compliant stops (forces of the joint's coordinate; a stick beside rigid links is refused when it comes,
+    latdyn/analyses/transient_sensitivities.py ``_refuse_what_a_held_angle_moves``), beside controllers whose sensors
+    :func:`_sensor_taken_shifted` takes, inputs and other controllers. Not beside controllers reading anything else
+    (joints' forces, velocities: not checked with the shift), or other probes (sections', bodies' axes, energies: their
     explicit parts do not hold it)."""
-    joints = [hinge for _, _, hinge in scene.hinges] + [b.guide for b in scene.bodies.values() if b.guide is not None]
-    events = next((j for j in joints if j.friction is not None or j.contact is not None), None)
-    if events is not None:
-        return (f"it moves {what}, a part that turns, beside friction or a compliant stop (contact) at the joints: "
-                "their derivatives are not checked with that shift yet; taken beside latches and rigid stops")
     probes = {p.name: p for p in scene.output.probes}
     for controller in scene.controllers.values():
-        sensor = next((probes[read] for read in controller.reads if read in probes and not (
-            probes[read].kind in ("hinge", "guide") and probes[read].quantity in ("angle", "position", "rate"))), None)
+        sensor = next((probes[read] for read in controller.reads if read in probes and not _sensor_taken_shifted(
+            probes[read])), None)
         if sensor is not None:
             return (f"it moves {what}, a part that turns, beside controller {controller.name!r} reading the "
-                    f"{sensor.kind} probe {sensor.name!r}: with that shift, controllers reading joints' angles and "
-                    "rates, inputs and other controllers are taken")
+                    f"{sensor.kind} probe {sensor.name!r} ({sensor.quantity}): with that shift, controllers reading "
+                    "joints' angles and rates, points' positions and displacements (in global axes), inputs and "
+                    "other controllers are taken")
     other = next((p.name for p in scene.output.probes if not (
         p.kind in ("hinge", "guide") or (p.kind == "point" and p.frame == "global"))), None)
     if other is not None:
         return (f"it moves {what}, a part that turns, beside the probe {other!r}: only points' (in global axes), "
                 "hinges' and guides' probes are differentiated with that shift yet")
     return None
+
+
+def _sensor_taken_shifted(probe) -> bool:
+    """Whether a controller's sensor ``probe`` is differentiated beside a shift on a part that turns: a joint's angle or
+    rate (a coordinate: no reference in it), a point's position or displacement in global axes (its move d by the
+    shift carried by ∂r/∂X's K d through the controller's coupling, the rest of its explicit part through ∂f/∂s:
+    ``sensitivities.ControllerTerms._shift_sensed``)."""
+    if probe.kind in ("hinge", "guide"):
+        return probe.quantity in ("angle", "position", "rate")
+    return probe.kind == "point" and probe.frame == "global" and probe.quantity in ("position", "displacement")
 
 
 def _never_turns(scene, name, closing: set) -> bool:
