@@ -27,7 +27,7 @@ from latdyn.assembly.assembler import unpack_free
 from latdyn.assembly.prepare import prepare
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
-from tests.test_geometry_sensitivities_link_geometry import INNER_POINT, assert_the_cli_equals_the_api
+from tests.test_geometry_sensitivities_link_geometry import GUIDE_ORIGIN, INNER_POINT, assert_the_cli_equals_the_api
 from tests.test_geometry_sensitivities_link_length import RING
 from tests.test_sensitivities_events import _agree, _run
 
@@ -56,6 +56,9 @@ PI_LATCH = (RING_LATCH.replace("parameters: {X: 0.1,", "parameters: {X: 0.1, Kp:
 SOFT_SLIP = RING.replace(
     'damping: "c2"}}}', 'damping: "c2", limits: [-0.1, 1.0], contact: {stiffness: 30.0, exponent: 1.5, damping: 0.1}}}}'
 ).replace('rest_angle: "rest"}}}', 'rest_angle: "rest", friction: {coulomb: 0.02, static: 0.03, viscous: 0.01}}}}')
+#: the guide's origin on a flexible arm's tip (a part that turns), the slider latching at s = −0.03 (t = 0.1934 s)
+GUIDE_LATCH = GUIDE_ORIGIN.replace('rest: "rest"}}', 'rest: "rest", lock_at: -0.03}}')
+assert "lock_at: -0.03" in GUIDE_LATCH
 assert "Kp*(0.3 - ox)" in POINT_PD_LATCH and "ox: {point: outer" in POINT_PD_LATCH and "states: {E" in PI_LATCH
 assert "contact: {stiffness: 30.0" in SOFT_SLIP and "coulomb: 0.02" in SOFT_SLIP
 assert "lock_at: -0.1" in RING_LATCH and "t_end: 0.4" in RING_LATCH and "restitution: 0.8" in RING_STOP
@@ -66,14 +69,16 @@ assert RING_PD_LATCH.count("pd") == 2 and "r1: {hinge" in RING_PD_LATCH and "loc
 @pytest.mark.parametrize("text, events", [
     ("RING_LATCH", ["latch"]), ("RING_STOP", ["stop", "stop"]), ("INNER_LATCH", ["latch"]),
     ("RING_PD_LATCH", ["latch"]), ("POINT_PD_LATCH", ["latch"]), ("PI_LATCH", ["latch"]), ("SOFT_SLIP", []),
+    ("GUIDE_LATCH", ["latch"]),
 ], ids=["ring-offset-latch", "ring-offset-stop", "hinge-point-latch", "ring-offset-pd-latch", "point-pd-latch",
-        "pi-latch", "friction-and-compliant-stop"])
+        "pi-latch", "friction-and-compliant-stop", "guide-origin-latch"])
 def test_through_events_agrees_with_richardson(text, events):
     """Every probe's rows by X (relative to its largest; ≤ 1e-6) and each event time (≤ 1e-7 relative) against
     Richardson-extrapolated central differences of whole runs (1e-4 and 5e-5 of X). Refused on 5a68b93. Measured: the
     ring offset's latch 2.8e-8 (its time 8.9e-10), its two impacts 1.7e-8 (5.9e-9), the hinge point's latch 2.7e-8
     (5.3e-10), the PD's latch 2.8e-8 (2.0e-9), the PD of the point's latch 2.5e-8 (1.5e-9), the PI's latch 2.3e-8
-    (1.5e-9), friction and the compliant stop 1.7e-8; without the shift's turn in the impulse weight 9.6e-5, 2.0e-4,
+    (1.5e-9), friction and the compliant stop 1.7e-8, the guide's origin on the turning tip through its slider's latch
+    2.5e-8 (2.3e-10); without the shift's turn in the impulse weight 9.6e-5, 2.0e-4,
     1.7e-4, 1.6e-4 (the event times as right); the PD of the point with its d counted twice (through K d and ∂f/∂s)
     0.35 (without events too)."""
     scene = globals()[text]
