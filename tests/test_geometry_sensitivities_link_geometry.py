@@ -170,15 +170,13 @@ def assert_the_cli_equals_the_api(tmp_path, scene: str, columns) -> None:
         assert np.array_equal([float(row[at]) for row in rows[1:]], api.sensitivities[tuple(column.split("/"))])
 
 
-#: what stays refused: the inner ring's hinge point on the outer ring beside its latch, the guide's origin on the arm's
-#: tip beside a section-force probe (the outer ring moved without the inner one, gim2's length, is taken since:
-#: tests/test_geometry_sensitivities_link_length.py END_AND_LENGTH)
+#: what stays refused: the guide's origin on the arm's tip beside a section-force probe (the inner ring's hinge point on
+#: the outer ring beside its latch is taken since: tests/test_geometry_sensitivities_turning_events.py; the outer ring
+#: moved without the inner one, gim2's length: tests/test_geometry_sensitivities_link_length.py END_AND_LENGTH)
 @pytest.mark.parametrize("text, expected", [
-    (INNER_POINT.replace('damping: "c2"}}}', 'damping: "c2", lock_at: -0.1}}}'),
-     "rigid link 'gim2''s start point on 'outer', a part that turns, beside latches"),
     (GUIDE_ORIGIN.replace("    mid_x:", '    moment: {element: "arm.element[0]", quantity: moment_y}\n    mid_x:'),
      "the guide of 'slider' on 'tip', a part that turns, beside the probe 'moment'"),
-], ids=["hinge-point-beside-a-latch", "guide-origin-beside-a-section-probe"])
+], ids=["guide-origin-beside-a-section-probe"])
 def test_what_a_links_own_geometry_moves_stays_refused_where_not_exact(tmp_path, text, expected):
     """Named (the link or the guided body, what moves), through the API (SceneError naming solve.sensitivities) and the
     CLI (exit 2, no traceback)."""

@@ -54,15 +54,19 @@ moves at a fixed state by d = T_A δo, its coordinate velocities by ω_A × d, i
 d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges above A: g × (x − o) of S's points moves
 by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
 + C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
-per-step path; refused beside events, controllers and probes whose explicit part does not hold the shift
-(:func:`_turning_refusal`). A rigid link's length or direction is taken where the body at its end (and all it
+per-step path; through latches and rigid stops, the impulse weight's (∂K/∂p) w with ∂P/∂p's move along w (the inertia
+forces' d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`), beside friction slipping, compliant stops and
+controllers of joints' angles and rates and points' positions (a sensed point's d carried by K d through the
+controller's coupling, not again by ∂f/∂s: latdyn/analyses/sensitivities.py ``ControllerTerms._shift_sensed``);
+refused beside other controllers and probes whose explicit part does not hold the shift (:func:`_turning_refusal`). A rigid link's length or direction is taken where the body at its end (and all it
 carries) moves relative to its start and the link's own offsets, y_axis and hinge axes do not (a gimbal's ring offset):
 the link's vector v = B − A is its end edge's o, fixed in the link node L's axes, so the subtree below shifts by T_L δv
 as above (A = L, which turns), and the link's joint-body block (m = ρA L, c = v/2, I = E D Eᵀ about c,
 latdyn/model/model.py ``rigid_link_inertia``) moves by (δm, δc, δI) (:func:`link_inertia_moved`): its row moves by the
 generated ``joint_body`` at (δm, c, δI) (linear in m and I at a fixed c) and ``joint_body_D_com`` along δc (degree two
 in c) at L's fixed frame and motion (:meth:`ReferenceGeometry._add_link_inertia`), and its end point's offset by δv;
-refused beside events, controllers and other probes as a shift on a part that turns, and by the loop of steps.
+taken and refused beside events, controllers and other probes as a shift on a part that turns, and refused by the loop
+of steps.
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
@@ -239,25 +243,41 @@ def _linked_refusal(scene, name: str) -> str | None:
 
 
 def _turning_refusal(scene, what: str) -> str | None:
-    """Why a parameter that moves ``what`` (a hinge point or guide origin on a part that turns: its subtree shifted
-    in the part's axes, :meth:`ReferenceGeometry._add_shifts`) is not exact here, or None. Taken in transient runs and
-    static paths with point (in global axes), hinge and guide probes; not beside events (latches, stops, limits,
-    friction: their impulse weights' ∂/∂X do not hold the shift yet, measured 1.7e-4 off through a latch), controllers
-    or other probes (sections', bodies' axes, energies: their explicit parts do not hold it)."""
-    joints = [hinge for _, _, hinge in scene.hinges] + [b.guide for b in scene.bodies.values() if b.guide is not None]
-    events = next((j for j in joints if j.lock_at is not None or j.limits is not None or j.friction is not None
-                   or j.contact is not None), None)
-    if events is not None:
-        return (f"it moves {what}, a part that turns, beside latches, stops, limits or friction at the joints: the "
-                "events' ∂/∂X do not hold that shift yet; taken without them")
-    if getattr(scene, "controllers", None):
-        return f"it moves {what}, a part that turns, beside controllers: not differentiated yet; taken without them"
+    """Why a parameter that moves ``what`` (a hinge point or guide origin on a part that turns, a rigid link's length or
+    direction: its subtree shifted in the part's axes, :meth:`ReferenceGeometry._add_shifts`) is not exact here, or
+    None. Taken in transient runs and static paths with point (in global axes), hinge and guide probes, through latches
+    and rigid stops (the event's time from the joint's coordinate, which holds no reference; the impulse weight's
+    ∂/∂X with the shift's own move along w, :meth:`ReferenceGeometry.moments_turned`), beside friction slipping and
+    compliant stops (forces of the joint's coordinate; a stick beside rigid links is refused when it comes,
+    latdyn/analyses/transient_sensitivities.py ``_refuse_what_a_held_angle_moves``), beside controllers whose sensors
+    :func:`_sensor_taken_shifted` takes, inputs and other controllers. Not beside controllers reading anything else
+    (joints' forces, velocities: not checked with the shift), or other probes (sections', bodies' axes, energies: their
+    explicit parts do not hold it)."""
+    probes = {p.name: p for p in scene.output.probes}
+    for controller in scene.controllers.values():
+        sensor = next((probes[read] for read in controller.reads if read in probes and not _sensor_taken_shifted(
+            probes[read])), None)
+        if sensor is not None:
+            return (f"it moves {what}, a part that turns, beside controller {controller.name!r} reading the "
+                    f"{sensor.kind} probe {sensor.name!r} ({sensor.quantity}): with that shift, controllers reading "
+                    "joints' angles and rates, points' positions and displacements (in global axes), inputs and "
+                    "other controllers are taken")
     other = next((p.name for p in scene.output.probes if not (
         p.kind in ("hinge", "guide") or (p.kind == "point" and p.frame == "global"))), None)
     if other is not None:
         return (f"it moves {what}, a part that turns, beside the probe {other!r}: only points' (in global axes), "
                 "hinges' and guides' probes are differentiated with that shift yet")
     return None
+
+
+def _sensor_taken_shifted(probe) -> bool:
+    """Whether a controller's sensor ``probe`` is differentiated beside a shift on a part that turns: a joint's angle or
+    rate (a coordinate: no reference in it), a point's position or displacement in global axes (its move d by the
+    shift carried by ∂r/∂X's K d through the controller's coupling, the rest of its explicit part through ∂f/∂s:
+    ``sensitivities.ControllerTerms._shift_sensed``)."""
+    if probe.kind in ("hinge", "guide"):
+        return probe.quantity in ("angle", "position", "rate")
+    return probe.kind == "point" and probe.frame == "global" and probe.quantity in ("position", "displacement")
 
 
 def _never_turns(scene, name, closing: set) -> bool:
@@ -820,6 +840,26 @@ class ReferenceGeometry:
             below = self._below(index)
             force = forces[model.node_dofs[below][:, 0:3]].sum(axis=0)
             total[model.node_dofs[anchor][3:6], column] += cross(shift, force)
+
+    def moments_turned(self, state, along: np.ndarray, forces: np.ndarray) -> np.ndarray:
+        """(n_total + 1, k): the move of the :attr:`turning` shifts' moments d × F_S (:meth:`_add_shifts`) when the
+        configuration moves along ``along`` (P w on the assembled coordinates: each anchor A turns by Δπ_A, its
+        rotational rows) at fixed ``forces`` (the assembled residual's rows, whose force rows of S sum to F_S): the
+        shift d = T_A δ is fixed in A's axes, so δd = Δπ_A × d and the moment moves by (Δπ_A × d) × F_S on A's
+        rotational rows. With the inertia forces it is the part of ∂K/∂p w (K of the reduction, its geometric term
+        ∂Pᵀ/∂q · r_all) that the static ∂r/∂p differenced along w does not hold (an event's impulse weight:
+        latdyn/analyses/transient_sensitivities.py ``_geometric_derivative``; 3.3e-6 of the gimbal's W w by its ring
+        offset at its latch without it, 9.1e-5 of its hinge angle's sensitivity after)."""
+        from latdyn.numerics.so3 import cross
+
+        model = self.model
+        out = np.zeros((model.n_total + 1, self.k))
+        for index, column, moment_arm, anchor in self.turning:
+            shift = state.T[anchor] @ moment_arm
+            turn = along[model.node_dofs[anchor][3:6]]
+            force = forces[model.node_dofs[self._below(index)][:, 0:3]].sum(axis=0)
+            out[model.node_dofs[anchor][3:6], column] += cross(cross(turn, shift), force)
+        return out
 
     def _add_link_inertia(self, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
         """Add ∂r/∂p of the rigid links whose vector v moves (:attr:`link_moves`) into ``total`` (all coordinates): their

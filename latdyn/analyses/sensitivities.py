@@ -1473,7 +1473,20 @@ class ControllerTerms:
                 moved = owner._by_parameter(zero, state)
                 out[name] = np.asarray(owner._probe_derivatives(probe, state, *moved,
                                                                 owner._rates_by_parameter(zero)), float)
+                if owner.geometry.turning:   # less the shift d of its node, which ∂r/∂X's K d carries (below)
+                    out[name] -= self._shift_sensed(probe, state)
         return out
+
+    def _shift_sensed(self, probe, state) -> np.ndarray:
+        """(k,): the point ``probe``'s move by the shifts of subtrees on parts that turn (d of its node,
+        ``ReferenceGeometry.shifts``), as it reads it. Its probe's explicit part holds d, but ∂r/∂X of the shift
+        (``ReferenceGeometry._add_shifts``: K d with K on the assembled coordinates, the controller's coupling to the
+        sensed node among its blocks) moves the controller's output by ∂f/∂s ∂s/∂x d already: counted twice, the
+        gimbal's PD of its outer ring's x by the ring offset was 0.35 off Richardson differences of whole runs."""
+        owner, model = self.owner, self.model
+        d = owner.geometry.shifts(state)[0]
+        return np.asarray(owner._probe_derivatives(probe, state, d, np.zeros_like(d),
+                                                   np.zeros((len(model.hinges), self.k)), explicit=False), float)
 
     def _section_force_slope(self, state, probe) -> np.ndarray:
         """∂S/∂p (k,) at ``state`` of the element's section force ``probe`` a controller reads, its section values moved

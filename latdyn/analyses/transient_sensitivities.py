@@ -1292,15 +1292,34 @@ class TransientSensitivities(ParameterDerivatives):
         forces) that the static ∂r/∂p (without the elements' gravity load) differenced along w leaves out;
         (∂P[w])ᵀ y = ∂(Pᵀ y)/∂q[w] at fixed y, the forward step's geometric term of each column y times w
         (:func:`latdyn.analyses.weight_derivative.geometric_product`, exact; a central difference of P along w
-        before)."""
+        before). A geometry parameter that shifts a subtree on a part that turns (latdyn/analyses/
+        geometry_sensitivities.py ``ReferenceGeometry.turning``) moves P itself (∂P/∂p: its columns that reach the
+        anchor A move the subtree's points by g × d), and ∂P/∂p moves along w with A's turn: the moments d × F_S of the
+        inertia forces turned (``ReferenceGeometry.moments_turned``; the static forces' are in the difference)."""
         model, assembler = self.model, self.assembler
         n_asm = model.n_assembled
         inertial = (self.residual_derivatives(state, 1.0, inertia=True, on_all=True)
                     - self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False))[:n_asm]
-        out = self._geometric_rate_in_time(state, w)
+        out = self._geometric_rate_in_time(state, w) + self._shifts_turned(state, w)
         if not np.any(inertial):
             return out
         return out + self._geometric_products(state, inertial, w)
+
+    def _shifts_turned(self, state, w: np.ndarray) -> np.ndarray:
+        """(n, k): Pᵀ of ``ReferenceGeometry.moments_turned`` along P w at the state's inertia forces (r_all with them
+        less without): the move along w of ∂P/∂p's term d × F_S of the reduction's geometric term (module docstring
+        of latdyn/analyses/geometry_sensitivities.py); zeros without such a shift."""
+        model, assembler = self.model, self.assembler
+        if self.geometry is None or not self.geometry.turning:
+            return np.zeros((model.n_dofs, len(self.names)))
+        assembler.complete_links(state)
+        along = np.zeros(model.n_total + 1)
+        along[:model.n_assembled] = np.asarray(assembler.evaluate(state, matrices=True).projection @ w).reshape(-1)
+        inertia_forces = np.zeros(model.n_total + 1)
+        inertia_forces[:model.n_assembled] = (np.asarray(assembler.evaluate_assembled(state, False, 1.0, True).residual)
+                                              - np.asarray(assembler.evaluate_assembled(state, False, 1.0,
+                                                                                        False).residual))
+        return self._on_free_coordinates(state, self.geometry.moments_turned(state, along, inertia_forces))
 
     def _geometric_rate_in_time(self, state, w: np.ndarray) -> np.ndarray:
         """(n, k): at an event moved in time (``time_shift`` δt_e) on a model with rigid links or guides and
