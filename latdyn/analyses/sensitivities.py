@@ -1469,11 +1469,12 @@ class ControllerTerms:
             elif probe.kind == "element" and owner.geometry is None and \
                     owner.kernels.address("beam_section_forces_D_section") is not None:
                 out[name] = self._section_force_slope(state, probe)
-            else:   # (a point's position or displacement by a geometry parameter: its probe's explicit part)
+            else:   # a cable's tension, a section force, a point's position or displacement by a geometry
+                # parameter: its probe's explicit part
                 moved = owner._by_parameter(zero, state)
                 out[name] = np.asarray(owner._probe_derivatives(probe, state, *moved,
                                                                 owner._rates_by_parameter(zero)), float)
-                if owner.geometry.turning:   # less the shift d of its node, which ∂r/∂X's K d carries (below)
+                if owner.geometry is not None and owner.geometry.turning:   # less the shift d of its node, which ∂r/∂X's K d carries (below)
                     out[name] -= self._shift_sensed(probe, state)
         return out
 
