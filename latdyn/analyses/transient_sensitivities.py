@@ -811,7 +811,7 @@ class TransientSensitivities(ParameterDerivatives):
                                            "dq": self._on_nodes(self._projected(carried, new, hinge)),
                                            "dv": self._on_nodes(dv_plus),
                                            "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
-                                           "dvdot": carried["dvdot"]}}
+                                           "dvdot": self._on_nodes(carried["dvdot"])}}
         dt_event = carried["dt"]
         record = {"joint": model.hinges[hinge].name, "kind": kind, "t": float(new.t),
                   "dt": {name: float(dt_event[c]) for c, name in enumerate(self.names)}}
@@ -825,7 +825,7 @@ class TransientSensitivities(ParameterDerivatives):
                 "pending": {"kind": kind, "hinge": hinge, "dq": self._on_nodes(carried["dq"]),
                             "dv": self._on_nodes(dv_plus),
                             "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
-                            "dvdot": carried["dvdot"]}}
+                            "dvdot": self._on_nodes(carried["dvdot"])}}
 
     def _impulse(self, carried: dict, new, hinge: int, restitution: float) -> np.ndarray:
         """δv⁺ (n, k) through the impulse on ``hinge`` at ``new`` (before the jump; :meth:`_jump`'s formula)."""
@@ -1497,13 +1497,8 @@ class TransientSensitivities(ParameterDerivatives):
         held = self._held(carried).copy()
         held[j] = candidate["held"]
         self.held = held
-        n, k = model.n_dofs, len(self.names)
-        # δv̇ before the restart on the new numbering: with rigid links the restart's W moves with the accelerations it
-        # is taken at (its geometric term ∂Pᵀ/∂q · r_all holds the inertia forces; :meth:`_restart`)
-        dvdot = (np.column_stack([pack(model, *column)[:n] for column in candidate["dvdot"]]) if k
-                 else np.zeros((n, 0)))
         pending = {"kind": "stop", "dq": candidate["dq"], "dv": candidate["dv"], "vdot": candidate["vdot"],
-                   "dvdot": dvdot}
+                   "dvdot": candidate["dvdot"]}
         return {**carried, "held": held, "pending": pending}
 
     def _refuse_what_a_held_angle_moves(self, new, through_links: bool = False) -> None:
@@ -1557,7 +1552,8 @@ class TransientSensitivities(ParameterDerivatives):
         model = self.model
         for j in np.flatnonzero(model.resting):
             self._releases[int(j)] = {"dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(carried["dv"]),
-                                      "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0]}
+                                      "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
+                                      "dvdot": self._on_nodes(carried["dvdot"])}
 
     def _settle_or_release(self, carried: dict, new) -> dict:
         """``carried`` after the events of the step ended at ``new`` where a hinge came to rest on its rigid stop or
@@ -1593,9 +1589,8 @@ class TransientSensitivities(ParameterDerivatives):
         if pending is not None or j not in self._releases:
             self._refuse_resting(new, j, "a hinge leaves its stop beside another event at one instant")
         release = self._releases[j]
-        n, k = model.n_dofs, len(self.names)
         return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
-                                       "vdot": release["vdot"], "dvdot": np.zeros((n, k))}}
+                                       "vdot": release["vdot"], "dvdot": release["dvdot"]}}
 
     def _refuse_resting(self, new, j: int, why: str) -> None:
         """SceneError (exit 2) naming the rigid stop (``limits``) of hinge j: ``why`` its coming to rest on the stop
@@ -1614,7 +1609,9 @@ class TransientSensitivities(ParameterDerivatives):
         def packed(columns):
             return np.column_stack([pack(model, *column)[:n] for column in columns]) if k else np.zeros((n, 0))
 
-        dq, dv = packed(pending["dq"]), packed(pending["dv"])
+        # δv̇ before the events on the new numbering: with rigid links the restart's W moves with the accelerations it
+        # is taken at (its geometric term ∂Pᵀ/∂q · r_all holds the inertia forces)
+        dq, dv, dvdot_before = packed(pending["dq"]), packed(pending["dv"]), packed(pending["dvdot"])
         out = {**carried, "dq": dq, "dv": dv, "pending": None}
         if n == 0:
             return {**out, "dvdot": np.zeros((0, k)), "da": np.zeros((0, k))}
@@ -1629,7 +1626,7 @@ class TransientSensitivities(ParameterDerivatives):
             self.assembler.complete_links(before)
             matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
             rhs = rhs + self._weight_derivative(before, free_acceleration(model, new), dq, scale, mass=False,
-                                                rates=(dv, pending["dvdot"]))
+                                                rates=(dv, dvdot_before))
         dvdot = np.asarray(solve_linear(matrix, rhs)).reshape(n, k) * -1.0
         return {**out, "dvdot": dvdot, "da": dvdot.copy()}
 
