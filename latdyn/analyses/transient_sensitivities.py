@@ -72,7 +72,10 @@ step's end (δt 0): a stick is a stop's impulse with restitution 0 and a stop's 
 angle's δθ is carried (``held``) and enters the residual through the exact K's column of that angle
 (:meth:`TransientSensitivities._held_forces`); a release restarts as after a stop, the held δθ back among the free
 coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
-what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction").
+what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction"). On a model
+with rigid links the held angle moves the reduced residual, the impulse's weight and the dependent nodes through the
+reduction too: central differences along the angle (:meth:`TransientSensitivities._linked_held_forces`,
+:meth:`TransientSensitivities._linked_held_stiffness_along`, :meth:`TransientSensitivities._held_dependent_motion`).
 
 A hinge resting on its rigid stop (locked there after landing with restitution 0, released at a step's end where its
 reaction would pull it off; or put back on it at the end of a step it started on the stop and ended beyond):
@@ -258,9 +261,12 @@ class TransientSensitivities(ParameterDerivatives):
 
     def residual_derivatives(self, state, load_factor: float, inertia: bool = False,
                              on_all: bool = False, sections: bool = True,
-                             element_gravity: bool = True) -> np.ndarray:
+                             element_gravity: bool = True, held_through_links: bool = True) -> np.ndarray:
         """∂r/∂p of :class:`latdyn.analyses.sensitivities.ParameterDerivatives` (``sections``,
-        ``element_gravity`` as there), with the cables' (:meth:`CableSensitivities.residual_derivatives`)."""
+        ``element_gravity`` as there), with the cables' (:meth:`CableSensitivities.residual_derivatives`) and the
+        angles friction holds (:meth:`_held_forces`; with rigid links on the free coordinates alone,
+        :meth:`_linked_held_forces`, unless ``held_through_links`` is False: the weight's derivative takes their
+        move of K w apart, :meth:`_linked_held_stiffness_along`)."""
         total = super().residual_derivatives(state, load_factor, inertia, on_all=True, sections=sections,
                                              element_gravity=element_gravity)
         if self.cables is not None and self.cables.uses:
@@ -268,12 +274,15 @@ class TransientSensitivities(ParameterDerivatives):
         held = self._held_forces(state, inertia, element_gravity)
         if held is not None:   # the angles friction holds, moved by δθ: K's columns of them
             total += held
+        linked_held = held_through_links and not on_all and self._holds_through_links()
         shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
         if on_all:
             if shifted:
                 total += np.outer(self.explicit_time(state, inertia, on_all=True), self.time_shift)
             return total
         free = self._on_free_coordinates(state, total)
+        if linked_held:   # with rigid links: the reduced residual's derivative by the held angles times δθ
+            free = free + self._linked_held_forces(state, inertia)
         if shifted:   # the state moved in time by δt: ∂r/∂t δt (the events' derivatives, module docstring)
             free = free + np.outer(self.explicit_time(state, inertia), self.time_shift)
         return free
@@ -296,7 +305,7 @@ class TransientSensitivities(ParameterDerivatives):
         #: whether an impulse's weight is M + dt²K alone (a stick's jump: :meth:`_stick_or_release`)
         self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
         if model.stuck.any():   # stuck by friction from t = 0, its held angle the start's (stick_at_start)
-            self._refuse_what_a_held_angle_moves(state)
+            self._refuse_what_a_held_angle_moves(state, through_links=True)
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
@@ -806,7 +815,7 @@ class TransientSensitivities(ParameterDerivatives):
                                            "dq": self._on_nodes(self._projected(carried, new, hinge)),
                                            "dv": self._on_nodes(dv_plus),
                                            "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
-                                           "dvdot": carried["dvdot"]}}
+                                           "dvdot": self._on_nodes(carried["dvdot"])}}
         dt_event = carried["dt"]
         record = {"joint": model.hinges[hinge].name, "kind": kind, "t": float(new.t),
                   "dt": {name: float(dt_event[c]) for c, name in enumerate(self.names)}}
@@ -820,7 +829,7 @@ class TransientSensitivities(ParameterDerivatives):
                 "pending": {"kind": kind, "hinge": hinge, "dq": self._on_nodes(carried["dq"]),
                             "dv": self._on_nodes(dv_plus),
                             "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
-                            "dvdot": carried["dvdot"]}}
+                            "dvdot": self._on_nodes(carried["dvdot"])}}
 
     def _impulse(self, carried: dict, new, hinge: int, restitution: float) -> np.ndarray:
         """δv⁺ (n, k) through the impulse on ``hinge`` at ``new`` (before the jump; :meth:`_jump`'s formula)."""
@@ -938,6 +947,8 @@ class TransientSensitivities(ParameterDerivatives):
         out += scale * self._stiffness_derivative(state, w)
         if linked:
             out += scale * self._geometric_derivative(state, w)
+            if self._holds_through_links():   # the held angles move K w
+                out += scale * self._linked_held_stiffness_along(state, w)
         if mass:
             at_rest, accelerated = self._at_rest_and_accelerated(state, w)
             out += (self.residual_derivatives(accelerated, 1.0, inertia=True)
@@ -1067,7 +1078,8 @@ class TransientSensitivities(ParameterDerivatives):
 
             def static(moved):
                 with self._controller_outputs_at(moved):   # a derivative law naming a controller reads y there
-                    return self.residual_derivatives(moved, 1.0, sections=linked, element_gravity=False)
+                    return self.residual_derivatives(moved, 1.0, sections=linked, element_gravity=False,
+                                                     held_through_links=False)
 
             if linked:   # K_red is ∂r/∂q at the assembled rates held, the dependent nodes' too
                 with self._at_held_rates():
@@ -1386,7 +1398,7 @@ class TransientSensitivities(ParameterDerivatives):
         the inertia tangent); the static evaluation's held it, and the held angle's block was 6.2e-6 – 1.1e-5 off W's
         at the 3D panel's sticks (tests/test_weight_derivative_controllers_held.py)."""
         held = self.held
-        if held is None or not np.any(held):
+        if held is None or not np.any(held) or self.model.links is not None:   # linked: _linked_held_forces
             return None
         model, native = self.model, self.assembler.native(True)
         native.evaluate(state, True, 1.0, inertia or not element_gravity, inertia)
@@ -1404,6 +1416,67 @@ class TransientSensitivities(ParameterDerivatives):
             out += np.outer(column, held[j])
         return out
 
+    def _holds_through_links(self) -> bool:
+        """Whether friction holds an angle (:attr:`held` not 0) on a model with rigid links."""
+        return self.model.links is not None and self.held is not None and bool(np.any(self.held))
+
+    def _held_angle_moved(self, state, j: int, eta: float):
+        """``state`` with hinge j's angle moved by ``eta`` and the dependent nodes completed (their positions,
+        rates and accelerations: the free rates and accelerations held, latdyn/model/links.py)."""
+        moved = state.copy()
+        moved.theta[j] += eta
+        self.assembler.complete_links(moved)
+        return moved
+
+    def _linked_held_forces(self, state, inertia: bool) -> np.ndarray:
+        """Σ_j ∂r_min/∂θ_j δθ_j (n, k) over the joints friction holds, on a model with rigid links: the reduced
+        residual r_min = Pᵀ r_all(q_all(z, θ_j)) moves with a held angle through the joint's own blocks (Pᵀ K_all's
+        column of θ_j), the dependent nodes that hang from it (Pᵀ K_all J_·θj), P itself (∂Pᵀ/∂θ_j · r_all) and
+        the dependent rates at fixed free rates (Pᵀ(C_·dep ∂(J v)/∂θ_j + M_·dep ∂(J a + c)/∂θ_j)) — the exact K's
+        column of θ_j had it been free. The reduction forms those terms for the free columns only
+        (latdyn/assembly/linked.py), so here a central difference of r_min along θ_j (step :data:`WEIGHT_STEP`
+        rad, the dependent nodes completed: :meth:`_held_angle_moved`), two evaluations per held joint: a
+        hand-written difference (docs/parameters.md, "Friction"). Without it (Pᵀ of K_all's column alone, as
+        :meth:`_held_forces` forms it without links) the gimbal's tip was 0.86 of its sensitivity off Richardson
+        differences (tests/test_sensitivities_linked_sticks.py)."""
+        held, assembler = self.held, self.assembler
+        out = np.zeros((self.model.n_dofs, held.shape[1]))
+        for j in np.flatnonzero(np.any(held, axis=1)):
+            ahead, behind = (np.asarray(assembler.evaluate(self._held_angle_moved(state, j, s * WEIGHT_STEP),
+                                                           matrices=False, inertia=inertia).residual, float)
+                             for s in (1.0, -1.0))
+            out += np.outer((ahead - behind) / (2 * WEIGHT_STEP), held[j])
+        return out
+
+    def _linked_held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """Σ_j ∂(K w)/∂θ_j δθ_j (n, k) over the joints friction holds on a model with rigid links, K the
+        evaluation's (the impulse's and the restart's weight W = M + dt²K, its geometric term ∂Pᵀ/∂q · r_all
+        with the inertia forces at ``state``'s accelerations): the held angle moves W as it moves r_min
+        (:meth:`_linked_held_forces`), a central difference of K w along θ_j (step :data:`WEIGHT_STEP` rad)."""
+        held, assembler = self.held, self.assembler
+        out = np.zeros((self.model.n_dofs, held.shape[1]))
+        for j in np.flatnonzero(np.any(held, axis=1)):
+            ahead, behind = (times(assembler.evaluate(self._held_angle_moved(state, j, s * WEIGHT_STEP),
+                                                      matrices=True).combined(0.0, 0.0, 1.0), w[:, None])[:, 0]
+                             for s in (1.0, -1.0))
+            out += np.outer((ahead - behind) / (2 * WEIGHT_STEP), held[j])
+        return out
+
+    def _held_dependent_motion(self, state, dx: np.ndarray, dpi: np.ndarray, rates) -> None:
+        """Add the dependent nodes' moves by the held angles into (δx, δπ) and, with ``rates``, their rates' (δv, δω)
+        (n_nodes, 3, k) on a model with rigid links: a node that hangs from a held joint moves with its δθ_j
+        (J's column of θ_j, a constrained column of the reduction), its rates v_dep = J v too; a central difference
+        of the completed dependent nodes along θ_j (step :data:`WEIGHT_STEP` rad; δπ from δT Tᵀ = skew δπ)."""
+        for j in np.flatnonzero(np.any(self.held, axis=1)):
+            ahead, behind = (self._held_angle_moved(state, j, s * WEIGHT_STEP) for s in (1.0, -1.0))
+            for node in self.model.links.dependent:
+                turn = (ahead.T[node] - behind.T[node]) / (2 * WEIGHT_STEP) @ state.T[node].T
+                dx[node] += np.outer((ahead.x[node] - behind.x[node]) / (2 * WEIGHT_STEP), self.held[j])
+                dpi[node] += np.outer(np.array([turn[2, 1], turn[0, 2], turn[1, 0]]), self.held[j])
+                if rates is not None:
+                    rates[0][node] += np.outer((ahead.v[node] - behind.v[node]) / (2 * WEIGHT_STEP), self.held[j])
+                    rates[1][node] += np.outer((ahead.w[node] - behind.w[node]) / (2 * WEIGHT_STEP), self.held[j])
+
     def _stick_candidates(self, carried: dict, old, new) -> None:
         """For each joint the time loop may stick at the end of the step old → new (its rate reversed or fell into
         the stick band: latdyn/timeloop/events.py) or release (a stuck one), what :meth:`after_events` needs if it
@@ -1415,12 +1488,12 @@ class TransientSensitivities(ParameterDerivatives):
         for j in sticking_hinges(model) + [int(j) for j in np.flatnonzero(model.stuck)]:
             if j in self._candidates or (not model.stuck[j] and not may_stick(self.assembler, j, old, new)):
                 continue
-            dq = self._on_nodes(carried["dq"])
+            dq, dvdot = self._on_nodes(carried["dq"]), self._on_nodes(carried["dvdot"])
             vdot = self._on_nodes(free_acceleration(model, new)[:, None])[0]
             if model.stuck[j]:   # a release: the held angle's δθ back among the free coordinates
                 for c, (_, _, dtheta) in enumerate(dq):
                     dtheta[j] = self.held[j, c]
-                self._candidates[j] = {"dq": dq, "dv": self._on_nodes(carried["dv"]), "vdot": vdot,
+                self._candidates[j] = {"dq": dq, "dv": self._on_nodes(carried["dv"]), "vdot": vdot, "dvdot": dvdot,
                                        "held": np.zeros(len(self.names))}
                 continue
             self.time_shift = carried["dt"]
@@ -1428,7 +1501,7 @@ class TransientSensitivities(ParameterDerivatives):
                 dv_plus = self._impulse(carried, new, j, 0.0)
             finally:
                 self.time_shift = None
-            self._candidates[j] = {"dq": dq, "dv": self._on_nodes(dv_plus), "vdot": vdot,
+            self._candidates[j] = {"dq": dq, "dv": self._on_nodes(dv_plus), "vdot": vdot, "dvdot": dvdot,
                                    "held": carried["dq"][model.hinge_dofs[j]].copy()}
 
     def _stick_or_release(self, carried: dict, new) -> dict:
@@ -1444,24 +1517,41 @@ class TransientSensitivities(ParameterDerivatives):
         if len(changed) > 1 or carried.get("pending") is not None or changed[0] not in self._candidates:
             self._refuse_sticking(new, "several joints stick or slip, or a latch, a stop or a cable's change comes, "
                                        "at one instant")
-        self._refuse_what_a_held_angle_moves(new)
+        self._refuse_what_a_held_angle_moves(new, through_links=True)
         j = changed[0]
         candidate = self._candidates[j]
         held = self._held(carried).copy()
         held[j] = candidate["held"]
         self.held = held
-        n, k = model.n_dofs, len(self.names)
         pending = {"kind": "stop", "dq": candidate["dq"], "dv": candidate["dv"], "vdot": candidate["vdot"],
-                   "dvdot": np.zeros((n, k))}
+                   "dvdot": candidate["dvdot"]}
         return {**carried, "held": held, "pending": pending}
 
-    def _refuse_what_a_held_angle_moves(self, new) -> None:
+    def _refuse_what_a_held_angle_moves(self, new, through_links: bool = False) -> None:
         """The models and probes whose terms of a stuck joint's held angle are not carried: refused
         (:meth:`_refuse_sticking`) where a joint sticks, slips, or is stuck from t = 0
-        (latdyn.timeloop.events.stick_at_start)."""
-        if self.model.links is not None:
-            self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (their reduction "
-                                       "with the held angle is not differentiated yet)")
+        (latdyn.timeloop.events.stick_at_start). A hinge held on a model with rigid links is carried by the forward
+        method (``through_links``: :meth:`_linked_held_forces`, :meth:`_linked_held_stiffness_along`,
+        :meth:`_held_dependent_motion`) where no guide, latch, rigid stop, cable or controller is in the model and the
+        probes are points in global axes and joints' angles and rates (checked against Richardson differences on the
+        gimbals of tests/test_sensitivities_linked_sticks.py; the rest is not); the discrete adjoint (its own call)
+        refuses it."""
+        model = self.model
+        if model.links is not None and not through_links:
+            self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (the discrete adjoint "
+                                       "does not transpose their reduction with the held angle)")
+        if model.links is not None:
+            guides = any(h.end == "guide" for h in model.hinges)
+            events = model.cables is not None or any(
+                h.lock_at is not None or (h.limits is not None and h.contact is None) for h in model.hinges)
+            probes = [p.name for p in self.probes if not ((p.kind == "point" and p.frame == "global")
+                                                          or (p.kind == "hinge" and p.quantity in ("angle", "rate")))]
+            if guides or events or probes or self.controllers is not None:
+                what = ("guides" if guides else "latches, rigid stops or cables" if events
+                        else "controllers" if self.controllers is not None
+                        else f"probe {probes[0]!r} (not a point in global axes, a joint's angle or rate)")
+                self._refuse_sticking(new, f"a joint sticks in a model with rigid links beside {what} (their terms "
+                                           "of the held angle through the reduction are not carried)")
         if not getattr(self, "_impulse_weighted", True):
             self._refuse_sticking(new, "a joint sticks in a model with directions or elements without inertia "
                                        "(the impulse response's rigid and static parts are not differentiated)")
@@ -1491,7 +1581,8 @@ class TransientSensitivities(ParameterDerivatives):
         model = self.model
         for j in np.flatnonzero(model.resting):
             self._releases[int(j)] = {"dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(carried["dv"]),
-                                      "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0]}
+                                      "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
+                                      "dvdot": self._on_nodes(carried["dvdot"])}
 
     def _settle_or_release(self, carried: dict, new) -> dict:
         """``carried`` after the events of the step ended at ``new`` where a hinge came to rest on its rigid stop or
@@ -1505,7 +1596,10 @@ class TransientSensitivities(ParameterDerivatives):
         stop does, its δθ (0) and rate (0) back among the free coordinates (:meth:`_release_candidates`).
         Refused (:meth:`_refuse_resting`) where that is not what the run did: several at one instant, a release
         beside another event, a model with guides or rigid links (the reduction's W moves with the accelerations
-        it is taken at)."""
+        it is taken at, now carried: :meth:`_restart`; lifted, the gimbal of tests/test_sensitivities_rigid_links.py
+        resting on its stop at −0.1 with e = 0 agreed with Richardson differences to 1e-7 through the landing and
+        the rest and was 3.4e-5 – 1.8e-3 off (k1, m, EI) from its release on: the release's restart through the
+        reduction is not what the run does, not found yet)."""
         before, self._resting_before = self._resting_before, None
         model = self.model
         if before is None or not len(self.names):
@@ -1527,9 +1621,8 @@ class TransientSensitivities(ParameterDerivatives):
         if pending is not None or j not in self._releases:
             self._refuse_resting(new, j, "a hinge leaves its stop beside another event at one instant")
         release = self._releases[j]
-        n, k = model.n_dofs, len(self.names)
         return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
-                                       "vdot": release["vdot"], "dvdot": np.zeros((n, k))}}
+                                       "vdot": release["vdot"], "dvdot": release["dvdot"]}}
 
     def _refuse_resting(self, new, j: int, why: str) -> None:
         """SceneError (exit 2) naming the rigid stop (``limits``) of hinge j: ``why`` its coming to rest on the stop
@@ -1548,7 +1641,9 @@ class TransientSensitivities(ParameterDerivatives):
         def packed(columns):
             return np.column_stack([pack(model, *column)[:n] for column in columns]) if k else np.zeros((n, 0))
 
-        dq, dv = packed(pending["dq"]), packed(pending["dv"])
+        # δv̇ before the events on the new numbering: with rigid links the restart's W moves with the accelerations it
+        # is taken at (its geometric term ∂Pᵀ/∂q · r_all holds the inertia forces)
+        dq, dv, dvdot_before = packed(pending["dq"]), packed(pending["dv"]), packed(pending["dvdot"])
         out = {**carried, "dq": dq, "dv": dv, "pending": None}
         if n == 0:
             return {**out, "dvdot": np.zeros((0, k)), "da": np.zeros((0, k))}
@@ -1563,7 +1658,7 @@ class TransientSensitivities(ParameterDerivatives):
             self.assembler.complete_links(before)
             matrix = self.assembler.evaluate(before, matrices=True).combined(1.0, 0.0, scale)
             rhs = rhs + self._weight_derivative(before, free_acceleration(model, new), dq, scale, mass=False,
-                                                rates=(dv, pending["dvdot"]))
+                                                rates=(dv, dvdot_before))
         dvdot = np.asarray(solve_linear(matrix, rhs)).reshape(n, k) * -1.0
         return {**out, "dvdot": dvdot, "da": dvdot.copy()}
 
@@ -1667,6 +1762,8 @@ class TransientSensitivities(ParameterDerivatives):
         rates = (self._rates_by_parameter(carried["dv"], carried["dq"], state)
                  if any(p.quantity in ("rate", "velocity", "tension") or is_energy_or_momentum(p) for p in self.probes)
                  else None)
+        if self._holds_through_links():
+            self._held_dependent_motion(state, dx, dpi, rates)
         self._prescribed_in_time(state, np.asarray(carried["dt"]), dx, dpi, dtheta, rates)
         self.carried_accounts = carried   # the work's and dissipation's (latdyn/analyses/energy_sensitivities.py)
         forces = self._joint_forces(state, carried)
