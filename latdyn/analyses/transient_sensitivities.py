@@ -1442,10 +1442,9 @@ class TransientSensitivities(ParameterDerivatives):
         if not getattr(self, "_impulse_weighted", True):
             self._refuse_sticking(new, "a joint sticks in a model with directions or elements without inertia "
                                        "(the impulse response's rigid and static parts are not differentiated)")
-        if any(is_energy_or_momentum(probe) for probe in self.probes) or self._controller_states() is not None \
-                or self._sampled_controllers() is not None:
-            self._refuse_sticking(new, "a joint sticks beside energy or momentum probes or controllers with "
-                                       "states or sampled ones (their terms of the held angle are not carried)")
+        if self._controller_states() is not None or self._sampled_controllers() is not None:
+            self._refuse_sticking(new, "a joint sticks beside controllers with states or sampled ones (their terms "
+                                       "of the held angle are not carried)")
 
     def _refuse_sticking(self, new, why: str) -> None:
         """SceneError (exit 2) naming the friction of the first joint that sticks or is stuck at ``new``: ``why``
