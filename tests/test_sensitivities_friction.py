@@ -7,10 +7,11 @@ step's residual: its derivative by the joint's rate is in the step's exact matri
 the generated ``friction_force_D_law`` (checked here against central differences of the generated force). A stick
 and a release come at a step's end: the stick a stop's impulse with restitution 0, the held angle's δθ carried
 through K's column of it while stuck, the release a stop's restart; refused (exit 2, naming the friction) only where
-that is not followed (beside a controller with states, here). A guide's compliant stops and friction, and a prescribed slide,
-too. Reference: central differences of whole runs at p ± h and p ± h/2, Richardson-extrapolated, the time step
-fixed (h relative to p: 1e-2 for the values the force depends on weakly — F_s, v_s, v₀, whose tiny derivatives of
-the arm's points the differences' noise would swamp at 1e-4 — 3e-2 for a stop's damping, 1e-4 for the rest)."""
+that is not followed (beside a controller with states, here). A guide's compliant stops and friction, and a
+prescribed slide, too. Reference: central differences of whole runs at p ± h and p ± h/2, Richardson-extrapolated,
+the time step fixed (h relative to p: 1e-2 for the values the force depends on weakly — F_s, v_s, v₀, whose tiny
+derivatives of the arm's points the differences' noise would swamp at 1e-4 — 3e-2 for a stop's damping, 1e-4 for
+the rest)."""
 from __future__ import annotations
 
 import csv

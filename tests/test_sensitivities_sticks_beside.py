@@ -57,8 +57,8 @@ def energies():
 def test_a_braked_arms_energies_and_momenta_agree_with_richardson_differences(energies, name):
     """Stuck from t = 0, released, stuck and released again: the kinetic, strain, potential and total energies and
     the linear and angular momenta agree with Richardson-extrapolated central differences of whole runs (refused on
-    5a68b93). Measured (1-minute load ≈ 8–12 on 2 cores): Fc ≤ 1.6e-8 (Lz; kinetic 7.9e-10, strain 1.4e-9), EI ≤ 4.5e-9
-    (Lz; kinetic 8.1e-11, strain 3.5e-11) of each probe's largest; the differences at h and h/2 differ by as much. The
+    5a68b93). Measured: Fc ≤ 1.6e-8 (Lz; kinetic 7.9e-10, strain 1.4e-9), EI ≤ 4.5e-9 (Lz; kinetic 8.1e-11,
+    strain 3.5e-11) of each probe's largest; the differences at h and h/2 differ by as much. The
     held angle's term matters: without it (the stuck joint's δθ left out of the energies' δθ) the derivatives are
     off by (Fc) kinetic 3.5e-5, strain 2.6e-2, potential 2.8e-2, total 5.4e-3, px 1.4e-3, Lz 7.9e-4, (EI) kinetic
     3.0e-5, strain 6.9e-3, potential 5.8e-3, total 7.9e-2, px 8.2e-4, Lz 1.1e-3 of their largest."""
@@ -106,4 +106,5 @@ def test_the_adjoint_refuses_energies_beside_a_stick():
     with pytest.raises(SceneError) as refused:
         latdyn.run(latdyn.load_scene(data))
     assert refused.value.key == "beams.arm.end.hinge.friction"
-    assert "beside probe 'kinetic'" in refused.value.expected and "sensitivity_method: forward" in refused.value.expected
+    expected = refused.value.expected
+    assert "beside probe 'kinetic'" in expected and "sensitivity_method: forward" in expected

@@ -70,8 +70,9 @@ Friction while a joint slips is a force of the residual like any other (its rate
 matrix, its law's values through the generated ``friction_force_D_law``). Sticking and the release come at a
 step's end (δt 0): a stick is a stop's impulse with restitution 0 and a stop's restart; while stuck, the held
 angle's δθ is carried (``held``) and enters the residual through the exact K's column of that angle
-(:meth:`TransientSensitivities._held_forces`); a release restarts as after a stop, the held δθ back among the free
-coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
+(:meth:`TransientSensitivities._held_forces`), and every probe reads it as the joint's δθ (:meth:`record`: the
+energies' and momenta's forms at the joint's slot too); a release restarts as after a stop, the held δθ back among
+the free coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
 what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction").
 
 A hinge resting on its rigid stop (locked there after landing with restitution 0, released at a step's end where its
@@ -1433,9 +1434,11 @@ class TransientSensitivities(ParameterDerivatives):
         return {**carried, "held": held, "pending": pending}
 
     def _refuse_what_a_held_angle_moves(self, new) -> None:
-        """The models and probes whose terms of a stuck joint's held angle are not carried: refused
+        """The models and controllers whose terms of a stuck joint's held angle are not carried: refused
         (:meth:`_refuse_sticking`) where a joint sticks, slips, or is stuck from t = 0
-        (latdyn.timeloop.events.stick_at_start)."""
+        (latdyn.timeloop.events.stick_at_start). The probes read it (:meth:`record`), energies and momenta too:
+        their forms c_q are on all coordinates, the stuck joint's slot included
+        (tests/test_sensitivities_sticks_beside.py)."""
         if self.model.links is not None:
             self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (their reduction "
                                        "with the held angle is not differentiated yet)")
