@@ -397,11 +397,12 @@ def test_a_stuck_run_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):
 
 def test_sticking_beside_a_controller_with_states_is_refused_naming_its_friction(tmp_path):
     """What a stuck joint's held angle moves is carried for positions, angles, rates, joint forces, energies and
-    momenta, not for controllers with states (tests/test_sensitivities_sticks_beside.py): a run with a PI on the joint
-    is refused when the joint sticks — SceneError naming the joint's friction through the API, exit 2 without a
-    traceback from the CLI (which removes the results folder)."""
-    text = STUCK.replace('torque: "A*t"', 'torque: "A*t + ctl"').replace(
-        "solve:", "controllers:\n  ctl: {output: \"-2*angle - 0.5*S\", states: {S: \"angle\"}}\nsolve:")
+    momenta, and for controllers that drive the stuck joint, not for a controller with states that drives a free
+    coordinate (tests/test_sensitivities_sticks_beside.py): a run with a PI pushing the panel by a load is refused
+    when the joint sticks — SceneError naming the joint's friction through the API, exit 2 without a traceback from
+    the CLI (which removes the results folder)."""
+    text = STUCK.replace("solve:", "controllers:\n  ctl: {output: \"-2*angle - 0.5*S\", states: {S: \"angle\"}}\n"
+                                   "loads:\n  - {at: panel, force: [0, \"ctl\", 0]}\nsolve:")
     with pytest.raises(SceneError) as refused:
         _run(text)
     # stuck from the start (events.stick_at_start): refused at t = 0
