@@ -7,10 +7,11 @@ step's residual: its derivative by the joint's rate is in the step's exact matri
 the generated ``friction_force_D_law`` (checked here against central differences of the generated force). A stick
 and a release come at a step's end: the stick a stop's impulse with restitution 0, the held angle's δθ carried
 through K's column of it while stuck, the release a stop's restart; refused (exit 2, naming the friction) only where
-that is not followed (beside energy probes, here). A guide's compliant stops and friction, and a prescribed slide,
-too. Reference: central differences of whole runs at p ± h and p ± h/2, Richardson-extrapolated, the time step
-fixed (h relative to p: 1e-2 for the values the force depends on weakly — F_s, v_s, v₀, whose tiny derivatives of
-the arm's points the differences' noise would swamp at 1e-4 — 3e-2 for a stop's damping, 1e-4 for the rest)."""
+that is not followed (beside a controller with states, here). A guide's compliant stops and friction, and a
+prescribed slide, too. Reference: central differences of whole runs at p ± h and p ± h/2, Richardson-extrapolated,
+the time step fixed (h relative to p: 1e-2 for the values the force depends on weakly — F_s, v_s, v₀, whose tiny
+derivatives of the arm's points the differences' noise would swamp at 1e-4 — 3e-2 for a stop's damping, 1e-4 for
+the rest)."""
 from __future__ import annotations
 
 import csv
@@ -394,12 +395,14 @@ def test_a_stuck_run_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):
     assert (out / "sensitivities.csv").read_bytes() == (whole / "sensitivities.csv").read_bytes()
 
 
-def test_sticking_beside_energy_probes_is_refused_naming_its_friction(tmp_path):
-    """What a stuck joint's held angle moves is carried for positions, angles, rates and joint forces, not for
-    energies and momenta: a run with such a probe is refused when the joint sticks — SceneError naming the joint's
-    friction through the API, exit 2 without a traceback from the CLI (which removes the results folder)."""
-    text = STUCK.replace("    rate: {hinge: arm.end, quantity: rate}\n",
-                         "    rate: {hinge: arm.end, quantity: rate}\n    kinetic: {energy: kinetic}\n")
+def test_sticking_beside_a_controller_with_states_is_refused_naming_its_friction(tmp_path):
+    """What a stuck joint's held angle moves is carried for positions, angles, rates, joint forces, energies and
+    momenta, and for controllers that drive the stuck joint, not for a controller with states that drives a free
+    coordinate (tests/test_sensitivities_sticks_beside.py): a run with a PI pushing the panel by a load is refused
+    when the joint sticks — SceneError naming the joint's friction through the API, exit 2 without a traceback from
+    the CLI (which removes the results folder)."""
+    text = STUCK.replace("solve:", "controllers:\n  ctl: {output: \"-2*angle - 0.5*S\", states: {S: \"angle\"}}\n"
+                                   "loads:\n  - {at: panel, force: [0, \"ctl\", 0]}\nsolve:")
     with pytest.raises(SceneError) as refused:
         _run(text)
     # stuck from the start (events.stick_at_start): refused at t = 0

@@ -1982,8 +1982,11 @@ def _sensor_derivatives(owner: ParameterDerivatives, probes: list, state, dq: np
     :meth:`ParameterDerivatives._rates_by_parameter`: a dependent node's P δv + ∂(J v)/∂q δq), and where the state's
     time moves with p (``moved`` = δt, an event's and the steps after it) along the prescribed motions at fixed free
     coordinates, ∂s/∂t δt (a cable's length from a moving anchor; the time loop's ``_prescribed_in_time``, as a
-    probe's row, the rates by the motions' accelerations). ``dv`` None: no sensor reads a rate."""
+    probe's row, the rates by the motions' accelerations). A joint that friction holds is no free coordinate: its
+    angle's δθ is the held one (``owner.held``, as a probe's row reads it). ``dv`` None: no sensor reads a rate."""
     dx, dpi, dtheta = owner._by_parameter(dq, state)
+    if owner.held is not None and np.any(owner.held):   # a stuck joint's angle: where the run stuck it (the
+        dtheta = dtheta + owner.held                     # parameters' columns; TransientSensitivities.record)
     rates = None if dv is None else owner._rates_by_parameter(np.asarray(dv, float), dq, state)
     if moved is not None:
         owner._prescribed_in_time(state, np.asarray(moved, float), dx, dpi, dtheta, rates)

@@ -70,8 +70,9 @@ Friction while a joint slips is a force of the residual like any other (its rate
 matrix, its law's values through the generated ``friction_force_D_law``). Sticking and the release come at a
 step's end (δt 0): a stick is a stop's impulse with restitution 0 and a stop's restart; while stuck, the held
 angle's δθ is carried (``held``) and enters the residual through the exact K's column of that angle
-(:meth:`TransientSensitivities._held_forces`); a release restarts as after a stop, the held δθ back among the free
-coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
+(:meth:`TransientSensitivities._held_forces`), and every probe and controller's sensor reads it as the joint's δθ
+(:meth:`record`: the energies' and momenta's forms at the joint's slot too; latdyn/analyses/sensitivities.py
+``_sensor_derivatives``); a release restarts as after a stop, the held δθ back among the free coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
 what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction"). On a model
 with rigid links the held angle moves the reduced residual, the impulse's weight and the dependent nodes through the
 reduction too: central differences along the angle (:meth:`TransientSensitivities._linked_held_forces`,
@@ -1535,7 +1536,9 @@ class TransientSensitivities(ParameterDerivatives):
         :meth:`_held_dependent_motion`) where no guide, latch, rigid stop, cable or controller is in the model and the
         probes are points in global axes and joints' angles and rates (checked against Richardson differences on the
         gimbals of tests/test_sensitivities_linked_sticks.py; the rest is not); the discrete adjoint (its own call)
-        refuses it."""
+        refuses it. The probes read it (:meth:`record`), energies and momenta too: their forms c_q are on all
+        coordinates, the stuck joint's slot included; the controllers' sensors too
+        (:meth:`_controllers_drive_stuck_joints_alone`; tests/test_sensitivities_sticks_beside.py)."""
         model = self.model
         if model.links is not None and not through_links:
             self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (the discrete adjoint "
@@ -1555,10 +1558,24 @@ class TransientSensitivities(ParameterDerivatives):
         if not getattr(self, "_impulse_weighted", True):
             self._refuse_sticking(new, "a joint sticks in a model with directions or elements without inertia "
                                        "(the impulse response's rigid and static parts are not differentiated)")
-        if any(is_energy_or_momentum(probe) for probe in self.probes) or self._controller_states() is not None \
-                or self._sampled_controllers() is not None:
-            self._refuse_sticking(new, "a joint sticks beside energy or momentum probes or controllers with "
-                                       "states or sampled ones (their terms of the held angle are not carried)")
+        if (self._controller_states() is not None or self._sampled_controllers() is not None) \
+                and not self._controllers_drive_stuck_joints_alone():
+            self._refuse_sticking(new, "a joint sticks beside controllers with states or sampled ones that drive "
+                                       "another coordinate (their condensed terms of the held angle are not "
+                                       "carried there)")
+
+    def _controllers_drive_stuck_joints_alone(self) -> bool:
+        """Whether every controller's actuator is the torque of a joint stuck now (none is: a release, whose held
+        angle ends). A controller with states or a sampled one reads the held angle through its sensors
+        (``_sensor_derivatives`` adds the held δθ to the joints' δθ: δS and the sampled δy carry it); where it drives
+        a stuck joint its output's terms of the held angle land on that joint's reaction row alone. On a free
+        coordinate the states' condensed dy/ds = ∂y/∂s + ∂y/∂S A⁻¹ h/2 ∂f/∂s would multiply the held δθ there, which
+        :meth:`_held_forces` (the coupling outside the step's condensation) does not take: refused."""
+        stuck, control, sampled = self.model.stuck, self.assembler.control, self._sampled_controllers()
+        driven = list(zip(control.actuator_kind, control.actuator_index))   # the continuous controllers' (0: a hinge)
+        if sampled is not None:   # the sampled ones' (SampledTerms.actuators: kind 0 a hinge or a guide)
+            driven += [(kind, index) for kind, index, *_ in sampled.actuators]
+        return not stuck.any() or all(kind == 0 and stuck[index] for kind, index in driven)
 
     def _refuse_sticking(self, new, why: str) -> None:
         """SceneError (exit 2) naming the friction of the first joint that sticks or is stuck at ``new``: ``why``
