@@ -122,8 +122,8 @@ from latdyn.analyses.parameter_stiffness import held_angles_along
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_forms
 from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
                                            rates_taken_anew)
-from latdyn.analyses.transient_sensitivities import (WEIGHT_STEP, TransientSensitivities, _NodeRotations,
-                                                      _StepColumns, friction_key, stop_key)
+from latdyn.analyses.transient_sensitivities import (HELD_FROM_THE_START, WEIGHT_STEP, TransientSensitivities,
+                                                      _NodeRotations, _StepColumns, friction_key, stop_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
@@ -134,6 +134,9 @@ from latdyn.step.integrators import consistent_acceleration
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["AdjointSensitivities"]
+
+#: why a stick is refused where the stuck joints are the only coordinates (:meth:`AdjointSensitivities._refuse_a_stick`)
+NOTHING_ELSE_FREE = "with nothing else free (the stuck joints the only coordinates)"
 
 
 class AdjointSensitivities(TransientSensitivities):
@@ -173,10 +176,14 @@ class AdjointSensitivities(TransientSensitivities):
             #: whether an impulse's weight is M + dt²K alone, as the forward method's start sets it (a stick's jump)
             self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
         if model.stuck.any():   # stuck by friction from t = 0 (latdyn.timeloop.events.stick_at_start): δθ_0 = 0 held
-            self._refuse_a_stick(state, int(np.flatnonzero(model.stuck)[0]))
+            # with nothing else free the forward method's start prepares nothing and refuses nothing (its release
+            # is refused when it comes): the adjoint's reason is that nothing else is free, not the model's guides
+            self._refuse_a_stick(state, int(np.flatnonzero(model.stuck)[0]),
+                                 NOTHING_ELSE_FREE if model.n_dofs == 0 else None, HELD_FROM_THE_START)
         return carried
 
-    def _refuse_a_stick(self, state, joint: int, why: str | None = None) -> None:
+    def _refuse_a_stick(self, state, joint: int, why: str | None = None,
+                        happens: str = "the joint sticks or slips") -> None:
         """SceneError (exit 2) naming the friction of ``joint``, which sticks or is released at ``state``, where the
         reverse pass does not transpose its stick or release (``why``; else the checks below): the forward method's
         own refusals (:meth:`TransientSensitivities._refuse_what_a_held_angle_moves`: guides or rigid links, directions
@@ -184,12 +191,13 @@ class AdjointSensitivities(TransientSensitivities):
         latches, stops or cables (a stick's time and the held angle beside an event's δt are not transposed), beside
         geometry parameters or controllers, with nothing else free, and probes other than points and joint angles and
         rates (a joint force, a section force, a cable: their forms of the held angle are not formed). Everything else
-        is transposed (:meth:`_friction_event_transposed`)."""
+        is transposed (:meth:`_friction_event_transposed`). ``happens`` says what the joint does, for the message
+        (``HELD_FROM_THE_START`` at t = 0)."""
         from latdyn.errors import SceneError
 
         self._refused = True   # nothing for :meth:`finish` to write where the run is refused (exit 2)
         if why is None:
-            self._refuse_what_a_held_angle_moves(state)   # SceneError: the forward method refuses it too
+            self._refuse_what_a_held_angle_moves(state, happens, joint)   # SceneError: the forward method refuses it too
             if self._with_events():
                 why = "beside latches, stops or cables"
             elif self.geometry is not None:
@@ -197,7 +205,7 @@ class AdjointSensitivities(TransientSensitivities):
             elif self.controllers is not None:
                 why = "beside controllers"
             elif self.model.n_dofs == 0:
-                why = "with nothing else free (the stuck joints the only coordinates)"
+                why = NOTHING_ELSE_FREE
             else:
                 other = [probe.name for probe in self.probes if not _held_angle_probe(probe)]
                 why = (f"beside probe {other[0]!r} (a joint force, a section force, a cable or a controller's)"
@@ -206,7 +214,7 @@ class AdjointSensitivities(TransientSensitivities):
             self._refused = False
             return
         raise SceneError(self.scene.file, friction_key(self.model.hinges[joint]),
-                         f"at t = {float(state.t):.6g} the joint sticks or slips {why}: the discrete adjoint "
+                         f"at t = {float(state.t):.6g} {happens} {why}: the discrete adjoint "
                          "differentiates a stick and a release where the probes are points and joint angles and "
                          "rates and no other event, geometry parameter or controller comes beside them; expected "
                          "solve.sensitivity_method: forward (the default), which does (docs/parameters.md, "

@@ -1,0 +1,76 @@
+"""Small wrongs found in reading issue 34's code, each mended with a check through the front door (YAML text as a user
+types it, ``latdyn run`` or ``latdyn.run(latdyn.load_scene(...))``).
+
+- A cart on a skew guide held by static friction from t = 0, nothing else free (gravity's pull along the guide
+  9.81·0.5/1.5 = 3.27 N, F_s = 5 N): the forward method differentiates the held cart (nothing moves; a guide force
+  probe's ∂/∂m is −3.27); the adjoint refused it at t = 0 saying "a joint sticks in a model with guides or rigid links"
+  (it sticks at no time, and the forward method does run it) and the forward method refused the cart's release by a
+  growing push with "several joints stick or slip, or a latch, a stop or a cable's change comes, at one instant" (one
+  joint was released, nothing else came): each message now says what happens and what is expected.
+"""
+from __future__ import annotations
+
+import pytest
+import yaml
+
+import latdyn
+from latdyn.errors import SceneError
+from tests.cli_runs import latdyn_run, summary_of
+
+#: a cart at rest on a skew guide, held there by static friction from t = 0 (its only coordinate the guide's slide)
+HELD_CART = """
+title: a cart at rest on a skew guide, held by static friction
+parameters: {Fc: 1.0, Fs: 5.0, m: 1.0}
+gravity: [0, 0, -9.81]
+bodies:
+  cart: {at: [0, 0, 0], mass: "m", inertia: [0.01, 0.01, 0.01],
+         guide: {axis: [1, 1, -0.5], friction: {coulomb: "Fc", static: "Fs"}}}
+solve: {analysis: transient, dt: 0.01, t_end: 0.1, sensitivities: [Fc, m]}
+output:
+  probes:
+    x: {point: cart, quantity: position, component: x}
+    f: {guide: cart, quantity: force}
+"""
+
+
+def _with(text: str, **solve) -> dict:
+    data = yaml.safe_load(text)
+    data["solve"].update(solve)
+    return data
+
+
+def test_a_cart_held_from_the_start_is_differentiated_by_the_forward_method(tmp_path):
+    """Guard (passes on the base too): nothing moves, the held force is −m g·e = −3.27 m, so its ∂/∂m −3.27 and every
+    other derivative 0, through ``latdyn run``."""
+    completed, out = latdyn_run(tmp_path, HELD_CART, quiet=True)
+    assert completed.returncode == 0, completed.stderr
+    derivatives = summary_of(out)["probe_sensitivities"]
+    assert derivatives["f"]["end"]["m"] == pytest.approx(-3.27, abs=1e-12)
+    assert derivatives["f"]["end"]["Fc"] == 0.0 and derivatives["x"]["end"] == {"Fc": 0.0, "m": 0.0}
+
+
+def test_the_adjoint_refuses_a_cart_held_from_the_start_saying_so(tmp_path):
+    """The adjoint refuses it at t = 0 naming the guide's friction, that the cart is held from the start with nothing
+    else free and that the forward method is expected (on the base: "a joint sticks in a model with guides or rigid
+    links", pointing at no method)."""
+    with pytest.raises(SceneError) as raised:
+        latdyn.run(latdyn.load_scene(_with(HELD_CART, sensitivity_method="adjoint")))
+    message = str(raised.value)
+    assert raised.value.key == "bodies.cart.guide.friction"
+    assert "at t = 0 the joint is held by friction from the start" in message and "nothing else free" in message
+    assert "expected solve.sensitivity_method: forward" in message and "sticks in a model" not in message
+
+
+def test_the_release_of_a_cart_held_from_the_start_is_refused_saying_so(tmp_path):
+    """Pushed by P t along x the cart breaks away at t = 0.87: the forward method refuses the release (its candidate is
+    not prepared where nothing was free), exit 2 naming the guide's friction, the time and the release, without a
+    traceback (on the base: "several joints stick or slip, or a latch, a stop or a cable's change comes")."""
+    pushed = (HELD_CART.replace("m: 1.0}", "m: 1.0, P: 3.0}")
+              .replace("solve:", 'loads:\n  - {at: cart, force: ["P*t", 0, 0]}\nsolve:')
+              .replace("t_end: 0.1, sensitivities: [Fc, m]", "t_end: 0.9, sensitivities: [Fc, m, P]"))
+    assert pushed.count("P*t") == 1 and "t_end: 0.9" in pushed
+    completed, _ = latdyn_run(tmp_path, pushed, quiet=True)
+    assert completed.returncode == 2, completed.stderr
+    assert "bodies.cart.guide.friction: at t = 0.87 the joint is released after steps on which nothing was free" \
+        in completed.stderr
+    assert "several joints" not in completed.stderr and "Traceback" not in completed.stderr
