@@ -7,6 +7,12 @@ types it, ``latdyn run`` or ``latdyn.run(latdyn.load_scene(...))``).
   (it sticks at no time, and the forward method does run it) and the forward method refused the cart's release by a
   growing push with "several joints stick or slip, or a latch, a stop or a cable's change comes, at one instant" (one
   joint was released, nothing else came): each message now says what happens and what is expected.
+- A hinge's or guide's law whose slope in θ or θ̇ is not finite at the joint's start (``torque: "k*sqrt(abs(theta))"``
+  at θ_0 = 0) ended in "internal error: LinAlgError: Eigenvalues did not converge" (the check of what holds the
+  coordinates, with or without solve.sensitivities), ``(theta - 0.0)**(1/3)`` in the same error, and
+  ``abs(theta_dot)**0.5`` in Newton's failure at the first step: each is a SceneError naming the law's key before the
+  run (latdyn/assembly/prepare.py). Laws in t whose rate is infinite at t = 0 (``k*sqrt(t)``, ``k*t**0.25`` as torque,
+  stiffness or damping, beside a latch, forward and adjoint) ran and run (not reproduced).
 """
 from __future__ import annotations
 
@@ -74,3 +80,56 @@ def test_the_release_of_a_cart_held_from_the_start_is_refused_saying_so(tmp_path
     assert "bodies.cart.guide.friction: at t = 0.87 the joint is released after steps on which nothing was free" \
         in completed.stderr
     assert "several joints" not in completed.stderr and "Traceback" not in completed.stderr
+
+
+#: the wheel on a skew hinge at a stiff arm's end (tests/test_sensitivities_events.py's WHEEL_3D), driven by a torque law
+WHEEL_DRIVEN = """
+title: a wheel on a skew hinge at the end of a stiff arm, driven by a torque law of its angle and rate
+parameters: {k: 1.0, c: 0.05, J: 1.0, EI: 1.0e4}
+sections: {s: {EA: 1.0e6, EIy: "EI", EIz: "EI", GJ: "0.8*EI", rhoA: 1.0, rhoIy: 0.01, rhoIz: 0.01}}
+bodies:
+  base: {at: [0, 0, 0], fixed: true}
+  wheel: {at: [0.6666666666666666, 0.3333333333333333, 0.6666666666666666], mass: 1.0, com: [0.05, 0, 0],
+          inertia: ["J", "J", "1.2*J"]}
+beams:
+  arm: {from: base, to: wheel, section: s, elements: 2,
+        end: {hinge: {axis: [1, -2, 0], stiffness: 0.5, damping: "c", torque: "LAW"}}}
+solve: {analysis: transient, t_end: 0.1, dt: 0.01, sensitivities: [k, c, J]}
+output:
+  probes:
+    angle: {hinge: arm.end, quantity: angle}
+"""
+
+#: torque laws whose slope in θ or θ̇ is not finite at the start (θ_0 = θ̇_0 = 0) and what the message names
+NOT_FINITE_AT_START = [("k*sqrt(abs(theta))", "its slope in theta nan"), ("k*abs(theta)**0.5", "its slope in theta nan"),
+                       ("k*(theta - 0.0)**(1/3)", "its slope in theta not a number (ZeroDivisionError"),
+                       ("k*abs(theta_dot)**0.5", "its slope in theta_dot nan")]
+
+
+@pytest.mark.parametrize(("law", "named"), NOT_FINITE_AT_START)
+def test_a_torque_law_with_an_infinite_slope_at_the_start_is_refused_naming_its_key(law, named):
+    """SceneError naming beams.arm.end.hinge.torque and the slope (on the base: LinAlgError from the check of what
+    holds the coordinates, or Newton's failure at the first step for the rate's)."""
+    with pytest.raises(SceneError) as raised:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(WHEEL_DRIVEN.replace("LAW", law))))
+    assert raised.value.key == "beams.arm.end.hinge.torque"
+    assert "at the joint's start (theta = 0, theta_dot = 0, t = 0" in str(raised.value) and named in str(raised.value)
+
+
+def test_latdyn_run_refuses_an_infinite_slope_at_the_start_with_exit_2(tmp_path):
+    """Through ``latdyn run``: exit 2 naming the file and the key, no "internal error" (exit 1 with "internal error:
+    LinAlgError: Eigenvalues did not converge" on the base)."""
+    completed, _ = latdyn_run(tmp_path, WHEEL_DRIVEN.replace("LAW", "k*sqrt(abs(theta))"), quiet=True)
+    assert completed.returncode == 2, completed.stderr
+    assert "scene.yaml: beams.arm.end.hinge.torque: expected a law finite, with finite slopes" in completed.stderr
+    assert "internal error" not in completed.stderr and "Traceback" not in completed.stderr
+
+
+def test_a_guide_stiffness_with_an_infinite_slope_at_the_start_is_refused_naming_its_key():
+    """A guide's law is a joint's law too: its key bodies.NAME.guide.stiffness."""
+    text = (HELD_CART.replace('friction: {coulomb: "Fc", static: "Fs"}', 'stiffness: "1 + sqrt(abs(s))"'))
+    assert "sqrt" in text
+    with pytest.raises(SceneError) as raised:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert raised.value.key == "bodies.cart.guide.stiffness" and "its slope in s nan" in str(raised.value)
+    assert "at the joint's start (s = 0, s_dot = 0, t = 0" in str(raised.value)
