@@ -22,6 +22,7 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run, summary_of
+from tests.test_adjoint_in_loop_links import _largest_gap
 
 #: a cart at rest on a skew guide, held there by static friction from t = 0 (its only coordinate the guide's slide)
 HELD_CART = """
@@ -133,3 +134,17 @@ def test_a_guide_stiffness_with_an_infinite_slope_at_the_start_is_refused_naming
         latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
     assert raised.value.key == "bodies.cart.guide.stiffness" and "its slope in s nan" in str(raised.value)
     assert "at the joint's start (s = 0, s_dot = 0, t = 0" in str(raised.value)
+
+
+def test_the_largest_gap_reads_round_off_of_an_exact_zero_as_round_off():
+    """Two runs' summaries whose out-of-plane output is round-off (1e-17, 3e-17) beside a position's derivatives of
+    order 1: a gap of 2e-17 of the run's scale, not 0.67 (on the base); a real gap of 1e-6 in the position's
+    derivatives, and one of 1e-9 in an output 1e-5 of the run's scale, are read as such."""
+    forward = {"x": {"end": {"k": 0.8, "m": -1.2}}, "z": {"end": {"k": 1e-17, "m": -3e-17}}}
+    adjoint = {"x": {"end": {"k": 0.8, "m": -1.2}}, "z": {"end": {"k": 3e-17, "m": -1e-17}}}
+    assert _largest_gap(adjoint, forward) <= 1e-10
+    adjoint["x"]["end"]["m"] = -1.2 * (1 + 1e-6)
+    assert _largest_gap(adjoint, forward) == pytest.approx(1e-6, rel=1e-6)
+    forward["y"] = {"end": {"k": 1e-5, "m": 0.0}}
+    adjoint = {**forward, "y": {"end": {"k": 1e-5 * (1 + 1e-9), "m": 0.0}}}
+    assert _largest_gap(adjoint, forward) == pytest.approx(1e-9, rel=1e-6)
