@@ -169,8 +169,7 @@ def _geometry_generated(owner, key: str) -> bool:
     """Whether a geometry use ``key`` has its (∂K/∂p) w generated (:func:`_geometry`): the variant holds
     ``beam_stiffness_D_reference`` and the model has no rigid links or guides (a hinge axis's key too: its nodal
     frame's turn T_j θ J(θa) δa moving with θ is in the kernel's second variation, measured against Richardson)."""
-    info = getattr(owner.kernels, "info", None) or {}
-    return "beam_stiffness_D_reference" in info and owner.model.links is None
+    return "beam_stiffness_D_reference" in owner.kernels.info and owner.model.links is None
 
 
 def _slopes_known(law) -> bool:
@@ -441,7 +440,7 @@ def _reels_along(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     taut at the state (:meth:`latdyn.analyses.cable_sensitivities.CableSensitivities.reel_forces`), so along w
     ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 · share · L0′(t), as a rest length parameter's (:func:`_cables`)
     with L0′(t) for ∂L0/∂p."""
-    cables = getattr(owner, "cables", None)
+    cables = owner.cables
     if cables is None:
         return
     taut = None
@@ -573,8 +572,8 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     that the reference's δh moves, a term of the kernel's second variation, is the likely reason). The loads: the
     generated ``point_load_stiffness_D_q`` at the moved offset δr less at none (the load is affine in its offset, its
     K_l w too)."""
-    geometry = getattr(owner, "geometry", None)
-    if geometry is None or "beam_stiffness_D_reference" not in (getattr(owner.kernels, "info", None) or {}):
+    geometry = owner.geometry
+    if geometry is None or "beam_stiffness_D_reference" not in owner.kernels.info:
         return   # a variant generated before the kernel: every geometry column is the caller's difference
     model, k = owner.model, geometry.k
     elements = geometry.elements
@@ -657,7 +656,7 @@ def _cables(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     """The cables' EA, damping and rest length, for the elements taut at the state (:meth:`CableSensitivities.taut`):
     ``cable_stiffness_D_q``'s K_c w at (∂EA/∂p, 0) or (0, ∂c/∂p) (the taut law is linear in them), and
     ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 times the element's share of ∂L0/∂p (K_c is not linear in L0)."""
-    cables = getattr(owner, "cables", None)
+    cables = owner.cables
     if cables is None or not cables.uses:
         return
     uses = [use for use in cables.uses if use[1] in ("EA", "damping", "rest_length")]
@@ -694,7 +693,7 @@ def _cable_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     The static ∂r/∂p holds no cable's weight (:meth:`CableSensitivities.residual_derivatives` adds the masses' forces
     with the inertia forces alone), so its difference along w, the path before, left this part out: 1.0 of ρA's
     column and 0.05 of a rest length's on the 3D boom of tests/test_weight_derivative_parameters2.py."""
-    cables = getattr(owner, "cables", None)
+    cables = owner.cables
     if cables is None or not cables.uses:
         return
     gravity = np.asarray(owner.assembler.gravity, float)

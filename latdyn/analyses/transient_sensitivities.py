@@ -184,6 +184,10 @@ RELANDINGS = 4
 #: a landing farther than this (relative, as LANDING) from the event is flagged in summary.json warnings:
 #: the event-time derivative assumes the step ends on it
 LANDING_MISSED = 1e-10
+#: what a joint stuck from t = 0 does, in a refusal's message (latdyn.timeloop.events.stick_at_start;
+#: :meth:`TransientSensitivities._refuse_what_a_held_angle_moves`)
+HELD_FROM_THE_START = ("the joint is held by friction from the start (it starts at rest, the force or torque that "
+                       "holds it within its static level)")
 #: the configuration step (times the length scale) of the central differences inside the impulse weight's
 #: derivative that are not generated (module docstring, "Events"; latdyn/analyses/weight_derivative.py): along the
 #: coordinates of the blocks not generated (some controllers' couplings, the loads they drive, a hinge law naming an
@@ -230,6 +234,9 @@ class TransientSensitivities(ParameterDerivatives):
         self.time_shift = None
         #: δθ (n_hinges, k) of the joints friction holds (carried as ``held``; :meth:`_held_forces`), None without
         self.held = None
+        #: whether an impulse's weight is M + dt²K alone (:meth:`start` finds it where something is free there; a
+        #: start with nothing free has no direction without inertia to find)
+        self._impulse_weighted = True
         #: the stuck joints at the step's start, and the jumps of those that may stick or be released at its end
         #: (:meth:`_stick_candidates`), for :meth:`after_events`
         self._stuck_before, self._candidates = None, {}
@@ -296,7 +303,7 @@ class TransientSensitivities(ParameterDerivatives):
         #: whether an impulse's weight is M + dt²K alone (a stick's jump: :meth:`_stick_or_release`)
         self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
         if model.stuck.any():   # stuck by friction from t = 0, its held angle the start's (stick_at_start)
-            self._refuse_what_a_held_angle_moves(state)
+            self._refuse_what_a_held_angle_moves(state, HELD_FROM_THE_START, int(np.flatnonzero(model.stuck)[0]))
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
@@ -544,7 +551,8 @@ class TransientSensitivities(ParameterDerivatives):
         if states is not None:   # δS with the step size's part (an event's δh)
             carried = {**carried, **states.after_step(new, carried["dq"], dh, carried["dt"], carried["dv"])}
         if np.any(self.held) and (cable is not None or event is not None):
-            self._refuse_sticking(new, "another event (a latch, a stop, a cable's change) while a joint is stuck")
+            self._refuse_sticking(new, "another event (a latch, a stop, a cable's change) comes while a joint is stuck",
+                                  int(np.flatnonzero(self.model.stuck)[0]))
         if cable is not None:
             return self._after_cable_event(carried, new, *cable)
         if event is None:
@@ -1441,11 +1449,16 @@ class TransientSensitivities(ParameterDerivatives):
         self._stuck_before = None
         if not changed:
             return carried
-        if len(changed) > 1 or carried.get("pending") is not None or changed[0] not in self._candidates:
-            self._refuse_sticking(new, "several joints stick or slip, or a latch, a stop or a cable's change comes, "
-                                       "at one instant")
-        self._refuse_what_a_held_angle_moves(new)
         j = changed[0]
+        happens = "the joint sticks" if model.stuck[j] else "the joint is released"
+        if len(changed) > 1 or carried.get("pending") is not None:
+            self._refuse_sticking(new, "several joints stick or slip, or a latch, a stop or a cable's change comes, "
+                                       "at one instant", j)
+        if j not in self._candidates:   # a step with nothing free prepares none (:meth:`step`)
+            self._refuse_sticking(new, f"{happens} after steps on which nothing was free (the joints held by friction "
+                                       "were the only coordinates, as after a start at rest: a release from there is "
+                                       "not prepared)", j)
+        self._refuse_what_a_held_angle_moves(new, happens, j)
         candidate = self._candidates[j]
         held = self._held(carried).copy()
         held[j] = candidate["held"]
@@ -1455,27 +1468,26 @@ class TransientSensitivities(ParameterDerivatives):
                    "dvdot": np.zeros((n, k))}
         return {**carried, "held": held, "pending": pending}
 
-    def _refuse_what_a_held_angle_moves(self, new) -> None:
-        """The models and probes whose terms of a stuck joint's held angle are not carried: refused
-        (:meth:`_refuse_sticking`) where a joint sticks, slips, or is stuck from t = 0
-        (latdyn.timeloop.events.stick_at_start)."""
+    def _refuse_what_a_held_angle_moves(self, new, happens: str, joint: int) -> None:
+        """The models and probes whose terms of a stuck joint's held angle (a guide's: its held slide) are not
+        carried: refused (:meth:`_refuse_sticking`, naming ``joint``'s friction) where a joint sticks, is released,
+        or is stuck from t = 0 (latdyn.timeloop.events.stick_at_start); ``happens`` says which, for the message
+        (:data:`HELD_FROM_THE_START` at t = 0)."""
         if self.model.links is not None:
-            self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (their reduction "
-                                       "with the held angle is not differentiated yet)")
-        if not getattr(self, "_impulse_weighted", True):
-            self._refuse_sticking(new, "a joint sticks in a model with directions or elements without inertia "
-                                       "(the impulse response's rigid and static parts are not differentiated)")
+            self._refuse_sticking(new, f"{happens} in a model with guides or rigid links (their reduction with a "
+                                       "held angle or slide is not differentiated yet)", joint)
+        if not self._impulse_weighted:
+            self._refuse_sticking(new, f"{happens} in a model with directions or elements without inertia "
+                                       "(the impulse response's rigid and static parts are not differentiated)", joint)
         if any(is_energy_or_momentum(probe) for probe in self.probes) or self._controller_states() is not None \
                 or self._sampled_controllers() is not None:
-            self._refuse_sticking(new, "a joint sticks beside energy or momentum probes or controllers with "
-                                       "states or sampled ones (their terms of the held angle are not carried)")
+            self._refuse_sticking(new, f"{happens} beside energy or momentum probes or controllers with states or "
+                                       "sampled ones (their terms of the held angle are not carried)", joint)
 
-    def _refuse_sticking(self, new, why: str) -> None:
-        """SceneError (exit 2) naming the friction of the first joint that sticks or is stuck at ``new``: ``why``
-        its stick or release is not differentiated here (docs/parameters.md, "Friction")."""
-        stuck = np.flatnonzero(self.model.stuck)
-        joint = self.model.hinges[int(stuck[0]) if len(stuck) else int(sticking_hinges(self.model)[0])]
-        raise SceneError(self.scene.file, friction_key(joint),
+    def _refuse_sticking(self, new, why: str, joint: int) -> None:
+        """SceneError (exit 2) naming the friction of ``joint`` (a hinge index), which sticks, is released or is
+        stuck at ``new``: ``why`` that is not differentiated here (docs/parameters.md, "Friction")."""
+        raise SceneError(self.scene.file, friction_key(self.model.hinges[joint]),
                          f"at t = {new.t:.6g} {why}: solve.sensitivities differentiates a joint's slipping, "
                          "sticking and release by friction, not this; expected a run without it, or no "
                          "solve.sensitivities (docs/parameters.md, \"Friction\")")
