@@ -139,10 +139,10 @@ from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters, held_angles_along,
-                                                 linked_controller_parameter_along, linked_time_stiffness_along,
+                                                 linked_controller_parameter_along,
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
-                                                 time_stiffness_along)
+                                                 time_shift_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives,
                                            rates_taken_anew)
@@ -1044,8 +1044,9 @@ class TransientSensitivities(ParameterDerivatives):
         moves the state in time (a reel's, a continuous controller's output in t and, since prestime, a prescribed
         motion's otherwise are generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With
         rigid links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`, the controllers'
-        terms along P w with them, the time shift's where :func:`~latdyn.analyses.parameter_stiffness.time_generated`,
-        a prescribed motion's through the reduction too) where the controllers' are formed, else
+        terms along P w with them, the time shift's where
+        :func:`~latdyn.analyses.parameter_stiffness.time_shift_generated`, a prescribed motion's through the reduction
+        too: :func:`~latdyn.analyses.parameter_stiffness.time_shift_along`) where the controllers' are formed, else
         the difference of the static ∂r/∂p without the elements' gravity
         load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia
         forces' geometric term."""
@@ -1062,11 +1063,11 @@ class TransientSensitivities(ParameterDerivatives):
         if not linked:
             out += self._section_stiffness_along(state, w)
             if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
-                along = parameter_stiffness_along(self, state, w)
+                along = self._on_free_coordinates(state, parameter_stiffness_along(self, state, w))
                 shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
-                if shifted:   # the state moved in time by δt_e: ∂(∂r/∂t)/∂q w δt_e, the laws' rates in t generated
-                    along += np.outer(time_stiffness_along(self, state, w), self.time_shift)
-                out[:, exact] += self._on_free_coordinates(state, along)[:, exact]
+                if shifted:   # the state moved in time by δt_e: ∂(∂r/∂t)/∂q w δt_e, generated (exact_parameters)
+                    along += np.outer(time_shift_along(self, state, w), self.time_shift)
+                out[:, exact] += along[:, exact]
                 if self.controllers is not None or (self.held is not None and np.any(self.held)):
                     out[:, exact] += self._terms_beside_stiffness_along(state, w)[:, exact]
         if not np.all(exact):
@@ -1150,12 +1151,8 @@ class TransientSensitivities(ParameterDerivatives):
         inertia forces'); beside controllers their terms of ∂r_all/∂p along u = P w at the assembled rates held
         (``linked_controller_parameter_along``, since linkedparam). Before, the difference of the whole reduced
         static ∂r/∂p along w."""
-        model, assembler = self.model, self.assembler
-        n_asm = model.n_assembled
-        assembler.complete_links(state)
-        projection = assembler.evaluate(state, matrices=True).projection
-        full = np.zeros(model.n_total + 1)
-        full[:n_asm] = np.asarray(projection @ w).reshape(-1)
+        n_asm = self.model.n_assembled
+        full = self._along_assembled(state, w)
         total = parameter_stiffness_along_all(self, state, full)
         self.add_section_stiffness_along(state, full, total)
         if self.controllers is not None:   # the controllers' terms of ∂r_all/∂p along u = P w, the rates held
@@ -1166,12 +1163,21 @@ class TransientSensitivities(ParameterDerivatives):
         out = self._on_free_coordinates(state, total)
         if self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift):
             # ∂(∂r_min/∂t)/∂q w δt_e: the laws' rates in t along u, the prescribed motions through the reduction
-            timed = linked_time_stiffness_along(self, state, w, full)
+            timed = time_shift_along(self, state, w, full=full)
             if timed is None:
                 return None
             out += np.outer(timed, self.time_shift)
         static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
         return out + self._geometric_products(state, static, w)
+
+    def _along_assembled(self, state, w: np.ndarray) -> np.ndarray:
+        """u = P w (n_total + 1,) on the assembled coordinates with rigid links or guides: the dependent nodes moving
+        with the free ones along w (P of the evaluation at ``state``, its links completed)."""
+        self.assembler.complete_links(state)
+        projection = self.assembler.evaluate(state, matrices=True).projection
+        full = np.zeros(self.model.n_total + 1)
+        full[:self.model.n_assembled] = np.asarray(projection @ w).reshape(-1)
+        return full
 
     def _geometric_products(self, state, columns: np.ndarray, w: np.ndarray) -> np.ndarray:
         """(n, k): ∂(Pᵀ y)/∂q[w] at fixed y for each column y of ``columns`` (on the assembled coordinates), the
