@@ -235,7 +235,8 @@ def time_shift_generated(owner) -> bool:
 
 
 def time_generated(owner) -> bool:
-    """Whether the event's time shift's part, ∂(∂r/∂t)/∂q w δt_e, is generated (:func:`time_stiffness_along`): the
+    """Whether the laws' and motions' terms of the event's time shift's part, ∂(∂r/∂t)/∂q w δt_e, are generated
+    (:func:`time_stiffness_along`; the whole decision, with the reduction's terms, is :func:`time_shift_generated`): the
     scene's laws in t are loads' and hinges' (or guides') whose rates in t have their slopes (:func:`_generated_use`
     of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), reels (a cable's rest length L0(t),
     :func:`_reels_along`) and continuous controllers' outputs naming t whose output's second derivatives along q are
