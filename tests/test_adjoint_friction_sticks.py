@@ -172,8 +172,9 @@ output:
 def test_a_stick_beside_geometry_parameters_or_on_a_guide_stays_refused():
     """Geometry parameters beside a stick (the held angle's terms of the start's move are not formed): the slewing arm
     whose tip's x names a parameter is refused when it sticks at t = 0.544, naming the hinge's friction. A guide's
-    slider held by friction: the forward method does not differentiate a stick on a guide (its reduction with the held
-    slide), and the adjoint refuses it as the forward method's message says, at t = 0, naming the guide's friction."""
+    slider held by friction from t = 0, nothing else free: the adjoint refuses it at t = 0 naming the guide's friction
+    and why (nothing else free; the forward method differentiates the held block and refuses its release:
+    tests/test_read_mends.py)."""
     geometry = (SLEW_SINE.replace("tip: {at: [1.0, 0.2, 0.1]", 'tip: {at: ["L", 0.2, 0.1]')
                 .replace("A: 3.0, W: 1.0}", "A: 3.0, W: 1.0, L: 1.0}")
                 .replace("sensitivities: [Fc, Fs, cv, EI, m, A, W]", "sensitivities: [Fc, L]"))
@@ -183,4 +184,4 @@ def test_a_stick_beside_geometry_parameters_or_on_a_guide_stays_refused():
     assert raised.value.key == "beams.arm.start.hinge.friction" and "beside geometry parameters" in str(raised.value)
     with pytest.raises(SceneError) as raised:
         _run(GUIDE)
-    assert raised.value.key == "bodies.block.guide.friction" and "guides or rigid links" in str(raised.value)
+    assert raised.value.key == "bodies.block.guide.friction" and "nothing else free" in str(raised.value)

@@ -37,13 +37,23 @@ SCENES = {"gimbal": GIMBAL_JOINTS, "gimbal, latch": GIMBAL_LATCH, "closed slider
           "chain of rigid bays, latches": CHAIN, "3D guided arm": GUIDED, "3D guided arm, stop": STOP_3D}
 
 
+#: the floor of :func:`_largest_gap`'s scale, relative to the largest derivative of the run
+ROUND_OFF_FLOOR = 1e-6
+
+
 def _largest_gap(adjoint: dict, forward: dict) -> float:
     """The largest difference of ``adjoint``'s probe derivatives from ``forward``'s (summary.json
-    ``probe_sensitivities``), relative to each output's largest derivative."""
+    ``probe_sensitivities``), relative to each output's largest derivative, but never to less than
+    :data:`ROUND_OFF_FLOOR` times the largest derivative of any output: every output is read from the same carried
+    δq, δv (or the same reverse pass), whose round-off is relative to their largest entries, not to a small output's
+    own (an output whose derivatives are all round-off, ~1e-17, of an exact 0 read its round-off as a gap of order 1:
+    tests/test_read_mends.py)."""
+    largest = max((abs(value) for by in forward.values() for values in by.values() for value in values.values()),
+                  default=0.0)
     gap = 0.0
     for probe, by in forward.items():
         for which, values in by.items():
-            scale = max(abs(value) for value in values.values()) or 1.0
+            scale = max(max(abs(value) for value in values.values()), ROUND_OFF_FLOOR * largest) or 1.0
             gap = max(gap, max(abs(adjoint[probe][which][name] - value) for name, value in values.items()) / scale)
     return gap
 

@@ -1,5 +1,5 @@
 """An event's time shift through prescribed motions on models with rigid links or guides, generated through the
-reduction (issue 34; latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along``, ``linked_time_stiffness_along``;
+reduction (issue 34; latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along``, ``time_shift_along``;
 docs/parameters.md, "The impulse weight's derivative").
 
 An impulse or restart at t_e + δt_e weighs with W = M + s K at the moved time: (∂K/∂p) w holds the static residual's

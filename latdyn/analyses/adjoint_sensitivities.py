@@ -128,8 +128,8 @@ from latdyn.analyses.parameter_stiffness import held_angles_along
 from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives, probe_forms
 from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
                                            rates_taken_anew)
-from latdyn.analyses.transient_sensitivities import (TransientSensitivities, _NodeRotations, _StepColumns,
-                                                      friction_key, stop_key)
+from latdyn.analyses.transient_sensitivities import (HELD_FROM_THE_START, TransientSensitivities, _NodeRotations,
+                                                     _StepColumns, friction_key, stop_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
@@ -140,6 +140,9 @@ from latdyn.step.integrators import consistent_acceleration
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["AdjointSensitivities"]
+
+#: why a stick is refused where the stuck joints are the only coordinates (:meth:`AdjointSensitivities._refuse_a_stick`)
+NOTHING_ELSE_FREE = "with nothing else free (the stuck joints the only coordinates)"
 
 
 class AdjointSensitivities(TransientSensitivities):
@@ -179,37 +182,48 @@ class AdjointSensitivities(TransientSensitivities):
             #: whether an impulse's weight is M + dt²K alone, as the forward method's start sets it (a stick's jump)
             self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
         if model.stuck.any():   # stuck by friction from t = 0 (latdyn.timeloop.events.stick_at_start): δθ_0 = 0 held
-            self._refuse_a_stick(state, int(np.flatnonzero(model.stuck)[0]))
+            # with nothing else free the forward method's start prepares nothing and refuses nothing (its release
+            # is refused when it comes): the adjoint's reason is that nothing else is free, not the model's guides
+            self._refuse_a_stick(state, int(np.flatnonzero(model.stuck)[0]),
+                                 NOTHING_ELSE_FREE if model.n_dofs == 0 else None, HELD_FROM_THE_START)
         return carried
 
-    def _refuse_a_stick(self, state, joint: int, why: str | None = None) -> None:
+    def _refuse_a_stick(self, state, joint: int, why: str | None = None,
+                        happens: str = "the joint sticks or slips") -> None:
         """SceneError (exit 2) naming the friction of ``joint``, which sticks or is released at ``state``, where the
         reverse pass does not transpose its stick or release (``why``; else the checks below): the forward method's
         own refusals (:meth:`TransientSensitivities._refuse_what_a_held_angle_moves`: guides or rigid links, directions
-        without inertia, energies, momenta, controllers with states or sampled ones), and this pass's: a stick beside
-        geometry parameters (the held angle's terms of the start's move are not formed), with nothing else free, and
-        beside a controller's probe (its forms of the held angle are not formed). The events the forward method takes
+        without inertia, controllers with states or sampled ones driving another coordinate), and this pass's: a stick
+        beside geometry parameters (the held angle's terms of the start's move are not formed), beside controllers with
+        states or sampled ones (their held terms are not transposed), with nothing else free, and beside a controller's
+        probe, an energy or a momentum (its forms of the held angle are not formed). The events the forward method takes
         beside a stick are taken (a latch, a stop or a cable's change while no joint is stuck: :meth:`step`,
         :meth:`_stick_or_release_stored`), continuous controllers without states, and probes of points, joints' angles,
         rates and forces, section forces, cables and points in a body's frame (:meth:`_held_forms`). Everything else
-        is transposed (:meth:`_friction_event_transposed`)."""
+        is transposed (:meth:`_friction_event_transposed`). ``happens`` says what the joint does, for the message
+        (``HELD_FROM_THE_START`` at t = 0)."""
         from latdyn.errors import SceneError
 
         self._refused = True   # nothing for :meth:`finish` to write where the run is refused (exit 2)
         if why is None:
-            self._refuse_what_a_held_angle_moves(state)   # SceneError: the forward method refuses it too
+            self._refuse_what_a_held_angle_moves(state, happens, joint)   # SceneError: the forward method refuses it too
             if self.geometry is not None:
                 why = "beside geometry parameters"
+            elif self._controller_states() is not None or self._sampled_controllers() is not None:
+                # the forward method takes those driving the stuck joint alone (its sensors' held δθ); their states'
+                # and samples' held terms are not transposed here
+                why = "beside controllers with states or sampled ones"
             elif self.model.n_dofs == 0:
-                why = "with nothing else free (the stuck joints the only coordinates)"
+                why = NOTHING_ELSE_FREE
             else:
                 other = [probe.name for probe in self.probes if not _held_angle_probe(probe)]
-                why = f"beside probe {other[0]!r} (a controller's)" if other else None
+                why = (f"beside probe {other[0]!r} (a controller's, an energy or a momentum: its forms of the held "
+                       "angle are not transposed)" if other else None)
         if why is None:
             self._refused = False
             return
         raise SceneError(self.scene.file, friction_key(self.model.hinges[joint]),
-                         f"at t = {float(state.t):.6g} the joint sticks or slips {why}: the discrete adjoint "
+                         f"at t = {float(state.t):.6g} {happens} {why}: the discrete adjoint "
                          "differentiates a stick and a release beside the events, continuous controllers without "
                          "states and probes the forward method takes there, not this; expected "
                          "solve.sensitivity_method: forward (the default), which does (docs/parameters.md, "
@@ -1541,8 +1555,8 @@ class AdjointSensitivities(TransientSensitivities):
 def _held_angle_probe(probe) -> bool:
     """Whether the reverse pass seeds ``probe``'s forms of a held angle (:meth:`AdjointSensitivities._held_forms`, the
     forward method's :meth:`record` on the angle's δθ): every probe but a controller's (its states' and held outputs'
-    terms of the held angle are not formed) and energies and momenta (the forward method refuses them beside a
-    stick)."""
+    terms of the held angle are not formed) and energies and momenta (the forward method takes them beside a stick
+    since stickstates; their held forms are not transposed here)."""
     return not (is_controller_probe(probe) or is_energy_or_momentum(probe))
 
 

@@ -79,43 +79,32 @@ def weight_transposed(owner, state, w: np.ndarray, u_bar: np.ndarray, scale: flo
 def shift_stiffness_along(owner, state, w: np.ndarray) -> np.ndarray:
     """(n,): the coefficient of the event's time shift δt_e in the forward method's (∂K/∂p) w at ``state``
     (``TransientSensitivities._stiffness_derivative``, with rigid links or guides ``_geometric_derivative`` too), the
-    static residual's ∂(∂r/∂t)/∂q w alone, by the forward method's own path: where the laws' rates in t are generated
-    (latdyn/analyses/parameter_stiffness.py ``time_generated``) their ``time_stiffness_along``, with rigid links or
-    guides where the controllers' terms are formed through the reduction too (``linked_time_stiffness_along``, a
-    prescribed motion's part with it, and the geometric term of the static ∂r_all/∂t, as the forward method's
-    ``_linked_stiffness_along``; a difference before linkedheld); else the central difference of ∂r/∂t along w that
-    the forward method's difference of the static ∂r/∂p holds (its step, :data:`WEIGHT_STEP` ℓ/|w|_∞); with rigid
-    links or guides the reduction's geometric term of the inertia forces' ∂r_all/∂t and P's move with the prescribed
-    coordinates beside either. One evaluation of
-    the terms in t; before, the whole (∂K/∂p) w at two shifts and its first parameter's column (a parameter whose
-    uses are differenced and one whose are generated took the other path)."""
-    from latdyn.analyses.parameter_stiffness import (_linked_controllers_generated, linked_time_stiffness_along,
-                                                     time_generated, time_stiffness_along)
+    static residual's ∂(∂r/∂t)/∂q w alone, by the forward method's own decision and path
+    (latdyn/analyses/parameter_stiffness.py ``time_shift_generated``, ``time_shift_along``: the laws' rates in t and
+    the prescribed motions' part, with rigid links or guides along P w through the reduction), with rigid links or
+    guides the reduction's geometric term of the static ∂r_all/∂t beside it (the forward method's
+    ``_linked_stiffness_along`` takes it with the other columns of the static ∂r_all/∂p); where it is not generated
+    the central difference of ∂r/∂t along w that the forward method's difference of the static ∂r/∂p holds (its
+    step, :data:`WEIGHT_STEP` ℓ/|w|_∞); with rigid links or guides the reduction's geometric term of the inertia
+    forces' ∂r_all/∂t and P's move with the prescribed coordinates beside either. One evaluation of the terms in t;
+    before, the whole (∂K/∂p) w at two shifts and its first parameter's column (a parameter whose uses are
+    differenced and one whose are generated took the other path)."""
+    from latdyn.analyses.parameter_stiffness import time_shift_along
     from latdyn.analyses.transient_sensitivities import WEIGHT_STEP
     from latdyn.analyses.weight_derivative import geometric_product
 
     model, assembler = owner.model, owner.assembler
     linked = model.links is not None
-    if not linked and time_generated(owner):
-        return owner._on_free_coordinates(state, time_stiffness_along(owner, state, w)[:, None])[:, 0]   # noqa: SLF001
-    out = None
-    if linked and time_generated(owner) and _linked_controllers_generated(owner):
-        # the forward method's _linked_stiffness_along in δt_e: along u = P w, the prescribed motions through the
-        # reduction, and the geometric term of the static ∂r_all/∂t
-        n_asm = model.n_assembled
-        assembler.complete_links(state)
-        full = np.zeros(model.n_total + 1)
-        full[:n_asm] = np.asarray(assembler.evaluate(state, matrices=True).projection @ w).reshape(-1)
-        out = linked_time_stiffness_along(owner, state, w, full)
-        if out is not None:
-            static = np.asarray(owner.explicit_time(state, inertia=False, on_all=True), float)[:n_asm]
-            assembler.complete_links(state)   # J of the state in the links' buffers
-            out = out + geometric_product(assembler, state, static, w)
-    if out is None:
+    out = time_shift_along(owner, state, w)
+    if out is None:   # the difference holds P's move along w
         eta = WEIGHT_STEP * (owner.length or 1.0) / float(np.max(np.abs(w)))
         ahead, behind = assembler.advance(state, eta * w), assembler.advance(state, -eta * w)
         out = (np.asarray(owner.explicit_time(ahead, inertia=False), float)
                - np.asarray(owner.explicit_time(behind, inertia=False), float)) / (2 * eta)
+    elif linked:   # the geometric term of the static ∂r_all/∂t, as the forward method's
+        static = np.asarray(owner.explicit_time(state, inertia=False, on_all=True), float)[:model.n_assembled]
+        assembler.complete_links(state)   # J of the state in the links' buffers
+        out = out + geometric_product(assembler, state, static, w)
     if linked:   # _geometric_derivative's terms in δt_e
         k = len(owner.names)
         held, owner.time_shift = owner.time_shift, np.ones(k)

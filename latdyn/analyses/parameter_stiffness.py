@@ -108,9 +108,10 @@ added exactly (``TransientSensitivities._linked_stiffness_along``). Beside contr
 ∂r_all/∂p moved along u = P w with every assembled rate held (:func:`linked_controller_parameter_along`: the unlinked
 :func:`controller_parameter_along`, sampled controllers' held outputs and controllers' states included, its sensors'
 generated gradients by the assembled coordinates, a dependent node's too), projected by Pᵀ, their part of ∂r_all/∂p
-in the geometric term, and an event's time shift where :func:`time_generated` (:func:`time_stiffness_along` at
-``full`` = P w; a prescribed motion's part through the reduction, :func:`linked_time_stiffness_along`, since
-linkedheld) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
+in the geometric term, and an event's time shift where :func:`time_shift_generated` (:func:`time_shift_along`:
+:func:`time_stiffness_along` at ``full`` = P w and a prescribed motion's part through the reduction,
+:func:`linked_prescribed_along`, since linkedheld; the adjoint's coefficient of δt_e by the same decision and path,
+since shiftone) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
 test_weight_derivative_linked_parameters.py, tests/test_weight_derivative_linked_held.py). Not generated, the whole static ∂r/∂p
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
 before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
@@ -141,8 +142,8 @@ from latdyn.analyses.weight_derivative import _scattered
 from latdyn.assembly.native_model import NO_CONTACT
 
 __all__ = ["controller_parameter_along", "exact_parameters", "held_angles_along", "linked_controller_parameter_along",
-           "linked_time_stiffness_along", "sampled_held_along", "stiffness_along", "stiffness_along_all",
-           "time_generated", "time_stiffness_along"]
+           "sampled_held_along", "stiffness_along", "stiffness_along_all", "time_generated", "time_shift_along",
+           "time_shift_generated", "time_stiffness_along"]
 
 
 def _generated_use(owner, key: str, laws: dict) -> bool:
@@ -169,8 +170,7 @@ def _geometry_generated(owner, key: str) -> bool:
     """Whether a geometry use ``key`` has its (∂K/∂p) w generated (:func:`_geometry`): the variant holds
     ``beam_stiffness_D_reference`` and the model has no rigid links or guides (a hinge axis's key too: its nodal
     frame's turn T_j θ J(θa) δa moving with θ is in the kernel's second variation, measured against Richardson)."""
-    info = getattr(owner.kernels, "info", None) or {}
-    return "beam_stiffness_D_reference" in info and owner.model.links is None
+    return "beam_stiffness_D_reference" in owner.kernels.info and owner.model.links is None
 
 
 def _slopes_known(law) -> bool:
@@ -185,14 +185,12 @@ def _slopes_known(law) -> bool:
 
 def exact_parameters(owner) -> np.ndarray:
     """(k,) bool: the parameters whose every use has its (∂K/∂p) w generated (module docstring; beside controllers
-    and held angles the caller adds their terms' difference); none where the state's time shift is not generated,
-    nor with rigid links or guides beside held angles or controllers whose terms' move is not formed
-    through the reduction (a generated time shift through it too: :func:`time_stiffness_along` ``full``) (:func:`_linked_controllers_generated`; checked per call: the time shift and held angles
+    and held angles the caller adds their terms' difference); none with rigid links or guides where the parameters'
+    parts are not formed through the reduction (:func:`_reduction_generated`), nor where the state is moved in time
+    and that part is not generated (:func:`time_shift_generated`; checked per call: the time shift and held angles
     change at each event, the controllers' wiring at a latch)."""
     shifted = owner.time_shift is not None and owner.explicit_time is not None and np.any(owner.time_shift)
-    linked = owner.model.links is not None and (not _linked_controllers_generated(owner)
-                                                or (owner.held is not None and np.any(owner.held)))
-    if (shifted and not time_generated(owner)) or linked:
+    if not _reduction_generated(owner) or (shifted and not time_shift_generated(owner)):
         return np.zeros(len(owner.names), bool)
     found = owner.__dict__.get("_parameter_stiffness_exact")
     if found is None:
@@ -217,8 +215,28 @@ def _linked_controllers_generated(owner) -> bool:
     return not any(terms.forces_read.values()) and all(_exact_controllers(owner.assembler))
 
 
+def _reduction_generated(owner) -> bool:
+    """Whether the parameters' parts move through a rigid links' or guides' reduction exactly: no rigid links or
+    guides, or the controllers' terms formed through it (:func:`_linked_controllers_generated`) and no held angle (its
+    column through the reduction is not formed: a stick there is refused). Checked per call (held angles change at
+    each event)."""
+    return owner.model.links is None or (_linked_controllers_generated(owner)
+                                         and not (owner.held is not None and np.any(owner.held)))
+
+
+def time_shift_generated(owner) -> bool:
+    """Whether an event's time shift's part of (∂K/∂p) w, ∂(∂r/∂t)/∂q w δt_e, is generated (:func:`time_shift_along`):
+    the laws' rates in t and the prescribed motions' part are (:func:`time_generated`; with rigid links or guides the
+    motions' through the reduction, :func:`_linked_prescribed_generated`) and so are the reduction's terms
+    (:func:`_reduction_generated`). The one decision of the forward method (:func:`exact_parameters`, which its
+    ``TransientSensitivities._stiffness_derivative`` follows) and of the adjoint (latdyn/analyses/adjoint_time.py
+    ``shift_stiffness_along``); where it is False both take the central difference along w."""
+    return time_generated(owner) and _reduction_generated(owner)
+
+
 def time_generated(owner) -> bool:
-    """Whether the event's time shift's part, ∂(∂r/∂t)/∂q w δt_e, is generated (:func:`time_stiffness_along`): the
+    """Whether the laws' and motions' terms of the event's time shift's part, ∂(∂r/∂t)/∂q w δt_e, are generated
+    (:func:`time_stiffness_along`; the whole decision, with the reduction's terms, is :func:`time_shift_generated`): the
     scene's laws in t are loads' and hinges' (or guides') whose rates in t have their slopes (:func:`_generated_use`
     of :class:`latdyn.analyses.transient_sensitivities.ExplicitTime`'s laws), reels (a cable's rest length L0(t),
     :func:`_reels_along`) and continuous controllers' outputs naming t whose output's second derivatives along q are
@@ -421,11 +439,23 @@ def time_stiffness_along(owner, state, w: np.ndarray, full: np.ndarray | None = 
     return out
 
 
-def linked_time_stiffness_along(owner, state, w: np.ndarray, full: np.ndarray):
-    """∂(∂r_min/∂t)/∂q w (n,) of the static residual on a model with rigid links or guides, where
-    :func:`time_generated`, but for the reduction's geometric term of the static ∂r_all/∂t (the caller's, with the
-    other columns of ∂r_all/∂p): :func:`time_stiffness_along` along u = P w (``full``) reduced by Pᵀ, and the
-    prescribed motions' part (:func:`linked_prescribed_along`); None where a controller's terms are not formed."""
+def time_shift_along(owner, state, w: np.ndarray, full: np.ndarray | None = None) -> np.ndarray | None:
+    """(n,): the coefficient of an event's time shift δt_e in the parameters' generated (∂K/∂p) w on the free
+    coordinates, ∂(∂r/∂t)/∂q w of the static residual, where :func:`time_shift_generated`; None where it is not, or
+    where a controller's terms are not formed along P w (the callers' central difference). The one path of the
+    forward method (``TransientSensitivities._stiffness_derivative``, ``_linked_stiffness_along``) and the adjoint
+    (latdyn/analyses/adjoint_time.py ``shift_stiffness_along``). Without rigid links or guides
+    :func:`time_stiffness_along` along w on the free rows; with them (r_min = Pᵀ r_all) :func:`time_stiffness_along`
+    along u = P w (``full``: the forward method's, shared with the parameters' parts; formed here where None)
+    reduced by Pᵀ, and the prescribed motions' part through the reduction (:func:`linked_prescribed_along`) — but for
+    the reduction's geometric term ∂Pᵀ/∂q[w] of the static ∂r_all/∂t, which the caller adds (the forward method with
+    the other columns of the static ∂r_all/∂p, the adjoint alone)."""
+    if not time_shift_generated(owner):
+        return None
+    if owner.model.links is None:
+        return owner._on_free_coordinates(state, time_stiffness_along(owner, state, w)[:, None])[:, 0]
+    if full is None:
+        full = owner._along_assembled(state, w)
     out = time_stiffness_along(owner, state, w, full=full)
     if out is None:
         return None
@@ -441,7 +471,7 @@ def _reels_along(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     taut at the state (:meth:`latdyn.analyses.cable_sensitivities.CableSensitivities.reel_forces`), so along w
     ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 · share · L0′(t), as a rest length parameter's (:func:`_cables`)
     with L0′(t) for ∂L0/∂p."""
-    cables = getattr(owner, "cables", None)
+    cables = owner.cables
     if cables is None:
         return
     taut = None
@@ -573,8 +603,8 @@ def _geometry(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     that the reference's δh moves, a term of the kernel's second variation, is the likely reason). The loads: the
     generated ``point_load_stiffness_D_q`` at the moved offset δr less at none (the load is affine in its offset, its
     K_l w too)."""
-    geometry = getattr(owner, "geometry", None)
-    if geometry is None or "beam_stiffness_D_reference" not in (getattr(owner.kernels, "info", None) or {}):
+    geometry = owner.geometry
+    if geometry is None or "beam_stiffness_D_reference" not in owner.kernels.info:
         return   # a variant generated before the kernel: every geometry column is the caller's difference
     model, k = owner.model, geometry.k
     elements = geometry.elements
@@ -657,7 +687,7 @@ def _cables(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     """The cables' EA, damping and rest length, for the elements taut at the state (:meth:`CableSensitivities.taut`):
     ``cable_stiffness_D_q``'s K_c w at (∂EA/∂p, 0) or (0, ∂c/∂p) (the taut law is linear in them), and
     ``cable_stiffness_D_rest_length``'s ∂(K_c w)/∂L0 times the element's share of ∂L0/∂p (K_c is not linear in L0)."""
-    cables = getattr(owner, "cables", None)
+    cables = owner.cables
     if cables is None or not cables.uses:
         return
     uses = [use for use in cables.uses if use[1] in ("EA", "damping", "rest_length")]
@@ -694,7 +724,7 @@ def _cable_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     The static ∂r/∂p holds no cable's weight (:meth:`CableSensitivities.residual_derivatives` adds the masses' forces
     with the inertia forces alone), so its difference along w, the path before, left this part out: 1.0 of ρA's
     column and 0.05 of a rest length's on the 3D boom of tests/test_weight_derivative_parameters2.py."""
-    cables = getattr(owner, "cables", None)
+    cables = owner.cables
     if cables is None or not cables.uses:
         return
     gravity = np.asarray(owner.assembler.gravity, float)

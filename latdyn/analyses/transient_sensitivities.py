@@ -143,10 +143,10 @@ from latdyn.analyses.derivative_laws import ControllerPartials, DerivativeLaws
 from latdyn.analyses.energy_sensitivities import external_work_after_event, external_work_step, is_energy_or_momentum
 from latdyn.analyses.geometry_sensitivities import GEOMETRY_KEY
 from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exact_parameters, held_angles_along,
-                                                 linked_controller_parameter_along, linked_time_stiffness_along,
+                                                 linked_controller_parameter_along,
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
-                                                 time_stiffness_along)
+                                                 time_shift_along)
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives,
                                            rates_taken_anew)
@@ -188,6 +188,10 @@ RELANDINGS = 4
 #: a landing farther than this (relative, as LANDING) from the event is flagged in summary.json warnings:
 #: the event-time derivative assumes the step ends on it
 LANDING_MISSED = 1e-10
+#: what a joint stuck from t = 0 does, in a refusal's message (latdyn.timeloop.events.stick_at_start;
+#: :meth:`TransientSensitivities._refuse_what_a_held_angle_moves`)
+HELD_FROM_THE_START = ("the joint is held by friction from the start (it starts at rest, the force or torque that "
+                       "holds it within its static level)")
 #: the configuration step (times the length scale) of the central differences inside the impulse weight's
 #: derivative that are not generated (module docstring, "Events"; latdyn/analyses/weight_derivative.py): along the
 #: coordinates of the blocks not generated (some controllers' couplings, the loads they drive, a hinge law naming an
@@ -234,6 +238,9 @@ class TransientSensitivities(ParameterDerivatives):
         self.time_shift = None
         #: δθ (n_hinges, k) of the joints friction holds (carried as ``held``; :meth:`_held_forces`), None without
         self.held = None
+        #: whether an impulse's weight is M + dt²K alone (:meth:`start` finds it where something is free there; a
+        #: start with nothing free has no direction without inertia to find)
+        self._impulse_weighted = True
         #: the stuck joints at the step's start, and the jumps of those that may stick or be released at its end
         #: (:meth:`_stick_candidates`), for :meth:`after_events`
         self._stuck_before, self._candidates = None, {}
@@ -306,7 +313,8 @@ class TransientSensitivities(ParameterDerivatives):
         #: whether an impulse's weight is M + dt²K alone (a stick's jump: :meth:`_stick_or_release`)
         self._impulse_weighted = not (split.n_massless or massless_element_stiffness(ev) is not None)
         if model.stuck.any():   # stuck by friction from t = 0, its held angle the start's (stick_at_start)
-            self._refuse_what_a_held_angle_moves(state, through_links=True)
+            self._refuse_what_a_held_angle_moves(state, HELD_FROM_THE_START, int(np.flatnonzero(model.stuck)[0]),
+                                                 through_links=True)
         if split.n_massless:
             self._refuse_start(state, ev, split)
         dv = self._initial_velocities()
@@ -554,7 +562,8 @@ class TransientSensitivities(ParameterDerivatives):
         if states is not None:   # δS with the step size's part (an event's δh)
             carried = {**carried, **states.after_step(new, carried["dq"], dh, carried["dt"], carried["dv"])}
         if np.any(self.held) and (cable is not None or event is not None):
-            self._refuse_sticking(new, "another event (a latch, a stop, a cable's change) while a joint is stuck")
+            self._refuse_sticking(new, "another event (a latch, a stop, a cable's change) comes while a joint is stuck",
+                                  int(np.flatnonzero(self.model.stuck)[0]))
         if cable is not None:
             return self._after_cable_event(carried, new, *cable)
         if event is None:
@@ -1048,8 +1057,9 @@ class TransientSensitivities(ParameterDerivatives):
         moves the state in time (a reel's, a continuous controller's output in t and, since prestime, a prescribed
         motion's otherwise are generated, :func:`~latdyn.analyses.parameter_stiffness.time_stiffness_along`). With
         rigid links or guides the same parts through the reduction (:meth:`_linked_stiffness_along`, the controllers'
-        terms along P w with them, the time shift's where :func:`~latdyn.analyses.parameter_stiffness.time_generated`,
-        a prescribed motion's through the reduction too) where the controllers' are formed, else
+        terms along P w with them, the time shift's where
+        :func:`~latdyn.analyses.parameter_stiffness.time_shift_generated`, a prescribed motion's through the reduction
+        too: :func:`~latdyn.analyses.parameter_stiffness.time_shift_along`) where the controllers' are formed, else
         the difference of the static ∂r/∂p without the elements' gravity
         load along w (the reduction's projection moves with it); :meth:`_geometric_derivative` adds the inertia
         forces' geometric term."""
@@ -1066,11 +1076,11 @@ class TransientSensitivities(ParameterDerivatives):
         if not linked:
             out += self._section_stiffness_along(state, w)
             if np.any(exact):   # the hinges', loads', joint bodies' and cables' uses, generated
-                along = parameter_stiffness_along(self, state, w)
+                along = self._on_free_coordinates(state, parameter_stiffness_along(self, state, w))
                 shifted = self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift)
-                if shifted:   # the state moved in time by δt_e: ∂(∂r/∂t)/∂q w δt_e, the laws' rates in t generated
-                    along += np.outer(time_stiffness_along(self, state, w), self.time_shift)
-                out[:, exact] += self._on_free_coordinates(state, along)[:, exact]
+                if shifted:   # the state moved in time by δt_e: ∂(∂r/∂t)/∂q w δt_e, generated (exact_parameters)
+                    along += np.outer(time_shift_along(self, state, w), self.time_shift)
+                out[:, exact] += along[:, exact]
                 if self.controllers is not None or (self.held is not None and np.any(self.held)):
                     out[:, exact] += self._terms_beside_stiffness_along(state, w)[:, exact]
         if not np.all(exact):
@@ -1155,12 +1165,8 @@ class TransientSensitivities(ParameterDerivatives):
         inertia forces'); beside controllers their terms of ∂r_all/∂p along u = P w at the assembled rates held
         (``linked_controller_parameter_along``, since linkedparam). Before, the difference of the whole reduced
         static ∂r/∂p along w."""
-        model, assembler = self.model, self.assembler
-        n_asm = model.n_assembled
-        assembler.complete_links(state)
-        projection = assembler.evaluate(state, matrices=True).projection
-        full = np.zeros(model.n_total + 1)
-        full[:n_asm] = np.asarray(projection @ w).reshape(-1)
+        n_asm = self.model.n_assembled
+        full = self._along_assembled(state, w)
         total = parameter_stiffness_along_all(self, state, full)
         self.add_section_stiffness_along(state, full, total)
         if self.controllers is not None:   # the controllers' terms of ∂r_all/∂p along u = P w, the rates held
@@ -1171,12 +1177,21 @@ class TransientSensitivities(ParameterDerivatives):
         out = self._on_free_coordinates(state, total)
         if self.time_shift is not None and self.explicit_time is not None and np.any(self.time_shift):
             # ∂(∂r_min/∂t)/∂q w δt_e: the laws' rates in t along u, the prescribed motions through the reduction
-            timed = linked_time_stiffness_along(self, state, w, full)
+            timed = time_shift_along(self, state, w, full=full)
             if timed is None:
                 return None
             out += np.outer(timed, self.time_shift)
         static = self.residual_derivatives(state, 1.0, on_all=True, element_gravity=False)[:n_asm]
         return out + self._geometric_products(state, static, w)
+
+    def _along_assembled(self, state, w: np.ndarray) -> np.ndarray:
+        """u = P w (n_total + 1,) on the assembled coordinates with rigid links or guides: the dependent nodes moving
+        with the free ones along w (P of the evaluation at ``state``, its links completed)."""
+        self.assembler.complete_links(state)
+        projection = self.assembler.evaluate(state, matrices=True).projection
+        full = np.zeros(self.model.n_total + 1)
+        full[:self.model.n_assembled] = np.asarray(projection @ w).reshape(-1)
+        return full
 
     def _geometric_products(self, state, columns: np.ndarray, w: np.ndarray) -> np.ndarray:
         """(n, k): ∂(Pᵀ y)/∂q[w] at fixed y for each column y of ``columns`` (on the assembled coordinates), the
@@ -1515,11 +1530,16 @@ class TransientSensitivities(ParameterDerivatives):
         self._stuck_before = None
         if not changed:
             return carried
-        if len(changed) > 1 or carried.get("pending") is not None or changed[0] not in self._candidates:
-            self._refuse_sticking(new, "several joints stick or slip, or a latch, a stop or a cable's change comes, "
-                                       "at one instant")
-        self._refuse_what_a_held_angle_moves(new, through_links=True)
         j = changed[0]
+        happens = "the joint sticks" if model.stuck[j] else "the joint is released"
+        if len(changed) > 1 or carried.get("pending") is not None:
+            self._refuse_sticking(new, "several joints stick or slip, or a latch, a stop or a cable's change comes, "
+                                       "at one instant", j)
+        if j not in self._candidates:   # a step with nothing free prepares none (:meth:`step`)
+            self._refuse_sticking(new, f"{happens} after steps on which nothing was free (the joints held by friction "
+                                       "were the only coordinates, as after a start at rest: a release from there is "
+                                       "not prepared)", j)
+        self._refuse_what_a_held_angle_moves(new, happens, j, through_links=True)
         candidate = self._candidates[j]
         held = self._held(carried).copy()
         held[j] = candidate["held"]
@@ -1528,10 +1548,11 @@ class TransientSensitivities(ParameterDerivatives):
                    "dvdot": candidate["dvdot"]}
         return {**carried, "held": held, "pending": pending}
 
-    def _refuse_what_a_held_angle_moves(self, new, through_links: bool = False) -> None:
+    def _refuse_what_a_held_angle_moves(self, new, happens: str, joint: int, through_links: bool = False) -> None:
         """The models and probes whose terms of a stuck joint's held angle are not carried: refused
-        (:meth:`_refuse_sticking`) where a joint sticks, slips, or is stuck from t = 0
-        (latdyn.timeloop.events.stick_at_start). A hinge held on a model with rigid links is carried by the forward
+        (:meth:`_refuse_sticking`, naming ``joint``'s friction) where a joint sticks, is released, or is stuck from
+        t = 0 (latdyn.timeloop.events.stick_at_start); ``happens`` says which, for the message
+        (:data:`HELD_FROM_THE_START` at t = 0). A hinge held on a model with rigid links is carried by the forward
         method (``through_links``: :meth:`_linked_held_forces`, :meth:`_linked_held_stiffness_along`,
         :meth:`_held_dependent_motion`) where no guide, latch, rigid stop, cable or controller is in the model and the
         probes are points in global axes and joints' angles and rates (checked against Richardson differences on the
@@ -1541,8 +1562,8 @@ class TransientSensitivities(ParameterDerivatives):
         (:meth:`_controllers_drive_stuck_joints_alone`; tests/test_sensitivities_sticks_beside.py)."""
         model = self.model
         if model.links is not None and not through_links:
-            self._refuse_sticking(new, "a joint sticks in a model with guides or rigid links (the discrete adjoint "
-                                       "does not transpose their reduction with the held angle)")
+            self._refuse_sticking(new, f"{happens} in a model with guides or rigid links (the discrete adjoint "
+                                       "does not transpose their reduction with a held angle or slide)", joint)
         if model.links is not None:
             guides = any(h.end == "guide" for h in model.hinges)
             events = model.cables is not None or any(
@@ -1553,16 +1574,16 @@ class TransientSensitivities(ParameterDerivatives):
                 what = ("guides" if guides else "latches, rigid stops or cables" if events
                         else "controllers" if self.controllers is not None
                         else f"probe {probes[0]!r} (not a point in global axes, a joint's angle or rate)")
-                self._refuse_sticking(new, f"a joint sticks in a model with rigid links beside {what} (their terms "
-                                           "of the held angle through the reduction are not carried)")
-        if not getattr(self, "_impulse_weighted", True):
-            self._refuse_sticking(new, "a joint sticks in a model with directions or elements without inertia "
-                                       "(the impulse response's rigid and static parts are not differentiated)")
+                self._refuse_sticking(new, f"{happens} in a model with rigid links beside {what} (their terms "
+                                           "of the held angle through the reduction are not carried)", joint)
+        if not self._impulse_weighted:
+            self._refuse_sticking(new, f"{happens} in a model with directions or elements without inertia "
+                                       "(the impulse response's rigid and static parts are not differentiated)", joint)
         if (self._controller_states() is not None or self._sampled_controllers() is not None) \
                 and not self._controllers_drive_stuck_joints_alone():
-            self._refuse_sticking(new, "a joint sticks beside controllers with states or sampled ones that drive "
+            self._refuse_sticking(new, f"{happens} beside controllers with states or sampled ones that drive "
                                        "another coordinate (their condensed terms of the held angle are not "
-                                       "carried there)")
+                                       "carried there)", joint)
 
     def _controllers_drive_stuck_joints_alone(self) -> bool:
         """Whether every controller's actuator is the torque of a joint stuck now (none is: a release, whose held
@@ -1577,12 +1598,10 @@ class TransientSensitivities(ParameterDerivatives):
             driven += [(kind, index) for kind, index, *_ in sampled.actuators]
         return not stuck.any() or all(kind == 0 and stuck[index] for kind, index in driven)
 
-    def _refuse_sticking(self, new, why: str) -> None:
-        """SceneError (exit 2) naming the friction of the first joint that sticks or is stuck at ``new``: ``why``
-        its stick or release is not differentiated here (docs/parameters.md, "Friction")."""
-        stuck = np.flatnonzero(self.model.stuck)
-        joint = self.model.hinges[int(stuck[0]) if len(stuck) else int(sticking_hinges(self.model)[0])]
-        raise SceneError(self.scene.file, friction_key(joint),
+    def _refuse_sticking(self, new, why: str, joint: int) -> None:
+        """SceneError (exit 2) naming the friction of ``joint`` (a hinge index), which sticks, is released or is
+        stuck at ``new``: ``why`` that is not differentiated here (docs/parameters.md, "Friction")."""
+        raise SceneError(self.scene.file, friction_key(self.model.hinges[joint]),
                          f"at t = {new.t:.6g} {why}: solve.sensitivities differentiates a joint's slipping, "
                          "sticking and release by friction, not this; expected a run without it, or no "
                          "solve.sensitivities (docs/parameters.md, \"Friction\")")

@@ -30,6 +30,7 @@ def prepare(scene, backend: str = "auto") -> Prepared:
     kernels = load_kernels(backend=backend, variant=model.kernel_variant)
     assembler = Assembler(model, kernels, scene.gravity)
     state = assembler.initial_state()
+    _refuse_joint_laws_not_finite_at_start(scene, model, state)
     if model.n_dofs > 0:  # any size: inverse iterations on one sparse LU, or a dense eigenproblem (Model.check_held)
         at_rest = state.copy()
         at_rest.v[:] = at_rest.w[:] = 0.0
@@ -52,6 +53,42 @@ def prepare(scene, backend: str = "auto") -> Prepared:
     if scene.solve.analysis == "transient" and model.cables is not None:
         _refuse_unbalanced_free_ends(scene, model, assembler, state)
     return Prepared(scene, model, assembler, state)
+
+
+def _refuse_joint_laws_not_finite_at_start(scene, model: Model, state: State) -> None:
+    """A hinge's or guide's law (``stiffness``, ``damping``, ``torque`` or a guide's ``force``) whose value or slope
+    ∂f/∂θ or ∂f/∂θ̇ is not finite at the joint's start (θ_0, θ̇_0, t = 0) is refused, SceneError naming its key: the
+    slopes are the joint's entries of K and C in every step's iteration matrix, and of the check below of what holds
+    the coordinates (an infinite one ended in "internal error: LinAlgError: Eigenvalues did not converge" there, with
+    or without solve.sensitivities: ``torque: "k*sqrt(abs(theta))"`` at θ_0 = 0, tests/test_read_mends.py). A law's
+    value is checked finite at θ = θ̇ = t = 0 where it is parsed (:class:`latdyn.scene.expressions.HingeLaw`); its
+    slopes here, at the joint's own start."""
+    from latdyn.errors import SceneError
+
+    for j, joint in enumerate(model.hinges):
+        theta, rate = float(state.theta[j]), float(state.theta_dot[j])
+        prefix = f"bodies.{joint.beam}.guide" if joint.kind == "guide" else f"beams.{joint.beam}.{joint.end}.hinge"
+        driving, angle, rate_name = ("force", "s", "s_dot") if joint.kind == "guide" else ("torque", "theta",
+                                                                                         "theta_dot")
+        for name, law in (("stiffness", joint.stiffness), ("damping", joint.damping), (driving, joint.torque)):
+            if law is None:
+                continue
+            bad = []
+            for what, at in (("its value", law.value), (f"its slope in {angle}", law.d_theta),
+                             (f"its slope in {rate_name}", law.d_rate)):
+                try:
+                    value = at(theta, rate, 0.0)
+                except (ArithmeticError, TypeError, ValueError) as exc:   # Python's 0.0 ** -(2/3)
+                    bad.append(f"{what} not a number ({type(exc).__name__}: {exc})")
+                    continue
+                if not np.isfinite(value):
+                    bad.append(f"{what} {value}")
+            if bad:
+                raise SceneError(scene.file, f"{prefix}.{name}",
+                                 f"expected a law finite, with finite slopes in {angle} and {rate_name}, at the joint's "
+                                 f"start ({angle} = {theta:g}, {rate_name} = {rate:g}, t = 0: they are its stiffness and "
+                                 f"damping in every step's matrix), got {law.source!r} with " + ", ".join(bad)
+                                 + " there")
 
 
 def _refuse_unbalanced_free_ends(scene, model: Model, assembler: Assembler, state: State) -> None:

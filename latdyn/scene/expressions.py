@@ -1015,11 +1015,12 @@ class HingeLaw(_BySource):
 
 
 
-def parse_hinge_law(value: Any, file: str | None, key: str) -> HingeLaw:
-    """A scene value -> :class:`HingeLaw`; :class:`SceneError` naming ``file`` and ``key`` if invalid."""
+def parse_hinge_law(value: Any, file: str | None, key: str, finite_at_zero: bool = True) -> HingeLaw:
+    """A scene value -> :class:`HingeLaw`; :class:`SceneError` naming ``file`` and ``key`` if invalid.
+    ``finite_at_zero``: :class:`HingeLaw`'s (False for a derived angle slope, :func:`derivative_as_law`)."""
     if isinstance(value, HingeLaw):
         return value
-    return HingeLaw(value, file=file, key=key)
+    return HingeLaw(value, file=file, key=key, finite_at_zero=finite_at_zero)
 
 
 def derivative_as_law(law, scene, key: str, kind: str, by: str, what: str, derivative):
@@ -1043,7 +1044,7 @@ def derivative_as_law(law, scene, key: str, kind: str, by: str, what: str, deriv
         keep_entry(kind, source, {"text": text}, {}, ())
     try:
         with reading_inputs(scene.inputs):   # a slope is evaluated at an event's state alone: not checked at zero
-            return HingeLaw(text, scene.file, f"{key} ({what})", finite_at_zero=kind != "angle_slope")
+            return parse_hinge_law(text, scene.file, f"{key} ({what})", finite_at_zero=kind != "angle_slope")
     except SceneError:
         return None
 
