@@ -23,8 +23,9 @@ and with the boom 30 times softer (EA 3e3, :data:`SOFT`) every gap is ≤ 4.3e-1
 ``_shifts_turned`` is 2.4e-5 (the PI) to 1.0e-3 off on those soft scenes (6.2e-4 on the ring offset's latch as typed).
 So the gimbal's scenes are checked on the soft boom within 1e-10, the ring offset's latch as typed within 1e-9.
 
-Guards: on int25 (0c9686f5) the adjoint already ran these scenes and agreed; nothing in it was missing. Each test fails
-with ``AdjointSensitivities._shifts_turned`` returning zeros (the term at the latch and stop weights)."""
+Guards: on int25 (0c9686f5) the adjoint already ran these scenes and agreed; nothing in it was missing. With
+``AdjointSensitivities._shifts_turned`` returning zeros (the term at the latch and stop weights) every test here fails
+but friction's and the compliant stop's (no impulse there: a guard of the smooth steps' Eᵀw)."""
 from __future__ import annotations
 
 import json
