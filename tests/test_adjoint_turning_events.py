@@ -12,13 +12,15 @@ max and min, every event time's) are the forward method's, relative to each outp
 
 Measured (load 6 to 11 on 2 cores; the numbers do not depend on it): with the boom as the forward method's tests type
 it (EA 1e5) the ring offset's latch 1.35e-10, its two impacts 4.8e-11, the inner hinge point's latch 9.0e-11, the PD's
-latch 8.3e-11, the PD of the outer ring's x 2.8e-10, the PI's 1.9e-10, friction and the compliant stop 4.5e-12, the
+latch 8.3e-11, the PD of the outer ring's x 2.8e-10, the PI's 1.9e-10, the PD sampled at 50 Hz 2.75e-9 (the forward
+method's own value moves by 3.7e-9 of the output's largest when k1's column is dropped), the load in t 2.0e-10, the
+latched hinge's torque as a probe 1.35e-10, friction and the compliant stop 4.5e-12, the
 guide's origin on the turning arm tip through its latch 1.6e-13; the pendulum's hinge point on the sliding cart through
 its latch (tests/test_geometry_sensitivities_link_geometry.py CART_LATCH) 3.0e-10. The gimbal's gaps above 1e-10 are
 round-off of the stiff boom, not a term left out: they are ≤ 4.5e-11 without the latch (the same scenes to 0.4 s) and
-before it (1.5e-11 at 0.27 s), they move erratically with the boom's EA (the PI's 1.9e-9, 1.9e-9, 1.9e-10, 1.8e-9,
-2.0e-9 at EA 0.96e5 … 1.04e5; the ring offset's 9.5e-11 … 2.2e-10), the forward method's own a1 by X at the PI's end
-moves by 1.4e-9 of itself when k1's column is dropped (from 0.13 s, before the latch: the runs' multi-column round-off),
+before it (1.5e-11 at 0.27 s), they move erratically with the boom's EA (the PI's 2.4e-9, 1.9e-9, 1.9e-10, 1.8e-9,
+2.0e-9 at EA 0.96e5 … 1.04e5; the ring offset's 8.0e-11 … 2.2e-10), the forward method's own a1 by X at the PI's end
+(EA 0.98e5) moves by 1.4e-9 of itself when k1's column is dropped (from 0.13 s, before the latch: the runs' multi-column round-off),
 and with the boom 30 times softer (EA 3e3, :data:`SOFT`) every gap is ≤ 4.3e-11. The adjoint without
 ``_shifts_turned`` is 2.4e-5 (the PI) to 1.0e-3 off on those soft scenes (6.2e-4 on the ring offset's latch as typed).
 So the gimbal's scenes are checked on the soft boom within 1e-10, the ring offset's latch as typed within 1e-9.
@@ -38,7 +40,7 @@ from tests.cli_runs import latdyn_run
 from tests.test_adjoint_events import _disagreement
 from tests.test_adjoint_geometry_linked import _adjoint
 from tests.test_geometry_sensitivities_turning_events import (GUIDE_LATCH, INNER_LATCH, PI_LATCH, POINT_PD_LATCH,
-                                                                RING_LATCH, RING_STOP, SOFT_SLIP)
+                                                                RING_LATCH, RING_PD_LATCH, RING_STOP, SOFT_SLIP)
 
 
 def _soft(text: str) -> str:
@@ -49,14 +51,21 @@ def _soft(text: str) -> str:
     return softened
 
 
+#: RING_PD_LATCH's outer hinge driven by a proportional controller of its angle sampled at 50 Hz (held outputs)
+SAMPLED_LATCH = RING_PD_LATCH.replace('pd: {output: "Kp*(0.1 - a1) - Kd*r1"}', 'pd: {output: "Kp*(0.1 - a1)", rate: 50}')
+#: the ring offset's latch beside a load on the inner ring that names t (the event's ∂r/∂t δt_e: adjoint_time)
+TIMED_LOAD_LATCH = RING_LATCH.replace("loads:\n", 'loads:\n  - {at: inner, force: ["0.3*sin(8*t)", 0, 0.1]}\n')
+assert "rate: 50}" in SAMPLED_LATCH and "sin(8*t)" in TIMED_LOAD_LATCH
+
 #: the gimbal's scenes through events on the soft boom, and friction, the compliant stop and the guide as typed
 SOFT = {"ring-offset-latch": _soft(RING_LATCH), "ring-offset-stop": _soft(RING_STOP),
         "hinge-point-latch": _soft(INNER_LATCH), "point-pd-latch": _soft(POINT_PD_LATCH), "pi-latch": _soft(PI_LATCH),
+        "sampled-pd-latch": _soft(SAMPLED_LATCH), "load-in-t-latch": _soft(TIMED_LOAD_LATCH),
         "friction-and-compliant-stop": SOFT_SLIP, "guide-origin-latch": GUIDE_LATCH}
 #: each scene's events (kinds), so that a run that missed one fails here rather than agreeing on less
 EVENTS = {"ring-offset-latch": ["latch"], "ring-offset-stop": ["stop", "stop"], "hinge-point-latch": ["latch"],
-          "point-pd-latch": ["latch"], "pi-latch": ["latch"], "friction-and-compliant-stop": [],
-          "guide-origin-latch": ["latch"]}
+          "point-pd-latch": ["latch"], "pi-latch": ["latch"], "sampled-pd-latch": ["latch"],
+          "load-in-t-latch": ["latch"], "friction-and-compliant-stop": [], "guide-origin-latch": ["latch"]}
 #: how the adjoint's derivatives may differ from the forward method's (each output's largest derivative)
 BOUND = 1e-10
 #: ... on the stiff boom as typed (EA 1e5; the ring offset's latch 1.35e-10, module docstring)
@@ -84,7 +93,8 @@ def test_the_adjoint_equals_the_forward_method_through_events_beside_a_turning_s
     """Each probe's end, max and min and each event's time: within BOUND of the forward method's, by X and k1; the
     events the same (joint, kind, time) and those expected; X's derivatives not all zero. Measured (soft boom): the ring
     offset's latch 5.8e-12, its two impacts 1.5e-12, the hinge point's latch 4.0e-12, the PD of the point 5.0e-12, the
-    PI 4.3e-11; friction and the compliant stop 4.5e-12, the guide's origin 1.6e-13 (as typed)."""
+    PI 4.3e-11, the sampled PD 2.1e-11, the load in t 1.9e-11; friction and the compliant stop 4.5e-12, the guide's
+    origin 1.6e-13 (as typed)."""
     forward, adjoint = _both(runs, SOFT[name])
     assert [event["kind"] for event in forward.summary["events"]] == EVENTS[name]
     assert adjoint.summary["events"] == forward.summary["events"]
