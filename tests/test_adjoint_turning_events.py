@@ -120,3 +120,17 @@ def test_the_cli_equals_the_api_through_the_latch(runs, tmp_path):
     adjoint = _both(runs, text)[1]
     assert summary["probe_sensitivities"] == adjoint.summary["probe_sensitivities"]
     assert summary["event_sensitivities"] == adjoint.summary["event_sensitivities"]
+
+
+def test_the_loop_of_steps_on_and_off_gives_the_same_adjoint_through_the_latch(monkeypatch):
+    """The ring offset's latch (soft boom) by X and k1: the forward pass's smooth steps stored by the loop of steps (39
+    of 41; the forward method's own columns refuse the loop beside this shift) and the reverse pass's native steps (39)
+    give the Python path's derivatives and event time's derivatives to the bit."""
+    from tests.test_adjoint_in_loop import _run as _run_switched
+
+    text = _adjoint(SOFT["ring-offset-latch"])
+    native, python = _run_switched(text, monkeypatch, True), _run_switched(text, monkeypatch, False)
+    assert native.summary["sensitivity_steps_in_loop"] == native.native_reverse == native.summary["steps"] - 2
+    assert python.summary["sensitivity_steps_in_loop"] == 0 and python.native_reverse == 0
+    assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
+    assert native.summary["event_sensitivities"] == python.summary["event_sensitivities"]
