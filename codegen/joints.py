@@ -22,6 +22,22 @@ the acceleration of the reference point and the angular acceleration:
     body_gravity_stiffness = ∂(−[W; r_c × W])/∂π,
     body_inertia_stiffness = ∂[f; τ]/∂π at fixed a, α, ω (the inertia tangent of the body).
 
+Rigid link's inertia (``beams.NAME.rigid``, latdyn/model/model.py ``_rigid_link``): the link is one joint body
+on its link node L at its start grid point A, a uniform slender rod from A to B whose material points sit at
+r = L ξ x̂ + y ŷ + z ẑ from A (ξ ∈ [0, 1], (y, z) on the section; the element's r_c = [L ξ, y, z], Eq. 47),
+integrated with the element's section moments (codegen/formulation.py ``integrate_over_element``: ∫ρ dA = ρA,
+∫ρ y² dA = ρI_z, ∫ρ z² dA = ρI_y, the odd and mixed ones 0):
+
+    m = ∫ρ dV,   c = ∫ρ r dV / m,   I_A = ∫ρ (|r|² 1 − r rᵀ) dV,   I_c = I_A − m (|c|² 1 − c cᵀ)   (parallel axes)
+
+in the link's axes E = [x̂, ŷ, x̂ × ŷ], x̂ = (B − A)/|B − A|, then turned into global axes at t = 0 (the link
+node's axes), c ← E c, I ← E I_c Eᵀ, the joint-body block (m, c, I) of ``joint_body``. ŷ follows the loader's
+rule (latdyn/scene/loader.py ``beam``): ŷ ∝ h + s e_z × (B − A) less its part along x̂, s = 1 and h = 0 without a
+``y_axis`` (global Z × x̂, off the vertical), s = 0 and h the ``y_axis`` given (or e_y for a vertical link), so
+the block's exact derivatives by the end points (``rigid_link_inertia_D_ends``: a geometry parameter that moves
+the link's length or direction) and by the section values (``rigid_link_inertia_D_section``, linear in them)
+include the frame's turn.
+
 Point load, on the node it acts at (force F and moment Mo, given in global axes or in the
 axes R of its frame body and already scaled by the load factor): the residual takes the
 generalized force −[F; r_g × F + Mo] (it is on the right of the equations of motion), with
@@ -216,6 +232,62 @@ def _joint_body_kernels() -> list[KernelSpec]:
                        "mass (the sensitivities by a parameter that places it: forces, kinetic energy, momenta)",
                        inputs=inputs, outputs=by_com, variant="joints",
                        equations="Eqs. 2, 59 (joint bodies as rigid bodies)")]
+
+
+LINK_ENDS = Argument("ends", 6, "A[3] B[3]: a rigid link's start and end grid points, global, at t = 0")
+LINK_Y_RULE = Argument("y_rule", 4, "h[3] s: the rule of the link's y axis, ŷ ∝ h + s e_z × (B − A) less its "
+                       "part along x̂ (the loader's: h = 0, s = 1 without a y_axis off the vertical; h the y_axis "
+                       "given, or e_y for a vertical link, and s = 0)")
+LINK_SECTION = Argument("section", 3, "rhoA rhoIy rhoIz: the mass and the rotary inertias per length of the link's "
+                        "section")
+
+
+def rigid_link_inertia(ends, rule, section) -> sp.Matrix:
+    """The joint-body block [m; c; I] (13: m, c[3], I[9] row-major) of a rigid link, a uniform slender rod from A
+    to B, c from A and I about c in global axes (module docstring, "Rigid link's inertia")."""
+    A, B = _vector(ends[0:3]), _vector(ends[3:6])
+    vector = B - A
+    length = sp.sqrt(vector.dot(vector))
+    x_axis = vector / length
+    hint = _vector(rule[0:3]) + rule[3] * sp.Matrix([0, 0, 1]).cross(vector)
+    raw = hint - hint.dot(x_axis) * x_axis
+    y_axis = raw / sp.sqrt(raw.dot(raw))
+    E = sp.Matrix.hstack(x_axis, y_axis, x_axis.cross(y_axis))
+    # the rod in its own axes: a material point at r = [L ξ, y, z] from A (the element's r_c, Eq. 47)
+    L = sp.Symbol("L", positive=True)
+    values = dict(zip(("rhoA", "rhoIy", "rhoIz"), section))
+    r = sp.Matrix([L * fm.xi, fm.ys, fm.zs])
+    mass = fm.integrate_over_element(sp.Integer(1), values, L)
+    centre = r.applyfunc(lambda component: fm.integrate_over_element(component, values, L)) / mass
+    about_start = (r.dot(r) * sp.eye(3) - r * r.T).applyfunc(lambda e: fm.integrate_over_element(e, values, L))
+    about_centre = (about_start - mass * (centre.dot(centre) * sp.eye(3) - centre * centre.T)).applyfunc(sp.expand)
+    at = {L: length}
+    turned = E * about_centre.xreplace(at) * E.T
+    return sp.Matrix([mass.xreplace(at), *(E * centre.xreplace(at)), *turned])
+
+
+def _rigid_link_inertia_kernels() -> list[KernelSpec]:
+    ends, rule, section = LINK_ENDS.symbols(), LINK_Y_RULE.symbols(), LINK_SECTION.symbols()
+    block = rigid_link_inertia(ends, rule, section)
+    inputs = [LINK_ENDS, LINK_Y_RULE, LINK_SECTION]
+    equations = "Eq. 47 (r_c), the section's moments of Eqs. 44–57, integrated over a rigid rod"
+    return [KernelSpec(name="rigid_link_inertia", doc="A rigid link's joint-body block (m, c, I): a uniform slender "
+                       "rod's mass, centre from its start point and inertia about the centre, global axes at t = 0",
+                       inputs=inputs, outputs=[Output("link_body", (13,), _rows(block), "m c[3] I[9]: the joint "
+                                                      "body's block of the link (``joint_body``'s ``body``)")],
+                       variant="joints", equations=equations),
+            KernelSpec(name="rigid_link_inertia_D_ends", doc="The derivative of a rigid link's joint-body block by "
+                       "its end points, the y axis's rule held (a geometry parameter moving the link's length or "
+                       "direction)", inputs=inputs,
+                       outputs=[Output("link_body_D_ends", (13, 6), _rows(block.jacobian(_vector(ends))),
+                                       "∂[m; c; I]/∂[A; B]")],
+                       variant="joints", equations=equations),
+            KernelSpec(name="rigid_link_inertia_D_section", doc="The derivative of a rigid link's joint-body block by "
+                       "its section values (linear in them: a parameter in a rigid link's rhoA, rhoIy, rhoIz)",
+                       inputs=inputs,
+                       outputs=[Output("link_body_D_section", (13, 3), _rows(block.jacobian(_vector(section))),
+                                       "∂[m; c; I]/∂[ρA, ρIy, ρIz]")],
+                       variant="joints", equations=equations)]
 
 
 def point_load_terms(T, r, values, R, velocity):
@@ -1394,7 +1466,7 @@ def _closure_wrench_second_kernel(rod: bool) -> KernelSpec:
 
 def build_kernels() -> list[KernelSpec]:
     """The kernels of the ``joints`` unit."""
-    return [*_joint_body_kernels(), _point_load_kernel(), _point_load_offset_kernel(),
+    return [*_joint_body_kernels(), *_rigid_link_inertia_kernels(), _point_load_kernel(), _point_load_offset_kernel(),
             _point_load_stiffness_D_q_kernel(), _hinged_end_kernel(),
             _reference_variation_kernel(), _hinge_force_kernel(), _hinge_stiffness_by_angle_kernel(),
             _hinge_stiffness_by_rate_kernel(),

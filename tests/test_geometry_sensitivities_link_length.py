@@ -93,9 +93,11 @@ def test_a_links_length_on_a_static_path_agrees_with_richardson():
 
 
 def test_the_links_inertia_block_moves_as_its_loaded_model():
-    """``link_inertia_moved`` (δm, δc, δI of gim1 by X) against central differences of the model the loader builds at
-    X ± h (its joint-body block: the hand-written ``rigid_link_inertia`` at the moved geometry), to 1e-8."""
+    """``link_inertia_moved`` (δm, δc, δI of gim1 by X: the generated ``rigid_link_inertia_D_ends``) against central
+    differences of the model the loader builds at X ± h (its joint-body block: the generated ``rigid_link_inertia`` at
+    the moved geometry), to 1e-8."""
     from latdyn.analyses.geometry_sensitivities import link_inertia_moved
+    from latdyn.model.kernels import load_kernels
     from latdyn.model.model import Model
 
     def block(x):
@@ -108,8 +110,7 @@ def test_the_links_inertia_block_moves_as_its_loaded_model():
         return scene, model.body_mass[b], model.body_com[b], model.body_inertia[b]
 
     scene, m, c, inertia = block(0.3)
-    s = scene.beams["gim1"].section
-    dm, dc, dI = link_inertia_moved(scene.beams["gim1"], s.rhoA, s.rhoIy, s.rhoIz, np.array([1.0, 0.0, 0.0]))
+    dm, dc, dI = link_inertia_moved(load_kernels("c", "default"), scene.beams["gim1"], np.array([1.0, 0.0, 0.0]))
     h = 1e-5
     up, down = block(0.3 + h), block(0.3 - h)
     assert abs(dm - (up[1] - down[1]) / (2 * h)) <= 1e-8 * abs(dm)

@@ -487,11 +487,10 @@ class _StateForms:
     def _link_blocks(self, state, block: np.ndarray) -> list:
         """(body row, node, column, the joint bodies' block with that row's ∂(m, c, I)/∂p) of each use of a parameter
         by a rigid link's section ρA, ρIy or ρIz: its joint body's mass and inertia move, linear in them at the link's
-        fixed centre of mass (``rigid_link_inertia`` of the section's derivative values, as
-        latdyn/analyses/link_sensitivities.py ``add_link_section_forces`` takes ∂r/∂p), so its kinetic and potential
+        fixed centre of mass (latdyn/analyses/link_sensitivities.py ``link_section_block``, the generated
+        ``rigid_link_inertia_D_section``, as ``add_link_section_forces`` takes ∂r/∂p), so its kinetic and potential
         energy and momenta move as a body's by its mass and inertia (:meth:`_bodies`)."""
-        from latdyn.analyses.link_sensitivities import link_section_uses
-        from latdyn.model.model import rigid_link_inertia
+        from latdyn.analyses.link_sensitivities import link_section_block, link_section_uses
 
         model = self.model
         if model.links is None:
@@ -499,11 +498,9 @@ class _StateForms:
         out = []
         for beam, b, node, value, laws in link_section_uses(self.owner):
             for column, law in laws.items():
-                moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
-                moved[value] = law.value(0.0, 0.0, state.t)
-                mass, _, turning = rigid_link_inertia(beam, **moved)
                 changed = np.zeros_like(block)
-                changed[b, 0], changed[b, 1:4], changed[b, 4:13] = mass, model.body_com[b], turning.reshape(9)
+                changed[b] = link_section_block(self.kernels, beam, value, law.value(0.0, 0.0, state.t),
+                                                model.body_com[b])[0]
                 out.append((b, node, column, changed))
         return out
 

@@ -62,7 +62,8 @@ refused beside other controllers and probes whose explicit part does not hold th
 carries) moves relative to its start and the link's own offsets, y_axis and hinge axes do not (a gimbal's ring offset):
 the link's vector v = B − A is its end edge's o, fixed in the link node L's axes, so the subtree below shifts by T_L δv
 as above (A = L, which turns), and the link's joint-body block (m = ρA L, c = v/2, I = E D Eᵀ about c,
-latdyn/model/model.py ``rigid_link_inertia``) moves by (δm, δc, δI) (:func:`link_inertia_moved`): its row moves by the
+latdyn/model/model.py ``rigid_link_inertia``) moves by (δm, δc, δI) (:func:`link_inertia_moved`, the generated
+``rigid_link_inertia_D_ends``): its row moves by the
 generated ``joint_body`` at (δm, c, δI) (linear in m and I at a fixed c) and ``joint_body_D_com`` along δc (degree two
 in c) at L's fixed frame and motion (:meth:`ReferenceGeometry._add_link_inertia`), and its end point's offset by δv;
 taken and refused beside events, controllers and other probes as a shift on a part that turns, and refused by the loop
@@ -889,8 +890,7 @@ class ReferenceGeometry:
             for link, node, column, moved in self.link_moves:
                 beam = self.scene.beams[link]
                 b = int(np.flatnonzero(model.body_nodes == node)[0])
-                s = beam.section
-                dm, dc, dI = link_inertia_moved(beam, s.rhoA, s.rhoIy, s.rhoIz, moved)
+                dm, dc, dI = link_inertia_moved(self.kernels, beam, moved)
                 moved_block = np.concatenate([[dm], model.body_com[b], dI.reshape(9)])[None]
                 block = np.concatenate([[model.body_mass[b]], model.body_com[b], model.body_inertia[b].reshape(9)])[None]
                 held.append((moved_block, block, dc))
@@ -1051,25 +1051,13 @@ def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarr
     return 0.5 * (np.cross(x, dx) + np.cross(y, dy) + np.cross(z, dz))
 
 
-def link_inertia_moved(beam, rhoA: float, rhoIy: float, rhoIz: float, moved: np.ndarray) -> tuple:
-    """(δm, δc, δI) of a rigid link's joint-body block (latdyn/model/model.py ``rigid_link_inertia``: m = ρA L,
-    c = v/2, I = E D Eᵀ about c with E = [x̂, ŷ, x̂ × ŷ] and D = diag((ρI_y + ρI_z) L, ρA L³/12 + ρI_y L,
-    ρA L³/12 + ρI_z L)) when its vector v = B − A moves by δv (``moved``, global axes at t = 0): δL = x̂·δv,
-    δx̂ = (δv − x̂ δL)/L, δE = skew(φ) E (φ of :func:`_frame_turn`, the loader's rule for ŷ), so
-    δI = skew(φ) I − I skew(φ) + E δD Eᵀ, δD = diag(ρI_y + ρI_z, ρA L²/4 + ρI_y, ρA L²/4 + ρI_z) δL."""
-    from latdyn.model.model import rigid_link_inertia
-    from latdyn.numerics.so3 import skew
+def link_inertia_moved(kernels, beam, moved: np.ndarray) -> tuple:
+    """(δm, δc, δI) of a rigid link's joint-body block (m = ρA L, c = v/2, I about c; latdyn/model/model.py
+    ``rigid_link_inertia``) when its vector v = B − A moves by δv (``moved``, global axes at t = 0), the rule of its
+    ŷ held (the loader's, :func:`_frame_turn`'s): the generated ``rigid_link_inertia_D_ends`` (codegen/joints.py, "Rigid
+    link's inertia") along δB = δv, the block a function of v alone, of ``kernels`` (a KernelSet)."""
+    from latdyn.model.model import rigid_link_rows
 
-    vector = beam.end.point - beam.start.point
-    length = float(np.linalg.norm(vector))
-    x = vector / length
-    stretch = float(x @ moved)
-    dx = (moved - x * stretch) / length
-    phi = _frame_turn(beam, x, dx, np.zeros(3))
-    _, _, inertia = rigid_link_inertia(beam, rhoA, rhoIy, rhoIz)
-    y = np.asarray(beam.y_axis, float)
-    frame = np.column_stack([x, y, np.cross(x, y)])
-    rod = rhoA * length ** 2 / 4.0
-    grown = frame @ np.diag([rhoIy + rhoIz, rod + rhoIy, rod + rhoIz]) @ frame.T * stretch
-    turn = skew(phi)
-    return rhoA * stretch, 0.5 * moved, turn @ inertia - inertia @ turn + grown
+    (by_ends,) = kernels.rigid_link_inertia_D_ends(*rigid_link_rows(beam))
+    change = by_ends[0, :, 3:6] @ moved
+    return float(change[0]), change[1:4], change[4:13].reshape(3, 3)

@@ -21,9 +21,10 @@ sensitivities take the path that the guides' already take, with nothing added to
 
 What this module adds is a rigid link's own mass and inertia by its section's values: the link is a joint
 body on its link node with mass ρA L at mid-length and the slender rod's inertia
-(:func:`latdyn.model.model.rigid_link_inertia`), linear in (ρA, ρIy, ρIz) at its fixed centre of mass, so
-its ∂(inertia and gravity forces)/∂p is the generated ``joint_body`` with the block (L ∂ρA/∂p, c,
-∂I/∂p) (:func:`add_link_section_forces`); a rigid link's EA, EIy, EIz and GJ move nothing (derivative 0).
+(:func:`latdyn.model.model.rigid_link_inertia`, the generated ``rigid_link_inertia``), linear in (ρA, ρIy, ρIz) at
+its fixed centre of mass, so its ∂(inertia and gravity forces)/∂p is the generated ``joint_body`` with the block
+(∂m/∂p, c, ∂I/∂p) of the generated ``rigid_link_inertia_D_section`` (:func:`link_section_block`,
+:func:`add_link_section_forces`); a rigid link's EA, EIy, EIz and GJ move nothing (derivative 0).
 
 Rigid links with guides (a slider-crank: a flexible rod on a guided slider, or the rigid rod that closes the
 loop onto it, latdyn/model/links.py "Closure") take the same reduction and are differentiated alike, through
@@ -43,7 +44,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["add_link_section_forces", "columns_moving", "dependent_rates", "held_linked_parts"]
+__all__ = ["add_link_section_forces", "columns_moving", "dependent_rates", "held_linked_parts", "link_section_block"]
+
+#: the columns of the generated ``rigid_link_inertia_D_section`` (codegen/joints.py LINK_SECTION), by section value
+LINK_SECTION_VALUES = ("rhoA", "rhoIy", "rhoIz")
 
 
 def link_section_uses(owner) -> list:
@@ -70,13 +74,24 @@ def link_section_uses(owner) -> list:
     return uses
 
 
+def link_section_block(kernels, beam, value: str, derivative: float, com: np.ndarray) -> np.ndarray:
+    """(1, 13): the joint-body block (∂m/∂p, c, ∂I/∂p) of the rigid link ``beam`` whose section value ``value`` (ρA,
+    ρIy or ρIz) moves by ``derivative`` = ∂value/∂p, at the link's fixed centre of mass ``com`` (node axes): the
+    generated ``rigid_link_inertia_D_section`` (codegen/joints.py, "Rigid link's inertia") of ``kernels`` along it.
+    The block ``joint_body`` takes for ∂(its row)/∂p, the row being linear in (m, I) at a fixed c."""
+    from latdyn.model.model import rigid_link_rows
+
+    (by_section,) = kernels.rigid_link_inertia_D_section(*rigid_link_rows(beam))
+    block = by_section[0, :, LINK_SECTION_VALUES.index(value)] * derivative
+    block[1:4] = com
+    return block[None]
+
+
 def add_link_section_forces(owner, state, total: np.ndarray, load_factor: float, inertia: bool) -> None:
     """Add ∂(a rigid link's joint-body force)/∂p into ``total`` (all coordinates) for the ρA, ρIy, ρIz of its
     section that name a parameter (module docstring): the generated ``joint_body`` with the block
-    (L ∂ρA/∂p, c, ∂I/∂p), linear in (m, I) at the link's fixed centre of mass c; static (at rest) its
-    λ-gravity alone."""
-    from latdyn.model.model import rigid_link_inertia
-
+    (∂m/∂p, c, ∂I/∂p) (:func:`link_section_block`), linear in (m, I) at the link's fixed centre of mass c; static
+    (at rest) its λ-gravity alone."""
     uses = link_section_uses(owner)
     gravity = load_factor * np.asarray(owner.assembler.gravity, float)
     if not uses or (not inertia and not np.any(gravity)):
@@ -88,11 +103,7 @@ def add_link_section_forces(owner, state, total: np.ndarray, load_factor: float,
         if inertia:
             motion[0] = np.concatenate([state.w[node], state.a[node], state.alpha[node]])
         for column, law in laws.items():
-            moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
-            moved[value] = law.value(0.0, 0.0, state.t)
-            mass, com, turning = rigid_link_inertia(beam, **moved)
-            block = np.zeros((1, 13))
-            block[0, 0], block[0, 1:4], block[0, 4:13] = mass, model.body_com[b], turning.reshape(9)
+            block = link_section_block(owner.kernels, beam, value, law.value(0.0, 0.0, state.t), model.body_com[b])
             force = np.asarray(owner.kernels.joint_body(frame, motion, block, gravity[None])[0]).reshape(6)
             total[model.node_dofs[node], column] += force
 

@@ -751,9 +751,9 @@ def _cable_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
 def _link_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
     """A rigid link's section ρA (and ρIy, ρIz, which weigh nothing) moves its joint body's mass: its weight's stiffness
     along w on the link's node, ``joint_body_gravity_stiffness_D_q`` at the block ∂r/∂p takes
-    (latdyn/analyses/link_sensitivities.py ``add_link_section_forces``: (L ∂ρA/∂p, c, ∂I/∂p), linear in m)."""
-    from latdyn.analyses.link_sensitivities import link_section_uses
-    from latdyn.model.model import rigid_link_inertia
+    (latdyn/analyses/link_sensitivities.py ``add_link_section_forces``: (∂m/∂p, c, ∂I/∂p) of ``link_section_block``,
+    linear in m)."""
+    from latdyn.analyses.link_sensitivities import link_section_block, link_section_uses
 
     uses = link_section_uses(owner) if owner.model.links is not None else None
     gravity = np.asarray(owner.assembler.gravity, float)
@@ -765,11 +765,7 @@ def _link_masses(owner, state, full: np.ndarray, total: np.ndarray) -> None:
         if dofs is None:
             continue
         for column, law in laws.items():
-            moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
-            moved[value] = law.value(0.0, 0.0, t)
-            mass, _, turning = rigid_link_inertia(beam, **moved)
-            block = np.zeros((1, 13))
-            block[0, 0], block[0, 1:4], block[0, 4:13] = mass, model.body_com[b], turning.reshape(9)
+            block = link_section_block(owner.kernels, beam, value, law.value(0.0, 0.0, t), model.body_com[b])
             total[dofs, column] += _weight_stiffness_along(owner, frame, moving, block, gravity)
 
 

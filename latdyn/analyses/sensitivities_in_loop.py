@@ -24,7 +24,7 @@ the Python step calls: latdyn/analyses/derivative_laws.py; ``_hinge_refusal``)
 and of a joint body's mass, inertia and centre of mass (the generated ``joint_body`` with the use's block, or
 ``joint_body_D_com`` along ∂c/∂p, the blocks made by ``ParameterDerivatives.body_block`` and tabulated alike) and of
 a rigid link's own section values (its joint body's mass and inertia, link_sensitivities.add_link_section_forces:
-the same kernel with ``rigid_link_inertia``'s block, after the joint bodies' uses as the Python step adds it), of
+the same kernel with the generated ``rigid_link_inertia_D_section``'s block, after the joint bodies' uses as the Python step adds it), of
 a hinge's compliant stops' and friction's law values (the generated ``contact_force_D_law``,
 ``friction_force_D_law`` at the hinge's θ, θ̇ in C, times the derivative laws' values tabulated alike), a guide's
 laws and its compliant stops' and friction's values (the hinge laws they are, on the slide), of
@@ -1213,7 +1213,7 @@ class SensitivityLoop:
         """(rigid link beam, index among the joint bodies, its link node, the section value, column, derivative law)
         of every use of a rigid link's own section value (link_sensitivities.add_link_section_forces, which the Python
         step adds right after the joint bodies' forces: here the body uses after theirs, the generated joint_body with
-        the block of ``rigid_link_inertia`` at the derivative law's value)."""
+        the block of ``link_section_block`` at the derivative law's value)."""
         from latdyn.analyses.link_sensitivities import link_section_uses
 
         return [(beam, b, node, value, column, law) for beam, b, node, value, laws in link_section_uses(self.owner)
@@ -1353,7 +1353,7 @@ class SensitivityLoop:
             self._hinge_table = np.array(values, float).reshape(len(times), len(uses), 2)
             d.hinge_values, d.values_from = self._hinge_table.ctypes.data, grid_index
         if d.n_body_uses:   # the kernel's block and ∂c/∂p of each use at each grid point (ParameterDerivatives.body_block)
-            from latdyn.model.model import rigid_link_inertia
+            from latdyn.analyses.link_sensitivities import link_section_block
 
             table = np.zeros((len(times), d.n_body_uses, 16))
             uses, links = self._body_uses(), self._link_uses()
@@ -1367,11 +1367,8 @@ class SensitivityLoop:
                     if row and law.is_constant:   # a law without t: the first time's row (the same bits)
                         table[row, u] = table[0, u]
                         continue
-                    moved = {"rhoA": 0.0, "rhoIy": 0.0, "rhoIz": 0.0}
-                    moved[value] = law.value(0.0, 0.0, t)
-                    mass, _, turning = rigid_link_inertia(beam, **moved)
-                    table[row, u, 0], table[row, u, 1:4], table[row, u, 4:13] = mass, owner.model.body_com[b], \
-                        turning.reshape(9)
+                    table[row, u, :13] = link_section_block(owner.kernels, beam, value, law.value(0.0, 0.0, t),
+                                                            owner.model.body_com[b])[0]
             self._body_table = table
             d.body_values, d.values_from = table.ctypes.data, grid_index
         if d.n_law_uses:   # the compliant stops' and friction's derivative laws at each grid point (_contact_forces)

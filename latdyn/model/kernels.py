@@ -145,8 +145,7 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
         try:
             return load_kernels("c", variant)
         except RuntimeError as error:
-            advice = "" if isinstance(error, CacheNotWritable) else f"; {NO_COMPILER_ADVICE}"
-            raise MissingExtra(f"C kernels unavailable ({error}){advice}") from None
+            raise _unavailable(error) from None
     key = (backend, variant)
     if key not in _LOADED:
         info, functions, libraries, deferred = {}, {}, {}, {}
@@ -175,6 +174,35 @@ def load_kernels(backend: str = "auto", variant: str = "default") -> KernelSet:
             functions[name] = _checked(name, meta, _composed(meta, parts, info, functions))
         _LOADED[key] = KernelSet(backend, variant, info, functions, libraries or None, deferred)
     return _LOADED[key]
+
+
+def joint_kernel(name: str) -> Callable:
+    """Kernel ``name`` of the joints unit in C, the function a :class:`KernelSet` of any variant calls, for a caller
+    that needs it before the run's kernels are loaded: the model's build takes a rigid link's joint-body block from
+    the generated ``rigid_link_inertia`` (latdyn/model/model.py ``rigid_link_inertia``) before it knows its variant.
+    From the unit's index in the kernel cache (:func:`_compiled_unit`), not the generated NumPy module, whose import
+    is 0.4–0.7 s of a fresh process; without a compiler :class:`MissingExtra` naming the fix, as ``load_kernels``'s
+    "auto"."""
+    for (backend, _), kernels in _LOADED.items():
+        if backend == "c":
+            return getattr(kernels, name)
+    if name not in _JOINT_KERNELS:
+        try:
+            info, built = _compiled_unit(JOINTS)
+        except RuntimeError as error:
+            raise _unavailable(error) from None
+        _JOINT_KERNELS[name] = _opened(built, name, info[name])()[1]
+    return _JOINT_KERNELS[name]
+
+
+def _unavailable(error: RuntimeError) -> MissingExtra:
+    """What "auto" raises where the C kernels cannot be built: why, and the fix where a compiler is missing."""
+    advice = "" if isinstance(error, CacheNotWritable) else f"; {NO_COMPILER_ADVICE}"
+    return MissingExtra(f"C kernels unavailable ({error}){advice}")
+
+
+#: the kernels :func:`joint_kernel` opened, by name (before any KernelSet of the C backend was loaded)
+_JOINT_KERNELS: dict[str, Callable] = {}
 
 
 class LibraryFiles(dict):

@@ -665,17 +665,35 @@ def _rigid_names(scene) -> set:
     return {b.name for b in scene.beams.values() if b.rigid}
 
 
-def rigid_link_inertia(beam, rhoA: float, rhoIy: float, rhoIz: float):
+def rigid_link_rows(beam) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows (ends, y_rule, section) of the generated ``rigid_link_inertia`` kernels (codegen/joints.py, "Rigid
+    link's inertia") for the rigid link ``beam``: its start and end grid points at t = 0, the loader's rule for its
+    ŷ (latdyn/scene/loader.py ``beam``: global Z × x̂ without a ``y_axis``, e_y less its part along x̂ for a
+    vertical link, the ``y_axis`` given less its part along x̂, scaled as the loader's ``_direction`` scales it
+    before its length is taken) and its section's (ρA, ρIy, ρIz)."""
+    start, end = np.asarray(beam.start.point, float), np.asarray(beam.end.point, float)
+    vector = end - start
+    x_axis = vector / float(np.linalg.norm(vector))
+    if beam.y_given is not None:
+        given = np.asarray(beam.y_given, float)
+        rule = [*(given / np.abs(given).max()), 0.0]
+    elif np.hypot(x_axis[0], x_axis[1]) >= 1e-9:
+        rule = [0.0, 0.0, 0.0, 1.0]
+    else:
+        rule = [0.0, 1.0, 0.0, 0.0]
+    s = beam.section
+    return (np.concatenate([start, end])[None], np.array([rule]), np.array([[s.rhoA, s.rhoIy, s.rhoIz]], float))
+
+
+def rigid_link_inertia(beam) -> tuple[float, np.ndarray, np.ndarray]:
     """(mass, centre of mass from the start grid point, inertia about it in global axes at t = 0) of the rigid
-    link ``beam`` with these section values: the slender rod of :func:`_rigid_link`, linear in them (its
-    sensitivities by them: latdyn/analyses/link_sensitivities.py)."""
-    vector = beam.end.point - beam.start.point
-    length = float(np.linalg.norm(vector))
-    x_axis = vector / length
-    frame = np.column_stack([x_axis, beam.y_axis, cross(x_axis, beam.y_axis)])
-    rod = rhoA * length ** 3 / 12.0
-    inertia = frame @ np.diag([(rhoIy + rhoIz) * length, rod + rhoIy * length, rod + rhoIz * length]) @ frame.T
-    return rhoA * length, 0.5 * vector, inertia
+    link ``beam``, the slender rod of :func:`_rigid_link`: the generated ``rigid_link_inertia`` (codegen/joints.py,
+    derived by integrating over the rod; its derivatives by the ends and by the section values are generated beside
+    it: latdyn/analyses/geometry_sensitivities.py, latdyn/analyses/link_sensitivities.py)."""
+    from latdyn.model.kernels import joint_kernel
+
+    (block,) = joint_kernel("rigid_link_inertia")(*rigid_link_rows(beam))
+    return float(block[0, 0]), block[0, 1:4].copy(), block[0, 4:13].reshape(3, 3).copy()
 
 
 def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_elements, beam_nodes,
@@ -684,15 +702,15 @@ def _rigid_link(scene, beam, nodes, body_node, hinges, edges, link_bodies, beam_
     the start body through the start hinge, or free when the start is a free point), its inertia
     on L, and the dependency of a body at its ``to`` end on L through the end hinge.
 
-    Inertia of the slender rod about its centre, in the link's axes (x along it, y, z of the
-    section): [(ρI_y + ρI_z) L, ρA L³/12 + ρI_y L, ρA L³/12 + ρI_z L], mass ρA L at mid-length."""
+    Its inertia (:func:`rigid_link_inertia`, generated) is the slender rod's: mass ρA L at mid-length, about its
+    centre in the link's axes (x along it, y, z of the section) diag((ρI_y + ρI_z) L, ρA L³/12 + ρI_y L,
+    ρA L³/12 + ρI_z L), as codegen/joints.py derives it."""
     from latdyn.model.links import Edge
 
     key = f"beams.{beam.name}.rigid"
     start, end = beam.start, beam.end
     vector = end.point - start.point
-    s = beam.section
-    mass, centre, inertia = rigid_link_inertia(beam, s.rhoA, s.rhoIy, s.rhoIz)
+    mass, centre, inertia = rigid_link_inertia(beam)
     link = len(nodes)
     closes = end.body is not None and end.body in _closing_sliders(scene)
     if closes:  # the rod of a slider-crank closing its loop: its node and the slider follow the pin (_closure)
