@@ -159,3 +159,38 @@ def test_the_kernels_derivatives_with_the_rule_held_and_both_backends_equal():
                       - _call(kernels, "rigid_link_inertia", ends, rules, down)) / (2 * h)
         for row in range(n):
             assert np.abs(by_section[row, :, k] - difference[row]).max() <= 1e-8 * np.abs(by_section[row]).max()
+
+
+#: LINKS with a parameter Y moving b3 (the vertical link l3's end) sideways by ``axis``, l3's sensitivities asked for
+TILTED = LINKS.replace("title: three rigid links, skew, with a y_axis given and vertical",
+                       "title: the vertical link's end moved\nparameters: {Y: 0.0}").replace(
+    "solve: {analysis: transient, dt: 0.01, t_end: 0.02}",
+    "solve: {analysis: transient, dt: 0.01, t_end: 0.02, sensitivities: [Y]}\n"
+    "output:\n  probes:\n    z3: {point: b3, quantity: position, component: z}")
+
+
+@pytest.mark.parametrize("axis, refused", [(1, True), (0, False)], ids=["along-y", "along-x"])
+def test_a_vertical_links_tilt_along_y_is_refused_where_its_frame_jumps(tmp_path, axis, refused):
+    """Moving the vertical link l3's end along y (no y_axis, ρIy ≠ ρIz) turns the loader's ŷ by 90° at once: no
+    derivative exists, and the run is refused before it starts — through the API (SceneError naming
+    solve.sensitivities and the beam) and the CLI (exit 2, no traceback, no results folder); along x ŷ is continuous
+    and the run is taken."""
+    at = ["0.8", "0.45", "0.75"]
+    at[axis] = f"{at[axis]} + Y"
+    text = TILTED.replace("b3: {at: [0.8, 0.45, 0.75]", f"b3: {{at: [{', '.join(at)}]")
+    assert text != TILTED
+    scene = tmp_path / "tilt.yaml"
+    scene.write_text(text)
+    out = tmp_path / "out"
+    import subprocess
+    import sys
+    run = subprocess.run([sys.executable, "-m", "latdyn", "run", str(scene), "-o", str(out), "-q"],
+                         capture_output=True, text=True, timeout=300)
+    assert "Traceback" not in run.stderr
+    if refused:
+        with pytest.raises(latdyn.SceneError) as error:
+            latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+        assert error.value.key == "solve.sensitivities" and "vertical beam 'l3'" in str(error.value)
+        assert run.returncode == 2 and "l3" in run.stderr and not out.exists()
+    else:
+        assert run.returncode == 0, run.stderr

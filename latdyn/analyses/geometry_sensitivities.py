@@ -129,7 +129,7 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
         return (f"{where}: with a prescribed translation ({moving[0]}) driving a closed loop with free joints, the "
                 "joint rates that close the loop at t = 0 move with the points (latdyn/assembly/initial.py), which "
                 "is not differentiated yet")
-    why = _linked_refusal(scene, name)
+    why = _vertical_frame_refusal(scene, name) or _linked_refusal(scene, name)
     if why is not None:
         return f"{where}: {why}"
     if scene.cables:
@@ -138,6 +138,31 @@ def geometry_refusal(scene, name: str, used: str) -> str | None:
         why = _controllers_refusal(scene)
         if why is not None:
             return f"{where}: geometry sensitivities with controllers {why} are not computed yet"
+    return None
+
+
+def _vertical_frame_refusal(scene, name: str) -> str | None:
+    """Why ``name`` is not differentiable through a vertical beam's frame (a phrase), or None. Without a ``y_axis``
+    the loader takes ŷ = Z × x̂ (latdyn/scene/loader.py ``beam``), and e_y where x̂ is vertical: there the frame jumps
+    (a tilt of the chord along y turns ŷ by 90° about x̂; along x it is continuous, a flip of ŷ and ẑ at most), so a
+    section whose y and z values differ (EIy, EIz; rhoIy, rhoIz; GAy, GAz) has no derivative by a move that tilts
+    the chord along y — the generated blocks take the rule held (:func:`_frame_turn`, ``rigid_link_inertia_D_ends``),
+    central differences see the same jump on both sides: both would report a number."""
+    moves = _scene_moves(scene, name)
+    for beam in scene.beams.values():
+        if beam.y_given is not None:
+            continue
+        chord = np.asarray(beam.end.point, float) - np.asarray(beam.start.point, float)
+        x = chord / np.linalg.norm(chord)
+        if np.hypot(x[0], x[1]) >= 1e-9:
+            continue
+        tilt = moves["point"][(beam.name, "to")] - moves["point"][(beam.name, "from")]
+        s = beam.section
+        symmetric = s.EIy == s.EIz and s.rhoIy == s.rhoIz and s.GAy == s.GAz
+        if tilt[1] != 0.0 and not symmetric:
+            return (f"it tilts the vertical beam {beam.name!r} along y, whose frame the loader's rule for ŷ (no "
+                    "y_axis given) turns by a jump there while its section's y and z values differ: no derivative "
+                    f"exists; expected a y_axis for beams.{beam.name}")
     return None
 
 
