@@ -163,8 +163,9 @@ def test_a_stick_beside_a_pi_that_drives_another_coordinate_stays_refused():
 
 @pytest.mark.parametrize("text", [PI, SAMPLED], ids=["pi", "sampled_pd"])
 def test_the_adjoint_refuses_a_stick_beside_controllers(text):
-    """Guard: the discrete adjoint does not transpose a stick beside controllers with states or sampled ones (the forward method takes those driving the stuck joint alone) — refused naming the joint's friction,
-    expecting the forward method."""
+    """Guard: the discrete adjoint does not transpose a stick beside controllers with states or sampled ones (the
+    forward method takes those driving the stuck joint alone) — refused naming the joint's friction, expecting the
+    forward method."""
     data = yaml.safe_load(text)
     data["solve"]["sensitivity_method"] = "adjoint"
     with pytest.raises(SceneError) as refused:

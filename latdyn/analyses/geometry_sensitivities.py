@@ -1061,7 +1061,7 @@ def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarr
     """φ with δE = skew(φ) E for the beam's frame E = [x̂, ŷ, x̂ × ŷ] (the loader's rule for ŷ,
     latdyn/scene/loader.py ``beam``) when x̂ moves by δx̂ and the ``y_axis`` v as given by δv (module
     docstring): y_0 = v/|v|, ŷ = (y_0 − (y_0·x̂)x̂)/|…|."""
-    given = getattr(beam, "y_given", None)
+    given = beam.y_given
     if given is None and np.hypot(x[0], x[1]) >= 1e-9:
         raw, draw = np.array([-x[1], x[0], 0.0]), np.array([-dx[1], dx[0], 0.0])
     else:
