@@ -828,7 +828,7 @@ class TransientSensitivities(ParameterDerivatives):
                                            "dq": self._on_nodes(self._projected(carried, new, hinge)),
                                            "dv": self._on_nodes(dv_plus),
                                            "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
-                                           "dvdot": self._on_nodes(carried["dvdot"]), "restarts": 1}}
+                                           "dvdot": self._on_nodes(carried["dvdot"]), "restarts": 1, "settles": False}}
         dt_event = carried["dt"]
         record = {"joint": model.hinges[hinge].name, "kind": kind, "t": float(new.t),
                   "dt": {name: float(dt_event[c]) for c, name in enumerate(self.names)}}
@@ -842,7 +842,7 @@ class TransientSensitivities(ParameterDerivatives):
                 "pending": {"kind": kind, "hinge": hinge, "dq": self._on_nodes(carried["dq"]),
                             "dv": self._on_nodes(dv_plus),
                             "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
-                            "dvdot": self._on_nodes(carried["dvdot"]), "restarts": 1}}
+                            "dvdot": self._on_nodes(carried["dvdot"]), "restarts": 1, "settles": False}}
 
     def _impulse(self, carried: dict, new, hinge: int, restitution: float) -> np.ndarray:
         """δv⁺ (n, k) through the impulse on ``hinge`` at ``new`` (before the jump; :meth:`_jump`'s formula)."""
@@ -1545,7 +1545,7 @@ class TransientSensitivities(ParameterDerivatives):
         held[j] = candidate["held"]
         self.held = held
         pending = {"kind": "stop", "dq": candidate["dq"], "dv": candidate["dv"], "vdot": candidate["vdot"],
-                   "dvdot": candidate["dvdot"], "restarts": 1}
+                   "dvdot": candidate["dvdot"], "restarts": 1, "settles": False}
         return {**carried, "held": held, "pending": pending}
 
     def _refuse_what_a_held_angle_moves(self, new, happens: str, joint: int, through_links: bool = False) -> None:
@@ -1656,12 +1656,12 @@ class TransientSensitivities(ParameterDerivatives):
         if model.resting[j]:   # settled after its impact with restitution 0: the restart on the locked model
             if pending is None or pending.get("hinge") != j or pending["kind"] != "stop":
                 self._refuse_resting(new, j, "a hinge comes to rest on its stop without an impact landed on it")
-            return carried
+            return {**carried, "pending": {**pending, "settles": True}}
         if pending is not None or j not in self._releases:
             self._refuse_resting(new, j, "a hinge leaves its stop beside another event at one instant")
         release = self._releases[j]
         return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
-                                       "vdot": release["vdot"], "dvdot": release["dvdot"], "restarts": 2}}
+                                       "vdot": release["vdot"], "dvdot": release["dvdot"], "restarts": 2, "settles": False}}
 
     def _refuse_a_linked_rest(self, new, j: int) -> None:
         """A hinge resting on its rigid stop in a model with rigid links is differentiated where no guide, latch,
@@ -1713,13 +1713,45 @@ class TransientSensitivities(ParameterDerivatives):
             rhs = self.residual_derivatives(new, 1.0, inertia=True) + K @ dq + C @ dv
             dvdot = np.asarray(solve_linear(M, rhs)).reshape(n, k) * -1.0
             return {**out, "dvdot": dvdot, "da": dvdot.copy()}
-        before = new.copy()
-        unpack_free(model, pack(model, *pending["vdot"])[:n], before.a, before.alpha, before.theta_ddot)
+        if pending["settles"]:   # the impact's restart on the model with the hinge free came first
+            before, dvdot = self._restart_before_settling(new, pending)
+        else:
+            before = new.copy()
+            unpack_free(model, pack(model, *pending["vdot"])[:n], before.a, before.alpha, before.theta_ddot)
         for restart in range(pending["restarts"]):
             after = new if restart == pending["restarts"] - 1 else self._restarted(before)
             dvdot = self._restart_once(before, after, dq, dv, dvdot)
             before = after
         return {**out, "dvdot": dvdot, "da": dvdot.copy()}
+
+    def _restart_before_settling(self, new, pending: dict) -> tuple:
+        """(the state, δv̇ (n, k) on the locked numbering) the restart on the locked model starts from where the hinge
+        ``pending["hinge"]`` came to rest on its stop at ``new``: the run restarts the accelerations after the impact
+        (``hinge_stops``) with the hinge free, then ``settle_on_stops`` zeroes its θ̈, locks it and restarts again, at
+        the accelerations the first left (with rigid links W reads them: measured on the gimbal of
+        tests/test_sensitivities_linked_rest.py, δθ̈ after the landing 3.1e-5 off Richardson differences of the
+        run's state weighed at those before the impact). The first is differentiated on the numbering with the hinge
+        free (:meth:`_restart_once`), the model renumbered so for it and back, as ``settle_on_stops``' trial does."""
+        model, j = self.model, pending["hinge"]
+        side = model.resting[j]
+        model.locked[j], model.resting[j] = False, 0
+        model.number_coordinates()
+        self.assembler.reindex()
+        try:
+            n = model.n_dofs
+            dq, dv, dvdot = (np.column_stack([pack(model, *column)[:n] for column in pending[key]])
+                             for key in ("dq", "dv", "dvdot"))
+            before = new.copy()
+            unpack_free(model, pack(model, *pending["vdot"])[:n], before.a, before.alpha, before.theta_ddot)
+            after = self._restarted(before)
+            dvdot = self._on_nodes(self._restart_once(before, after, dq, dv, dvdot))
+        finally:
+            model.locked[j], model.resting[j] = True, side
+            model.number_coordinates()
+            self.assembler.reindex()
+        after.theta_ddot[j] = 0.0   # settle_on_stops: the locked hinge without acceleration, δθ̈ 0 with it
+        n = model.n_dofs
+        return after, np.column_stack([pack(model, *column)[:n] for column in dvdot])
 
     def _restarted(self, state):
         """A copy of ``state`` with the accelerations the run's restart takes from it
