@@ -1665,19 +1665,22 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _refuse_a_linked_rest(self, new, j: int) -> None:
         """A hinge resting on its rigid stop in a model with rigid links is differentiated where no guide, latch,
-        cable or controller is in the model and the probes are points in global axes and joints' angles and rates
-        (checked against Richardson differences on the gimbal of tests/test_sensitivities_linked_rest.py; the rest
-        is not): refused elsewhere (:meth:`_refuse_resting`)."""
+        cable, controller or geometry parameter is in the model and the probes are points in global axes and joints'
+        angles and rates (checked against Richardson differences on the gimbal of
+        tests/test_sensitivities_linked_rest.py; the rest is not): refused elsewhere (:meth:`_refuse_resting`)."""
         model = self.model
         if model.links is None:
             return
-        guides = any(h.end == "guide" for h in model.hinges)
+        if any(h.end == "guide" for h in model.hinges):
+            self._refuse_resting(new, j, "a joint comes to rest on its stop or leaves it in a model with guides (their "
+                                         "reduction's restart is not differentiated there)")
         events = model.cables is not None or any(h.lock_at is not None for h in model.hinges)
         probes = [p.name for p in self.probes if not ((p.kind == "point" and p.frame == "global")
                                                       or (p.kind == "hinge" and p.quantity in ("angle", "rate")))]
-        if guides or events or probes or self.controllers is not None:
-            what = ("guides" if guides else "latches or cables" if events
+        if events or probes or self.controllers is not None or self.geometry is not None:
+            what = ("latches or cables" if events
                     else "controllers" if self.controllers is not None
+                    else "geometry parameters" if self.geometry is not None
                     else f"probe {probes[0]!r} (not a point in global axes, a joint's angle or rate)")
             self._refuse_resting(new, j, f"a joint comes to rest on its stop or leaves it in a model with rigid links "
                                          f"beside {what} (their terms through the reduction's restart are not "
