@@ -344,7 +344,8 @@ class AdjointSensitivities(TransientSensitivities):
             self._refuse_resting(new, j, "several hinges come to rest on their stops or leave them at one instant")
         if self.model.links is not None:
             self._refuse_resting(new, j, "a joint comes to rest on its stop or leaves it in a model with guides or "
-                                         "rigid links (their reduction's restart is not differentiated there yet)")
+                                         "rigid links (the discrete adjoint does not transpose the reduction's two "
+                                         "restarts there; the forward method differentiates it on rigid links)")
         event = entry.get("event")
         if self.model.resting[j]:
             if event is None or event[0] != j or event[1] not in ("stop", "rest"):
