@@ -230,38 +230,23 @@ def test_a_planar_hinge_resting_on_its_stop_adjoint_equals_the_forward_method():
     assert _disagreement(forward.summary, adjoint.summary) <= 1e-10
 
 
-def test_a_run_failing_in_its_events_ends_with_the_solver_message_and_the_forward_methods_derivatives(tmp_path):
-    """A rigid stop with restitution 0 leaves the hinge resting on it, which the adjoint refuses beside a geometry
-    parameter (the wheel's x) inside the accepted step's events (SolverError, exit 1, naming the stop's key and the
-    forward method), after it stored that step: the CLI reports the solver's failure, not an internal error, and
-    summary.json holds the derivatives of the rows recorded up to the failure as the forward method's run to the last
-    of them (the step it failed in left out; measured 1.3e-11 of each output's largest on 40bf44a, where the adjoint
-    refused every rest; tests/test_sensitivities_hinge_on_stop.py differentiates it)."""
+def test_a_rest_beside_a_geometry_parameter_is_taken_by_the_adjoint_as_the_forward_method(tmp_path):
+    """A rigid stop with restitution 0 leaves the hinge resting on it beside a geometry parameter (the wheel's x):
+    refused by the adjoint inside the accepted step's events until adjgeo (exit 1 naming the stop's key), taken since,
+    through the CLI: exit 0, and summary.json's probe and event sensitivities those of the forward method's run
+    (measured 1.3e-12; tests/test_adjoint_geometry_linked.py: the round-off both carry on stiff members)."""
     text = (STOP_PLANAR.replace("restitution: 0.5", "restitution: 0.0").replace("rho: 1.0}", "rho: 1.0, xw: 1.0}")
             .replace('wheel: {at: [1.0, 0, 0]', 'wheel: {at: ["xw", 0, 0]').replace("EI, rho]", "EI, rho, xw]"))
     assert text.count("xw") == 3
-    (tmp_path / "adjoint").mkdir()
-    completed, out = latdyn_run(tmp_path / "adjoint", _adjoint(text), quiet=True)
-    assert completed.returncode == 1, completed.stderr
-    assert "the solver failed" in completed.stderr and "resting on its stop" in completed.stderr
-    assert "hinge.limits" in completed.stderr and "sensitivity_method: forward" in completed.stderr
-    assert "geometry parameters" in completed.stderr
-    assert "internal error" not in completed.stderr and "Traceback" not in completed.stderr
-    adjoint = json.loads((out / "summary.json").read_text())
-    last = float((out / "probes.csv").read_text().splitlines()[-1].split(",")[0])
-    (tmp_path / "forward").mkdir()
-    cut = yaml.safe_load(text)
-    cut["solve"]["t_end"] = last
-    completed, out = latdyn_run(tmp_path / "forward", yaml.safe_dump(cut), quiet=True)
-    assert completed.returncode == 0, completed.stderr
-    forward = json.loads((out / "summary.json").read_text())
-    assert forward["probe_sensitivities"].keys() == adjoint["probe_sensitivities"].keys()
-    assert abs(forward["probe_sensitivities"]["tip_y"]["end"]["m"]) > 1e-5
-    for probe, by in forward["probe_sensitivities"].items():
-        for which, f in by.items():
-            a = adjoint["probe_sensitivities"][probe][which]
-            scale = max(abs(value) for value in f.values())
-            assert max(abs(a[name] - f[name]) for name in f) <= 1e-10 * max(scale, 1e-300), (probe, which)
+    runs = {}
+    for method, scene in (("forward", text), ("adjoint", _adjoint(text))):
+        (tmp_path / method).mkdir()
+        completed, out = latdyn_run(tmp_path / method, scene, quiet=True)
+        assert completed.returncode == 0, completed.stderr
+        runs[method] = json.loads((out / "summary.json").read_text())
+    assert runs["adjoint"]["events"] == runs["forward"]["events"]
+    assert any(abs(by["end"]["xw"]) > 1e-6 for by in runs["forward"]["probe_sensitivities"].values())
+    assert _disagreement(runs["forward"], runs["adjoint"]) <= 1e-9
 
 
 #: STOP_PLANAR with the hinge's torque from a stateless PD-like controller of the hinge's angle (no t in it)
