@@ -15,7 +15,6 @@ import pytest
 import yaml
 
 import latdyn
-from latdyn.analyses import transient_sensitivities
 from latdyn.analyses.transient_sensitivities import TransientSensitivities
 from tests.test_controller_stop_sensitivities import BY_RATE, CHAINED, NONLINEAR
 from tests.test_sensitivities_controller_states import PI_STOP
@@ -109,15 +108,15 @@ def test_the_block_is_exact_and_takes_no_difference(monkeypatch, text, tolerance
     assert max(scales) > 0
 
 
-def test_a_scene_the_block_does_not_cover_keeps_the_difference(monkeypatch):
-    """A controller reading a cable's tension whose EA is a parameter (its ∂N/∂p's move along q has no kernel: not
-    formed by controller_parameter_along) keeps the central difference. (A sampled controller's held outputs were this
-    case's scene before ctrlhand: tests/test_weight_derivative_controllers_held.py.)"""
+def test_a_tension_reader_by_its_ea_takes_no_difference_since_ctrlexact(monkeypatch):
+    """A controller reading a cable's tension whose EA is a parameter kept the central difference until ctrlexact
+    (its ∂N/∂p's move along q had no kernel); now formed by controller_parameter_along from the generated
+    cable_tension gradient at (∂EA/∂p, ∂c/∂p): no configuration move at the events (more:
+    tests/test_weight_derivative_controllers_sensed.py)."""
     from tests.test_weight_derivative_force_sensors import TENSION
 
     seen = _events_block(monkeypatch, TENSION.replace("sensitivities: [Kp, k]", "sensitivities: [EA, Kp]"))
-    assert seen and all(moves == 2 for *_, moves, _ in seen)
-    assert transient_sensitivities.controller_parameter_along(seen[0][0], seen[0][1], seen[0][2]) is None
+    assert seen and all(moves == 0 for *_, moves, _ in seen)
 
 
 def test_the_adjoints_held_states_block_is_exact_and_the_adjoint_gives_the_forward_methods(monkeypatch):
