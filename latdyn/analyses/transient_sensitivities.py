@@ -1568,8 +1568,7 @@ class TransientSensitivities(ParameterDerivatives):
             guides = any(h.end == "guide" for h in model.hinges)
             events = model.cables is not None or any(
                 h.lock_at is not None or (h.limits is not None and h.contact is None) for h in model.hinges)
-            probes = [p.name for p in self.probes if not ((p.kind == "point" and p.frame == "global")
-                                                          or (p.kind == "hinge" and p.quantity in ("angle", "rate")))]
+            probes = self._probes_unchecked_through_links()
             if guides or events or probes or self.controllers is not None:
                 what = ("guides" if guides else "latches, rigid stops or cables" if events
                         else "controllers" if self.controllers is not None
@@ -1663,6 +1662,13 @@ class TransientSensitivities(ParameterDerivatives):
         return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
                                        "vdot": release["vdot"], "dvdot": release["dvdot"], "restarts": 2, "settles": False}}
 
+    def _probes_unchecked_through_links(self) -> list:
+        """The names of the probes whose terms of a held angle or a rest through the rigid links' reduction are not
+        checked: all but points in global axes and joints' angles and rates (:meth:`_refuse_what_a_held_angle_moves`,
+        :meth:`_refuse_a_linked_rest`)."""
+        return [p.name for p in self.probes if not ((p.kind == "point" and p.frame == "global")
+                                                    or (p.kind == "hinge" and p.quantity in ("angle", "rate")))]
+
     def _refuse_a_linked_rest(self, new, j: int) -> None:
         """A hinge resting on its rigid stop in a model with rigid links is differentiated where no guide, latch,
         cable, controller or geometry parameter is in the model and the probes are points in global axes and joints'
@@ -1675,8 +1681,7 @@ class TransientSensitivities(ParameterDerivatives):
             self._refuse_resting(new, j, "a joint comes to rest on its stop or leaves it in a model with guides (their "
                                          "reduction's restart is not differentiated there)")
         events = model.cables is not None or any(h.lock_at is not None for h in model.hinges)
-        probes = [p.name for p in self.probes if not ((p.kind == "point" and p.frame == "global")
-                                                      or (p.kind == "hinge" and p.quantity in ("angle", "rate")))]
+        probes = self._probes_unchecked_through_links()
         if events or probes or self.controllers is not None or self.geometry is not None:
             what = ("latches or cables" if events
                     else "controllers" if self.controllers is not None
