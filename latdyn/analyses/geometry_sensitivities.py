@@ -839,28 +839,27 @@ class ReferenceGeometry:
         """Add ∂r/∂p of the :attr:`turning` shifts (module docstring) into ``total`` (all coordinates): with the
         subtree S below the edge moved by (d, δv, δa) at fixed coordinates and rates (:meth:`shifts`), the residual
         on the assembled coordinates moves by K d + C δv + M δa (the exact K, C, M before the reduction:
-        latdyn/assembly/linked.py ``evaluate_linked`` with the inertia tangent), and the projection Pᵀ itself by
+        latdyn/assembly/linked.py ``evaluate_before_reduction`` with the inertia tangent), and the projection Pᵀ itself by
         d × F_S on the anchor A's rotational rows (F_S the assembled residual's force rows of S summed): the columns
         of J that reach A (its root's turn, the hinges above it) move S's points by (g × d) per unit rate, whose work
         on S's forces is g·(d × F_S); the columns below A move S as a whole and stay."""
-        from latdyn.assembly.linked import evaluate_linked
+        from latdyn.assembly.linked import evaluate_before_reduction
         from latdyn.numerics.so3 import cross
 
-        model, links = self.model, self.model.links
-        ev = evaluate_linked(links, self.owner.assembler, state, True, load_factor, inertia, inertia_tangent=True,
-                             rates_term=False)
+        model, dependent = self.model, self.model.links.dependent
+        # K, C, M and r_all on the assembled coordinates: the evaluation the reduction starts from, not reduced
+        ev, _ = evaluate_before_reduction(self.owner.assembler, state, True, load_factor, inertia, inertia_tangent=True)
         n_asm = model.n_assembled
         d, dv, da = self.shifts(state)
         moved = np.zeros((3, n_asm, self.k))
-        for node in links.dependent:
-            rows = model.node_dofs[node][0:3]
-            moved[0, rows], moved[1, rows], moved[2, rows] = d[node], dv[node], da[node]
-        change = np.asarray(ev._assembled(0.0, 0.0, 1.0, True)) @ moved[0]
+        rows = model.node_dofs[dependent][:, 0:3]   # the dependent nodes' translations (n_dep, 3)
+        moved[0][rows], moved[1][rows], moved[2][rows] = d[dependent], dv[dependent], da[dependent]
+        change = np.asarray(ev.combined(0.0, 0.0, 1.0, dense=True)) @ moved[0]
         if inertia:
-            change += np.asarray(ev._assembled(0.0, 1.0, 0.0, True)) @ moved[1]
-            change += np.asarray(ev._assembled(1.0, 0.0, 0.0, True)) @ moved[2]
+            change += np.asarray(ev.combined(0.0, 1.0, 0.0, dense=True)) @ moved[1]
+            change += np.asarray(ev.combined(1.0, 0.0, 0.0, dense=True)) @ moved[2]
         total[:n_asm] += change
-        forces = np.asarray(ev.assembled_residual)
+        forces = np.asarray(ev.residual)
         for index, column, moment_arm, anchor in self.turning:
             shift = state.T[anchor] @ moment_arm
             below = self._below(index)

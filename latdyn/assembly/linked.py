@@ -95,6 +95,20 @@ def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float,
     The native model that evaluates (with the inertia tangent's buffers where
     asked: building it replaces the one before) is the one whose links :func:`reduce_linked` reads, so
     it is built, and the storage of its iteration matrix held, before the links are completed."""
+    full, body_stiffness = evaluate_before_reduction(assembler, state, matrices, load_factor, inertia, inertia_tangent)
+    rates_term = inertia_tangent if rates_term is None else rates_term
+    return reduce_linked(links, assembler, state, full, matrices, inertia, rates_term=rates_term,
+                         inertia_tangent=inertia_tangent, body_stiffness=body_stiffness)
+
+
+def evaluate_before_reduction(assembler, state, matrices: bool, load_factor: float, inertia: bool,
+                              inertia_tangent: bool = False):
+    """(the evaluation on the assembled coordinates, free and dependent, at ``state``, the joint bodies' inertia
+    stiffness in its K or None): what :func:`evaluate_linked` reduces, its dependent nodes completed first; with
+    ``matrices``, ``inertia`` and ``inertia_tangent`` K is the exact ∂r_all/∂q at fixed rates of every node (the
+    elements' inertia tangent and the joint bodies' inertia stiffness, (bodies, 6, 6), added to their blocks). Alone
+    where the reduction is not needed (a shift of the dependent nodes on a part that turns:
+    latdyn/analyses/geometry_sensitivities.py ``ReferenceGeometry._add_shifts``)."""
     native = assembler.native(inertia_tangent)
     if matrices:  # the storage the reduction writes in: held before the links are completed (holding lays them out anew)
         linked_pattern(assembler, native)
@@ -108,9 +122,7 @@ def evaluate_linked(links, assembler, state, matrices: bool, load_factor: float,
         stiffness = list(full.blocks["stiffness"])
         stiffness[1] = stiffness[1] + body_stiffness
         full.blocks = {**full.blocks, "stiffness": tuple(stiffness)}
-    rates_term = inertia_tangent if rates_term is None else rates_term
-    return reduce_linked(links, assembler, state, full, matrices, inertia, rates_term=rates_term,
-                         inertia_tangent=inertia_tangent, body_stiffness=body_stiffness)
+    return full, body_stiffness
 
 
 def linked_pattern(assembler, native):
