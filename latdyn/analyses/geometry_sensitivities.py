@@ -982,37 +982,37 @@ class ReferenceGeometry:
         """(P, WIDTH): the reference variation of each pair (``elements[i]`` by parameter ``columns[i]``) at ``state``,
         as :meth:`at_state` takes it (the same generated ``reference_variation_at_state`` on the same rows)."""
         variation = np.ascontiguousarray(self.variations[elements, :, columns])            # (P, WIDTH)
+        held = np.concatenate([np.concatenate([variation[:, part] for part in _turned_parts(end)], axis=1)
+                               for end in (0, 1)])                                          # (2P, 9): both ends
+        moved = np.asarray(self.kernels.reference_variation_at_state(
+            *self.ends_inputs(state, elements, at), np.ascontiguousarray(held))[0]).reshape(2, len(elements), 9)
         for end in (0, 1):
-            inputs = self.end_inputs(state, elements, at, end)
-            rows = np.ascontiguousarray(np.concatenate(
-                [variation[:, 12 + 3 * end:15 + 3 * end], variation[:, 6 + 3 * end:9 + 3 * end],
-                 variation[:, 19 + 3 * end:22 + 3 * end]], axis=1))
-            moved = np.asarray(self.kernels.reference_variation_at_state(*inputs, rows)[0]).reshape(len(elements), 9)
-            variation[:, 12 + 3 * end:15 + 3 * end] = moved[:, 0:3]
-            variation[:, 6 + 3 * end:9 + 3 * end] = moved[:, 3:6]
-            variation[:, 19 + 3 * end:22 + 3 * end] = moved[:, 6:9]
+            for i, part in enumerate(_turned_parts(end)):
+                variation[:, part] = moved[end, :, 3 * i:3 * i + 3]
         return variation
 
     def at_state(self, state, elements: np.ndarray, at: np.ndarray) -> np.ndarray:
         """The reference variations of ``elements`` (m, WIDTH, k) at ``state``, whose element geometry blocks are
         ``at`` (m, G): the held parts with the state's frames applied (module docstring: ψ, δo and δh turned
         into global axes, a moved hinge axis's turn of the nodal frame) by the generated
-        ``reference_variation_at_state``, end by end, one row per (column, element) — the rows the loop of steps
-        forms in C (csrc/geometry_forces.c), so the two are the same bits."""
-        model, m, k = self.model, len(elements), self.k
+        ``reference_variation_at_state``, one row per (column, end, element) in one call — the rows the loop of steps
+        forms in C (csrc/geometry_forces.c, end by end), each row the same bits."""
+        m, k = len(elements), self.k
         variation = self.variations[elements].copy()                        # (m, WIDTH, k)
+        held = np.concatenate([np.concatenate([variation[:, part] for part in _turned_parts(end)], axis=1)
+                               for end in (0, 1)])                          # (2m, 9, k): both ends
+        rows = np.ascontiguousarray(held.transpose(2, 0, 1).reshape(k * 2 * m, 9))
+        tiled = [np.ascontiguousarray(np.tile(a, (k, 1))) for a in self.ends_inputs(state, elements, at)]
+        moved = np.asarray(self.kernels.reference_variation_at_state(*tiled, rows)[0]).reshape(k, 2, m, 9)
+        moved = moved.transpose(1, 2, 3, 0)                                 # (2, m, 9, k)
         for end in (0, 1):
-            inputs = self.end_inputs(state, elements, at, end)
-            held = np.concatenate([variation[:, 12 + 3 * end:15 + 3 * end], variation[:, 6 + 3 * end:9 + 3 * end],
-                                   variation[:, 19 + 3 * end:22 + 3 * end]], axis=1)        # (m, 9, k)
-            rows = np.ascontiguousarray(held.transpose(2, 0, 1).reshape(k * m, 9))
-            tiled = [np.ascontiguousarray(np.tile(a, (k, 1))) for a in inputs]
-            moved = np.asarray(self.kernels.reference_variation_at_state(*tiled, rows)[0]).reshape(k, m, 9)
-            moved = moved.transpose(1, 2, 0)                                     # (m, 9, k)
-            variation[:, 12 + 3 * end:15 + 3 * end] = moved[:, 0:3]
-            variation[:, 6 + 3 * end:9 + 3 * end] = moved[:, 3:6]
-            variation[:, 19 + 3 * end:22 + 3 * end] = moved[:, 6:9]
+            for i, part in enumerate(_turned_parts(end)):
+                variation[:, part] = moved[end, :, 3 * i:3 * i + 3]
         return variation
+
+    def ends_inputs(self, state, elements: np.ndarray, at: np.ndarray) -> list:
+        """:meth:`end_inputs` of both ends, end 0's rows then end 1's, (2m, 9), (2m, 9), (2m, 9), (2m, 4)."""
+        return [np.concatenate(pair) for pair in zip(*(self.end_inputs(state, elements, at, end) for end in (0, 1)))]
 
     def end_inputs(self, state, elements: np.ndarray, at: np.ndarray, end: int) -> tuple:
         """The state's inputs of ``reference_variation_at_state`` at end ``end`` of ``elements``: the nodal frame
@@ -1054,6 +1054,12 @@ class ReferenceGeometry:
         """The node whose frame load ``index`` turns with, −1 for a global load."""
         load = self.scene.loads[index]
         return -1 if load.frame == "global" else int(self.model.body_node[load.frame])
+
+
+def _turned_parts(end: int) -> tuple[slice, slice, slice]:
+    """The slices of an element's reference variation (:data:`WIDTH`) that the state's frames turn at end ``end`` (0 or
+    1), in the order ``reference_variation_at_state`` reads and writes them: ψ, δo, δh."""
+    return slice(12 + 3 * end, 15 + 3 * end), slice(6 + 3 * end, 9 + 3 * end), slice(19 + 3 * end, 22 + 3 * end)
 
 
 def _frame_turn(beam, x: np.ndarray, dx: np.ndarray, dv: np.ndarray) -> np.ndarray:
