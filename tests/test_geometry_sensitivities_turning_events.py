@@ -156,3 +156,27 @@ def test_a_controller_reading_a_joints_force_stays_refused(tmp_path):
     assert refused.value.key == "solve.sensitivities" and expected in str(refused.value), str(refused.value)
     run, _ = latdyn_run(tmp_path, TORQUE_PD)
     assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
+
+
+def test_the_shifts_matrices_from_one_native_scatter_are_the_evaluations_blocks():
+    """The turning shift's K, C, M and r_all on the assembled coordinates at a moved state of the ring offset's gimbal,
+    from one native evaluation and scatter (``ReferenceGeometry._assembled_exact`` at the steps' load factor 1 with the
+    inertia: ``Assembler.assembled_exact_values``), are those of the evaluation's blocks before the reduction
+    (latdyn/assembly/linked.py ``evaluate_before_reduction``, which the static path and the events' weights take) to
+    the bit. A guard (turncost: the scatter replaced the blocks' assembly on the steps' path)."""
+    from latdyn.assembly.linked import evaluate_before_reduction
+
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(RING_LATCH)))
+    assembler, model = prepared.assembler, prepared.model
+    rng = np.random.default_rng(3)
+    n = model.n_dofs
+    state = assembler.advance(prepared.state, 0.05 * rng.normal(size=n))
+    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
+    unpack_free(model, ACCELERATION * rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
+    owner = TransientSensitivities(prepared)
+    residual, matrices = owner.geometry._assembled_exact(state, 1.0, True)
+    blocks, _ = evaluate_before_reduction(assembler, state, True, 1.0, True, inertia_tangent=True)
+    assert np.array_equal(residual, blocks.residual)
+    for matrix, coefficients in zip(matrices, ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))):
+        assert np.array_equal(matrix, blocks.combined(*coefficients, dense=True))
+    assert np.any(matrices[0] != 0.0) and np.any(matrices[2] != 0.0)

@@ -839,32 +839,52 @@ class ReferenceGeometry:
         """Add ∂r/∂p of the :attr:`turning` shifts (module docstring) into ``total`` (all coordinates): with the
         subtree S below the edge moved by (d, δv, δa) at fixed coordinates and rates (:meth:`shifts`), the residual
         on the assembled coordinates moves by K d + C δv + M δa (the exact K, C, M before the reduction:
-        latdyn/assembly/linked.py ``evaluate_before_reduction`` with the inertia tangent), and the projection Pᵀ itself by
+        :meth:`_assembled_exact`), and the projection Pᵀ itself by
         d × F_S on the anchor A's rotational rows (F_S the assembled residual's force rows of S summed): the columns
         of J that reach A (its root's turn, the hinges above it) move S's points by (g × d) per unit rate, whose work
         on S's forces is g·(d × F_S); the columns below A move S as a whole and stay."""
-        from latdyn.assembly.linked import evaluate_before_reduction
         from latdyn.numerics.so3 import cross
 
         model, dependent = self.model, self.model.links.dependent
-        # K, C, M and r_all on the assembled coordinates: the evaluation the reduction starts from, not reduced
-        ev, _ = evaluate_before_reduction(self.owner.assembler, state, True, load_factor, inertia, inertia_tangent=True)
         n_asm = model.n_assembled
+        # r_all and K, C, M on the assembled coordinates (the dependent nodes completed): what the reduction starts from
+        forces, (K, C, M) = self._assembled_exact(state, load_factor, inertia)
         d, dv, da = self.shifts(state)
         moved = np.zeros((3, n_asm, self.k))
         rows = model.node_dofs[dependent][:, 0:3]   # the dependent nodes' translations (n_dep, 3)
         moved[0][rows], moved[1][rows], moved[2][rows] = d[dependent], dv[dependent], da[dependent]
-        change = np.asarray(ev.combined(0.0, 0.0, 1.0, dense=True)) @ moved[0]
+        change = K @ moved[0]
         if inertia:
-            change += np.asarray(ev.combined(0.0, 1.0, 0.0, dense=True)) @ moved[1]
-            change += np.asarray(ev.combined(1.0, 0.0, 0.0, dense=True)) @ moved[2]
+            change += C @ moved[1]
+            change += M @ moved[2]
         total[:n_asm] += change
-        forces = np.asarray(ev.residual)
         for index, column, moment_arm, anchor in self.turning:
             shift = state.T[anchor] @ moment_arm
             below = self._below(index)
             force = forces[model.node_dofs[below][:, 0:3]].sum(axis=0)
             total[model.node_dofs[anchor][3:6], column] += cross(shift, force)
+
+    def _assembled_exact(self, state, load_factor: float, inertia: bool) -> tuple[np.ndarray, tuple]:
+        """(r_all (n_assembled,), (K, C, M) dense on the assembled coordinates) at ``state``: the exact K (the inertia
+        tangent, the joint bodies' inertia stiffness) before the reduction, and C and M with the inertia (else None). At
+        the steps' load factor 1 with the inertia one native evaluation and one native scatter of the three
+        (``Assembler.assembled_exact_values``), else the evaluation's blocks assembled
+        (latdyn/assembly/linked.py ``evaluate_before_reduction``): the same values to the bit."""
+        from latdyn.assembly.linked import evaluate_before_reduction
+        from latdyn.numerics.csr import CSR
+
+        assembler, n_asm = self.owner.assembler, self.model.n_assembled
+        if load_factor == 1.0 and inertia:
+            residual, values = assembler.assembled_exact_values(state)
+            indptr, indices = assembler.pattern()
+            M, C, K = (CSR((n_asm, n_asm), indptr, indices, part).toarray() for part in values)
+            return residual, (K, C, M)
+        ev, _ = evaluate_before_reduction(assembler, state, True, load_factor, inertia, inertia_tangent=True)
+        K = np.asarray(ev.combined(0.0, 0.0, 1.0, dense=True))
+        if not inertia:
+            return np.asarray(ev.residual), (K, None, None)
+        return np.asarray(ev.residual), (K, np.asarray(ev.combined(0.0, 1.0, 0.0, dense=True)),
+                                         np.asarray(ev.combined(1.0, 0.0, 0.0, dense=True)))
 
     def moments_turned(self, state, along: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(n_total + 1, k): the move of the :attr:`turning` shifts' moments d × F_S (:meth:`_add_shifts`) when the

@@ -317,15 +317,26 @@ class Assembler:
         :class:`latdyn.analyses.step_matrix.ExactStepMatrix`). Without rigid links and guides only."""
         if self.model.links is not None:
             raise ValueError("exact_matrix_values: a model with rigid links or guides (use exact_matrices)")
+        return self.assembled_exact_values(state)[1]
+
+    def assembled_exact_values(self, state: State) -> tuple[np.ndarray, np.ndarray]:
+        """(the residual r_all on the assembled coordinates (n_assembled,), M, C and the exact K on them (3, nnz) as the
+        values of :meth:`pattern`) at ``state``, load factor 1, with the inertia: :meth:`exact_matrix_values`' one
+        native evaluation and one native scatter; with rigid links or guides before their reduction, the dependent
+        nodes completed first — the values :func:`latdyn.assembly.linked.evaluate_before_reduction`'s blocks assemble
+        to (their ``combined``), to the bit (the same additions in the same order), without copying the blocks out (a
+        shift of the dependent nodes on a part that turns: latdyn/analyses/geometry_sensitivities.py
+        ``ReferenceGeometry._add_shifts``)."""
         native = self.native(True)
-        native.evaluate(state, True, 1.0, True, True)
+        self.complete_links(state)
+        total, _ = native.evaluate(state, True, 1.0, True, True)
         m = self.model
         arguments, stiffness = self.exact_segments(native)
         if len(m.body_nodes):   # K's body blocks with the bodies' inertia stiffness (the second part of their segment)
             stiffness[...] = self.joint_body_inertia_stiffness(state)
         out = np.empty((3, self._nnz))
         native.library.latdyn_exact_matrix_values(*arguments, out.size, out.ctypes.data)
-        return out
+        return total[:m.n_assembled], out
 
     def linked_exact_layout(self, native: NativeModel):
         """The arrays ``latdyn_linked_exact_matrices`` (csrc/linked_matrices.c) reads for ``native`` (a model with
