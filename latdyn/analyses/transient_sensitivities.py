@@ -75,8 +75,11 @@ angle's δθ is carried (``held``) and enters the residual through the exact K's
 ``_sensor_derivatives``); a release restarts as after a stop, the held δθ back among the free coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
 what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction"). On a model
 with rigid links the held angle moves the reduced residual, the impulse's weight and the dependent nodes through the
-reduction too: central differences along the angle (:meth:`TransientSensitivities._linked_held_forces`,
-:meth:`TransientSensitivities._linked_held_stiffness_along`, :meth:`TransientSensitivities._held_dependent_motion`).
+reduction too: the reduced residual by the exact reduced K's column of the angle had it been free
+(:meth:`TransientSensitivities._linked_held_forces`, the prescribed motions' path at a unit rate on it) and the
+dependent nodes by J's column of it (:meth:`TransientSensitivities._held_dependent_motion`), exactly; the weight's
+move by it, ∂(K w)/∂θ_j, a central difference along the angle still
+(:meth:`TransientSensitivities._linked_held_stiffness_along`).
 
 A hinge resting on its rigid stop (locked there after landing with restitution 0, released at a step's end where its
 reaction would pull it off; or put back on it at the end of a step it started on the stop and ended beyond):
@@ -147,6 +150,7 @@ from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exa
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_shift_along)
+from latdyn.analyses.prescribed_rates import linked_columns
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives,
                                            rates_taken_anew)
@@ -165,6 +169,7 @@ from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configu
                                                stiffness_moving_with_rates, times)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
+from latdyn.assembly.linked import dependent_columns
 from latdyn.errors import SceneError, SolverError
 from latdyn.model.model import lock_tolerance
 from latdyn.numerics import csr
@@ -1438,7 +1443,8 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _held_angle_moved(self, state, j: int, eta: float):
         """``state`` with hinge j's angle moved by ``eta`` and the dependent nodes completed (their positions,
-        rates and accelerations: the free rates and accelerations held, latdyn/model/links.py)."""
+        rates and accelerations: the free rates and accelerations held, latdyn/model/links.py): the difference of
+        :meth:`_linked_held_stiffness_along`."""
         moved = state.copy()
         moved.theta[j] += eta
         self.assembler.complete_links(moved)
@@ -1448,27 +1454,31 @@ class TransientSensitivities(ParameterDerivatives):
         """Σ_j ∂r_min/∂θ_j δθ_j (n, k) over the joints friction holds, on a model with rigid links: the reduced
         residual r_min = Pᵀ r_all(q_all(z, θ_j)) moves with a held angle through the joint's own blocks (Pᵀ K_all's
         column of θ_j), the dependent nodes that hang from it (Pᵀ K_all J_·θj), P itself (∂Pᵀ/∂θ_j · r_all) and
-        the dependent rates at fixed free rates (Pᵀ(C_·dep ∂(J v)/∂θ_j + M_·dep ∂(J a + c)/∂θ_j)) — the exact K's
-        column of θ_j had it been free. The reduction forms those terms for the free columns only
-        (latdyn/assembly/linked.py), so here a central difference of r_min along θ_j (step :data:`WEIGHT_STEP`
-        rad, the dependent nodes completed: :meth:`_held_angle_moved`), two evaluations per held joint: a
-        hand-written difference (docs/parameters.md, "Friction"). Without it (Pᵀ of K_all's column alone, as
-        :meth:`_held_forces` forms it without links) the gimbal's tip was 0.86 of its sensitivity off Richardson
-        differences (tests/test_sensitivities_linked_sticks.py)."""
-        held, assembler = self.held, self.assembler
-        out = np.zeros((self.model.n_dofs, held.shape[1]))
-        for j in np.flatnonzero(np.any(held, axis=1)):
-            ahead, behind = (np.asarray(assembler.evaluate(self._held_angle_moved(state, j, s * WEIGHT_STEP),
-                                                           matrices=False, inertia=inertia).residual, float)
-                             for s in (1.0, -1.0))
-            out += np.outer((ahead - behind) / (2 * WEIGHT_STEP), held[j])
-        return out
+        the dependent rates at fixed free rates (Pᵀ(C_·dep ∂(J v)/∂θ_j + M_·dep ∂(J a + c)/∂θ_j); θ̇_j = θ̈_j = 0
+        while it is held) — the exact K's column of θ_j had it been free, which the prescribed motions' path forms
+        for a coordinate that is no free one (latdyn/analyses/prescribed_rates.py :func:`linked_columns`,
+        csrc/linked_prescribed_rates.c at the unit rate on θ_j): one native evaluation at ``state``, then one call
+        per held joint. Without those terms (Pᵀ of K_all's column alone, as :meth:`_held_forces` forms it without
+        links) the gimbal's tip was 0.86 of its sensitivity off Richardson differences; a central difference of r_min
+        along θ_j (step :data:`WEIGHT_STEP` rad, two reduced evaluations per held joint) stood here before heldcol, and
+        this agrees with it to 6.5e-11 of the column, the difference's truncation
+        (tests/test_sensitivities_linked_sticks.py)."""
+        held = self.held
+        hinges = np.flatnonzero(np.any(held, axis=1))
+        columns = linked_columns(self.assembler, state, [int(d) for d in self.model.hinge_dofs[hinges]], inertia)
+        return columns.T @ held[hinges]
 
     def _linked_held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
         """Σ_j ∂(K w)/∂θ_j δθ_j (n, k) over the joints friction holds on a model with rigid links, K the
         evaluation's (the impulse's and the restart's weight W = M + dt²K, its geometric term ∂Pᵀ/∂q · r_all
         with the inertia forces at ``state``'s accelerations): the held angle moves W as it moves r_min
-        (:meth:`_linked_held_forces`), a central difference of K w along θ_j (step :data:`WEIGHT_STEP` rad)."""
+        (:meth:`_linked_held_forces`): a central difference of K w along θ_j (step :data:`WEIGHT_STEP` rad, two
+        reduced evaluations with the matrices per held joint at each weighing), a hand-written difference that stays
+        (docs/parameters.md, "Friction"): the exact term is ∂/∂θ_j of Pᵀ K_all P w + ∂Pᵀ/∂q[w] · r_all — the generated
+        H parts at U = P w along the held column's move e_θj + J_·θj, Pᵀ K_all ∂(J w)/∂θ_j, the geometric product
+        of K_all P w and of r_all moved by θ_j (with the inertia forces) on θ_j's column, and the links' second
+        derivatives on it — pieces latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along`` composes for a
+        prescribed motion of the static residual, not yet for a held angle of W's K."""
         held, assembler = self.held, self.assembler
         out = np.zeros((self.model.n_dofs, held.shape[1]))
         for j in np.flatnonzero(np.any(held, axis=1)):
@@ -1480,18 +1490,21 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _held_dependent_motion(self, state, dx: np.ndarray, dpi: np.ndarray, rates) -> None:
         """Add the dependent nodes' moves by the held angles into (δx, δπ) and, with ``rates``, their rates' (δv, δω)
-        (n_nodes, 3, k) on a model with rigid links: a node that hangs from a held joint moves with its δθ_j
-        (J's column of θ_j, a constrained column of the reduction), its rates v_dep = J v too; a central difference
-        of the completed dependent nodes along θ_j (step :data:`WEIGHT_STEP` rad; δπ from δT Tᵀ = skew δπ)."""
+        (n_nodes, 3, k) on a model with rigid links: a node that hangs from a held joint moves with its δθ_j by J's
+        column of θ_j (a constrained column of the compiled links' slots), its rates v_dep = J v by ∂(J v)/∂θ_j at
+        fixed free rates (the generated edge kernels' ``*_rates_D_q`` composed along the tree):
+        :func:`latdyn.assembly.linked.dependent_columns`, no evaluation of the model. A central difference of the
+        completed dependent nodes along θ_j stood here before heldcol; this agrees with it to 2.6e-11 (δx), 1.7e-11
+        (δπ), 2.1e-13 (δv) on the gimbal of tests/test_sensitivities_linked_sticks.py."""
+        dependent = self.model.links.dependent
         for j in np.flatnonzero(np.any(self.held, axis=1)):
-            ahead, behind = (self._held_angle_moved(state, j, s * WEIGHT_STEP) for s in (1.0, -1.0))
-            for node in self.model.links.dependent:
-                turn = (ahead.T[node] - behind.T[node]) / (2 * WEIGHT_STEP) @ state.T[node].T
-                dx[node] += np.outer((ahead.x[node] - behind.x[node]) / (2 * WEIGHT_STEP), self.held[j])
-                dpi[node] += np.outer(np.array([turn[2, 1], turn[0, 2], turn[1, 0]]), self.held[j])
+            jacobian, by_velocity = dependent_columns(self.assembler, state, int(self.model.hinge_dofs[j]))
+            for k, node in enumerate(dependent):
+                dx[node] += np.outer(jacobian[k, :3], self.held[j])
+                dpi[node] += np.outer(jacobian[k, 3:], self.held[j])
                 if rates is not None:
-                    rates[0][node] += np.outer((ahead.v[node] - behind.v[node]) / (2 * WEIGHT_STEP), self.held[j])
-                    rates[1][node] += np.outer((ahead.w[node] - behind.w[node]) / (2 * WEIGHT_STEP), self.held[j])
+                    rates[0][node] += np.outer(by_velocity[k, :3], self.held[j])
+                    rates[1][node] += np.outer(by_velocity[k, 3:], self.held[j])
 
     def _stick_candidates(self, carried: dict, old, new) -> None:
         """For each joint the time loop may stick at the end of the step old → new (its rate reversed or fell into
