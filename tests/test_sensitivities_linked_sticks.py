@@ -1,6 +1,6 @@
 """A hinge of a rigid link sticking and slipping by friction, the forward method (issue 34; latdyn/analyses/
-transient_sensitivities.py ``_linked_held_forces``, ``_linked_held_stiffness_along``, ``_held_dependent_motion``;
-docs/parameters.md, "Friction").
+transient_sensitivities.py ``_linked_held_forces`` and ``_held_dependent_motion``, exact since heldcol,
+``_linked_held_stiffness_along``, a central difference; docs/parameters.md, "Friction").
 
 On a model with rigid links a held angle θ_j moves the reduced residual r_min = Pᵀ r_all not only through K_all's
 column of it but through the dependent nodes that hang from the joint, through P and through the dependent rates;
@@ -167,8 +167,9 @@ def test_the_inner_ring_sticks_and_slips(gimbal):
 @pytest.mark.parametrize("name", ["Fc", "k", "m", "EI"])
 def test_the_gimbal_sticking_by_friction_agrees_with_richardson_central_differences(gimbal, name):
     """Each probe's sensitivity over the rows against Richardson-extrapolated central differences of whole runs
-    (h = 1e-3 p and h/2, the step fixed), relative to the probe's largest: measured ≤ 1.5e-8 (Fc), 5.9e-8 (k),
-    5.6e-8 (m), 1.4e-8 (EI); at h = 1e-4 p the reference's own noise (h against h/2) reached 3e-6 (m)."""
+    (h = 1e-3 p and h/2, the step fixed), relative to the probe's largest: measured ≤ 1.4e-8 (Fc), 2.9e-8 (k),
+    4.4e-8 (m), 1.5e-8 (EI) with the exact held column (heldcol; 1.5e-8, 2.9e-8, 4.4e-8, 1.5e-8 with the central
+    differences before); at h = 1e-4 p the reference's own noise (h against h/2) reached 3e-6 (m)."""
     p0 = yaml.safe_load(GIMBAL)["parameters"][name]
     h = 1e-3 * abs(p0)
     central = []
@@ -221,9 +222,10 @@ def flexible_end():
 @pytest.mark.parametrize("name", ["Fc", "EI"])
 def test_a_flexible_nodes_hinge_sticking_beside_rigid_links_agrees_with_richardson_central_differences(
         flexible_end, name):
-    """The same path for a hinge on a free node (Pᵀ K_all's column alone would do there; the difference along the
-    angle finds nothing hanging from it): measured ≤ 3.0e-7 (Fc; the differences' truncation h against h/2 1e-4,
-    which Richardson removes), 1.3e-7 (EI)."""
+    """The same path for a hinge on a free node (Pᵀ K_all's column alone would do there: nothing hangs from it):
+    measured ≤ 3.0e-7 (Fc; the differences' truncation h against h/2 1e-4, which Richardson removes), 1.3e-7 (EI),
+    the exact column (heldcol) and the central difference before alike: Newton's tolerance, 1.7e-9 (EI) at
+    ``tol: 1e-12``, Fc 2.6e-8 there at h = 3e-4 p."""
     rate = flexible_end.probes["r2"]
     assert rate[0] == 0.0 and np.count_nonzero(rate[1:] == 0.0) >= 1 and np.count_nonzero(rate) > 10
     p0 = yaml.safe_load(FLEXIBLE_END)["parameters"][name]
