@@ -67,88 +67,97 @@ def _run(text: str, sensitivities: bool = True, **moved):
     return latdyn.run(latdyn.load_scene(data))
 
 
-#: the held angle's step in the tests' own central differences of the reduced residual and the dependent nodes (rad)
+#: the held angle's step in the tests' own central differences along it (rad)
 ANGLE_STEP = 1e-5
 
 
-def _moved(owner, state, j: int, eta: float):
-    """``state`` with hinge j's angle moved by ``eta``, the dependent nodes completed (the free rates held)."""
-    moved = state.copy()
-    moved.theta[j] += eta
-    owner.assembler.complete_links(moved)
-    return moved
-
-
-def _held_terms_differenced(owner, state, inertia: bool) -> tuple:
-    """(Σ_j ∂r_min/∂θ_j δθ_j (n, k), Σ_j ∂x_dep/∂θ_j δθ_j (n_dep, 3, k)): central differences along each held angle
-    (:data:`ANGLE_STEP`) of the reduced residual and of the dependent nodes' positions, in the test."""
-    held, model = owner.held, owner.model
-    forces, positions = 0.0, 0.0
-    for j in np.flatnonzero(np.any(held, axis=1)):
-        ahead, behind = (_moved(owner, state, j, s * ANGLE_STEP) for s in (1.0, -1.0))
-        residual = [np.asarray(owner.assembler.evaluate(m, matrices=False, inertia=inertia).residual, float)
-                    for m in (ahead, behind)]
-        forces = forces + np.outer((residual[0] - residual[1]) / (2 * ANGLE_STEP), held[j])
-        nodes = model.links.dependent
-        slope = (ahead.x[nodes] - behind.x[nodes]) / (2 * ANGLE_STEP)
-        positions = positions + slope[:, :, None] * held[j][None, None, :]
-    return forces, positions
+def _along_the_angle(owner, state, of) -> np.ndarray:
+    """Σ_j ∂of/∂θ_j δθ_j over the held angles, ``of(moved state)`` an array: a central difference in the test (step
+    :data:`ANGLE_STEP`), the state's angle moved, the dependent nodes completed (the free rates and accelerations
+    held)."""
+    out = 0.0
+    for j in np.flatnonzero(np.any(owner.held, axis=1)):
+        values = []
+        for sign in (1.0, -1.0):
+            moved = state.copy()
+            moved.theta[j] += sign * ANGLE_STEP
+            owner.assembler.complete_links(moved)
+            values.append(np.asarray(of(moved), float))
+        slope = (values[0] - values[1]) / (2 * ANGLE_STEP)
+        out = out + slope[..., None] * owner.held[j]
+    return out
 
 
 @pytest.fixture(scope="module")
 def gimbal():
-    """The gimbal's run, the held angle's terms watched on the way: the reduced residual's column
-    (``_linked_held_forces``) and the dependent nodes' move (``_held_dependent_motion``) at their first calls against
-    the tests' central differences, and the evaluations along the angle (``_held_angle_moved``) made inside them."""
+    """The gimbal's run, the held angle's three terms watched on the way (the reduced residual's column
+    ``_linked_held_forces``, the weight's ``_linked_held_stiffness_along``, the dependent nodes' move
+    ``_held_dependent_motion``): at their first two calls each against the tests' central differences along the
+    angle, and every completion of the links at a state whose angles are not the state's own made inside them (an
+    evaluation along the angle) counted."""
     from latdyn.analyses.transient_sensitivities import TransientSensitivities as Owner
+    from latdyn.assembly.assembler import Assembler
 
-    forces, motion, moved = Owner._linked_held_forces, Owner._held_dependent_motion, Owner._held_angle_moved
-    watched = {"moved": 0, "forces": [], "motion": [], "inside": False}
+    complete = Assembler.complete_links
+    watched = {"moved": 0, "angles": None, "forces": [], "weight": [], "motion": []}
 
-    def moved_counted(self, state, j, eta):
-        watched["moved"] += watched["inside"]
-        return moved(self, state, j, eta)
+    def complete_counted(self, state):
+        angles = watched["angles"]
+        watched["moved"] += angles is not None and not np.array_equal(state.theta, angles)
+        return complete(self, state)
+
+    def inside(method, state, *args):
+        watched["angles"] = state.theta.copy()
+        try:
+            return method(state, *args)
+        finally:
+            watched["angles"] = None
+
+    forces, weight, motion = Owner._linked_held_forces, Owner._linked_held_stiffness_along, Owner._held_dependent_motion
 
     def forces_watched(self, state, inertia):
-        watched["inside"] = True
-        try:
-            out = forces(self, state, inertia)
-        finally:
-            watched["inside"] = False
+        out = inside(lambda *a: forces(self, *a), state, inertia)
         if len(watched["forces"]) < 2:
-            watched["forces"].append((out, _held_terms_differenced(self, state, inertia)[0]))
+            watched["forces"].append((out, _along_the_angle(self, state, lambda moved: self.assembler.evaluate(
+                moved, matrices=False, inertia=inertia).residual)))
+        return out
+
+    def weight_watched(self, state, w):
+        out = inside(lambda *a: weight(self, *a), state, w)
+        if len(watched["weight"]) < 2:
+            watched["weight"].append((out, _along_the_angle(self, state, lambda moved: self.assembler.evaluate(
+                moved, matrices=True).combined(0.0, 0.0, 1.0) @ w)))
         return out
 
     def motion_watched(self, state, dx, dpi, rates):
         before = dx.copy()
-        watched["inside"] = True
-        try:
-            motion(self, state, dx, dpi, rates)
-        finally:
-            watched["inside"] = False
+        inside(lambda *a: motion(self, *a), state, dx, dpi, rates)
         if len(watched["motion"]) < 2:
             nodes = self.model.links.dependent
-            watched["motion"].append(((dx - before)[nodes], _held_terms_differenced(self, state, True)[1]))
+            differenced = _along_the_angle(self, state, lambda moved: moved.x[nodes])
+            watched["motion"].append(((dx - before)[nodes], differenced))
 
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(Owner, "_held_angle_moved", moved_counted)
+        patch.setattr(Assembler, "complete_links", complete_counted)
         patch.setattr(Owner, "_linked_held_forces", forces_watched)
+        patch.setattr(Owner, "_linked_held_stiffness_along", weight_watched)
         patch.setattr(Owner, "_held_dependent_motion", motion_watched)
         result = _run(GIMBAL)
     result.watched = watched
     return result
 
 
-def test_the_held_angles_column_and_the_dependent_motion_are_exact_not_differenced(gimbal):
-    """The held angle's terms come from the exact reduced K's column of θ_j and J's column of it (heldcol), no
-    evaluation along the angle inside them (before, central differences: two reduced evaluations per held joint at
-    every ∂r/∂p, two completions at every row), and agree with the tests' central differences of the reduced residual
-    and of the dependent positions along θ_j (step 1e-5 rad): measured 6.5e-11 and 2.6e-11 of the largest entry, the
-    differences' truncation. Fails on the base (the evaluations counted)."""
+def test_the_held_angles_terms_are_exact_not_differenced(gimbal):
+    """The held angle's terms come from the exact reduced K's column of θ_j, its move of K w and J's column of it
+    (heldcol), no state along the angle made inside them (before, central differences: two reduced evaluations per
+    held joint at every ∂r/∂p and every weighing, two completions at every row: 88 such completions in this run), and
+    they agree with the tests' central differences along θ_j (step 1e-5 rad) of the reduced residual, of K w and of
+    the dependent positions: measured 6.5e-11, 1.4e-10 and 2.6e-11 of the largest entry, the differences' truncation.
+    Fails on the base (the completions along the angle counted)."""
     watched = gimbal.watched
-    assert len(watched["forces"]) == 2 and len(watched["motion"]) == 2
+    assert len(watched["forces"]) == 2 and len(watched["motion"]) == 2 and len(watched["weight"]) >= 1
     assert watched["moved"] == 0, watched["moved"]
-    for exact, differenced in watched["forces"] + watched["motion"]:
+    for exact, differenced in watched["forces"] + watched["weight"] + watched["motion"]:
         scale = np.abs(differenced).max()
         assert scale > 0.0
         assert np.abs(exact - differenced).max() <= 1e-8 * scale, np.abs(exact - differenced).max() / scale

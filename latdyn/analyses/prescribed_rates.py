@@ -222,8 +222,9 @@ class PrescribedRates:
         return total, out[:model.n_dofs].copy(), moves, (by_along, residual)
 
 
-def linked_columns(assembler, state, coordinates, inertia: bool) -> np.ndarray:
-    """(len(coordinates), n_dofs): ∂r_min/∂q_c of a model with rigid links or guides at ``state`` for each coordinate
+def linked_columns(assembler, state, coordinates, inertia: bool) -> tuple:
+    """(∂r_min/∂q_c (len(coordinates), n_dofs), ∂r_all/∂q_c (len(coordinates), n_total + 1), every coordinate's row
+    before the reduction) of a model with rigid links or guides at ``state`` for each coordinate
     c of ``coordinates`` that is no free one (a held joint's angle), at fixed free coordinates, rates and
     accelerations and q̇_c = q̈_c = 0 — the exact reduced K's column of c had it been free (with ``inertia`` the
     inertia tangent and the dependent rates' term: K_min = Pᵀ K_all P + ∂Pᵀ/∂q · r_all + Pᵀ(C_·dep ∂(J v)/∂q +
@@ -245,7 +246,7 @@ def linked_columns(assembler, state, coordinates, inertia: bool) -> np.ndarray:
     size = model.n_total + 1
     loads, couplings = load_block_columns(assembler), coupling_entries(assembler)
     scratch_mask, moved, total, column = np.empty(size, np.int64), np.empty(3 * size), np.empty(size), np.empty(size)
-    out = np.zeros((len(coordinates), model.n_dofs))
+    out, assembled = np.zeros((len(coordinates), model.n_dofs)), np.zeros((len(coordinates), size))
     for i, c in enumerate(coordinates):
         mask, unit = np.zeros(size, np.int64), np.zeros(3 * size)
         mask[c], unit[c] = 1, 1.0
@@ -254,8 +255,8 @@ def linked_columns(assembler, state, coordinates, inertia: bool) -> np.ndarray:
             unit.ctypes.data, int(bool(inertia)), None if body is None else body.ctypes.data, loads.ctypes.data,
             None if couplings is None else couplings.ctypes.data, scratch_mask.ctypes.data, moved.ctypes.data,
             total.ctypes.data, column.ctypes.data)
-        out[i] = column[:model.n_dofs]
-    return out
+        out[i], assembled[i] = column[:model.n_dofs], total
+    return out, assembled
 
 
 def load_block_columns(assembler) -> np.ndarray:

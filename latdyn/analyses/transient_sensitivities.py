@@ -77,9 +77,9 @@ what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/par
 with rigid links the held angle moves the reduced residual, the impulse's weight and the dependent nodes through the
 reduction too: the reduced residual by the exact reduced K's column of the angle had it been free
 (:meth:`TransientSensitivities._linked_held_forces`, the prescribed motions' path at a unit rate on it) and the
-dependent nodes by J's column of it (:meth:`TransientSensitivities._held_dependent_motion`), exactly; the weight's
-move by it, ∂(K w)/∂θ_j, a central difference along the angle still
-(:meth:`TransientSensitivities._linked_held_stiffness_along`).
+dependent nodes by J's column of it (:meth:`TransientSensitivities._held_dependent_motion`), and the weight by
+∂(K w)/∂θ_j (:meth:`TransientSensitivities._linked_held_stiffness_along`), exactly (no central difference along the
+angle since heldcol).
 
 A hinge resting on its rigid stop (locked there after landing with restitution 0, released at a step's end where its
 reaction would pull it off; or put back on it at the end of a step it started on the stop and ended beyond):
@@ -157,8 +157,10 @@ from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _H
 from latdyn.analyses.joint_force_sensitivities import (held_sensor_forms, is_joint_force, joint_force_derivatives,
                                                        joint_force_forms, joint_of)
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
-from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight,
-                                               geometric_product, linked_configuration_tangent,
+from latdyn.analyses.weight_derivative import (_generated, _load_part, cable_stiffness_by_rates,
+                                               configuration_tangent_of_weight, geometric_product,
+                                               geometric_second_product, linked_configuration_tangent,
+                                               linked_generated_loads,
                                                linked_geometric_rate_in_time,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
                                                linked_cable_rates_product, linked_coupling_rates_product,
@@ -1441,15 +1443,6 @@ class TransientSensitivities(ParameterDerivatives):
         """Whether friction holds an angle (:attr:`held` not 0) on a model with rigid links."""
         return self.model.links is not None and self.held is not None and bool(np.any(self.held))
 
-    def _held_angle_moved(self, state, j: int, eta: float):
-        """``state`` with hinge j's angle moved by ``eta`` and the dependent nodes completed (their positions,
-        rates and accelerations: the free rates and accelerations held, latdyn/model/links.py): the difference of
-        :meth:`_linked_held_stiffness_along`."""
-        moved = state.copy()
-        moved.theta[j] += eta
-        self.assembler.complete_links(moved)
-        return moved
-
     def _linked_held_forces(self, state, inertia: bool) -> np.ndarray:
         """Σ_j ∂r_min/∂θ_j δθ_j (n, k) over the joints friction holds, on a model with rigid links: the reduced
         residual r_min = Pᵀ r_all(q_all(z, θ_j)) moves with a held angle through the joint's own blocks (Pᵀ K_all's
@@ -1465,27 +1458,78 @@ class TransientSensitivities(ParameterDerivatives):
         (tests/test_sensitivities_linked_sticks.py)."""
         held = self.held
         hinges = np.flatnonzero(np.any(held, axis=1))
-        columns = linked_columns(self.assembler, state, [int(d) for d in self.model.hinge_dofs[hinges]], inertia)
+        columns, _ = linked_columns(self.assembler, state, [int(d) for d in self.model.hinge_dofs[hinges]], inertia)
         return columns.T @ held[hinges]
 
     def _linked_held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
         """Σ_j ∂(K w)/∂θ_j δθ_j (n, k) over the joints friction holds on a model with rigid links, K the
         evaluation's (the impulse's and the restart's weight W = M + dt²K, its geometric term ∂Pᵀ/∂q · r_all
         with the inertia forces at ``state``'s accelerations): the held angle moves W as it moves r_min
-        (:meth:`_linked_held_forces`): a central difference of K w along θ_j (step :data:`WEIGHT_STEP` rad, two
-        reduced evaluations with the matrices per held joint at each weighing), a hand-written difference that stays
-        (docs/parameters.md, "Friction"): the exact term is ∂/∂θ_j of Pᵀ K_all P w + ∂Pᵀ/∂q[w] · r_all — the generated
-        H parts at U = P w along the held column's move e_θj + J_·θj, Pᵀ K_all ∂(J w)/∂θ_j, the geometric product
-        of K_all P w and of r_all moved by θ_j (with the inertia forces) on θ_j's column, and the links' second
-        derivatives on it — pieces latdyn/analyses/parameter_stiffness.py ``linked_prescribed_along`` composes for a
-        prescribed motion of the static residual, not yet for a held angle of W's K."""
-        held, assembler = self.held, self.assembler
-        out = np.zeros((self.model.n_dofs, held.shape[1]))
-        for j in np.flatnonzero(np.any(held, axis=1)):
-            ahead, behind = (times(assembler.evaluate(self._held_angle_moved(state, j, s * WEIGHT_STEP),
-                                                      matrices=True).combined(0.0, 0.0, 1.0), w[:, None])[:, 0]
-                             for s in (1.0, -1.0))
-            out += np.outer((ahead - behind) / (2 * WEIGHT_STEP), held[j])
+        (:meth:`_linked_held_forces`). With K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all (latdyn/assembly/linked.py) and the
+        held angle's move on the assembled coordinates m = e_θj + J_·θj (the dependent nodes hanging from it),
+        exactly:
+
+            ∂(K_red w)/∂θ_j = Pᵀ [H(u) m + K_all ∂(J w)/∂θ_j] + ∂Pᵀ/∂θ_j · K_all u
+                              + ∂Pᵀ/∂q[w] · ∂r_all/∂θ_j + ∂/∂θ_j(∂Pᵀ/∂q[w]) · r_all,      u = P w,
+
+        H(u) = ∂(K_all u)/∂q_all the generated elements', joint bodies' and point loads' parts at u
+        (latdyn/analyses/weight_derivative.py ``_generated``, ``_load_part``: W's K, the elements' gravity tangent
+        not in it; the hinges' blocks are on their own angles, the held one's on its reaction row, and the blocks not
+        generated there, controllers' and cables', are refused beside a stick on links,
+        :meth:`_refuse_what_a_held_angle_moves`), ∂(J w)/∂θ_j the compiled links' rates' derivative at rates w
+        (:func:`latdyn.assembly.linked.dependent_columns`), the geometric terms the forward step's on θ_j's column
+        (``latdyn_linked_geometric_product``) and on w's (:func:`geometric_product`) with ∂r_all/∂θ_j the inertia
+        forces' exact column (:func:`linked_columns`), and the links' second derivatives along the unit on θ_j
+        (:func:`latdyn.analyses.weight_derivative.geometric_second_product`). Two native evaluations per weighing
+        (one with the inertia tangent), then no evaluation per held joint. A central difference of K w along θ_j
+        (step :data:`WEIGHT_STEP` rad, two reduced evaluations with the matrices per held joint) stood here before
+        heldcol; this agrees with it to 1.4e-10 (the gimbal) and 3.0e-10 (the boom's end hinge) of the product at
+        random w at every step while stuck (tests/test_sensitivities_linked_sticks.py)."""
+        import ctypes
+
+        model, assembler, held = self.model, self.assembler, self.held
+        n, n_asm, size = model.n_dofs, model.n_assembled, model.n_total + 1
+        hinges = np.flatnonzero(np.any(held, axis=1))
+        coordinates = [int(d) for d in model.hinge_dofs[hinges]]
+        _, moved_residual = linked_columns(assembler, state, coordinates, True)   # ∂r_all/∂θ_j, the inertia forces'
+        ev = assembler.evaluate(state, matrices=True)
+        P, r_all, K_all = ev.projection, ev.assembled_residual, ev._assembled(0.0, 0.0, 1.0, True)  # noqa: SLF001
+        u, y = np.zeros(size), np.zeros(size)
+        u[:n_asm] = np.asarray(P @ w).reshape(-1)
+        y[:n_asm] = np.asarray(K_all @ u[:n_asm]).reshape(-1)
+        parts = [_generated(assembler, state, w, 1.0, False, full=u),
+                 _load_part(assembler, state, w, 1.0, full=u, exact=linked_generated_loads(assembler))]
+        rows, cols, values = (np.concatenate([part[i] for part in parts]) for i in range(3))
+        assembled = rows < n_asm
+        rows, cols, values = rows[assembled], cols[assembled], values[assembled]
+        dependent = model.node_dofs[model.links.dependent].ravel()
+        at_rates_w = state.copy()   # the independent rates w, every other 0: ∂(J w)/∂θ_j
+        for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
+            getattr(at_rates_w, name)[...] = 0.0
+        unpack_free(model, w, at_rates_w.v, at_rates_w.w, at_rates_w.theta_dot)
+        native = assembler.native()
+        out = np.zeros((n, held.shape[1]))
+        for i, (j, d) in enumerate(zip(hinges, coordinates)):
+            _, rates_moved = dependent_columns(assembler, at_rates_w, d)
+            jacobian, _ = dependent_columns(assembler, state, d)   # the links' buffers at the state again
+            move = np.zeros(size)
+            move[d], move[dependent] = 1.0, jacobian.ravel()
+            inner = np.zeros(n_asm)
+            np.add.at(inner, rows, values * move[cols])
+            moved_w = np.zeros(n_asm)
+            moved_w[dependent] = rates_moved.ravel()
+            inner += np.asarray(K_all @ moved_w).reshape(-1)
+            column = np.asarray(P.T @ inner).reshape(-1)
+            marked, product = np.zeros(size, np.int64), np.zeros(size)
+            marked[d] = 1
+            native.library.latdyn_linked_geometric_product(native.model_ref, ctypes.byref(native.configuration(state)),
+                                                           y.ctypes.data, marked.ctypes.data, move.ctypes.data,
+                                                           product.ctypes.data)
+            unit = np.zeros(size)
+            unit[d] = 1.0
+            column += (product[:n] + geometric_product(assembler, state, moved_residual[i][:n_asm], w)
+                       + geometric_second_product(assembler, state, r_all, w, unit))
+            out += np.outer(column, held[j])
         return out
 
     def _held_dependent_motion(self, state, dx: np.ndarray, dpi: np.ndarray, rates) -> None:
