@@ -1,6 +1,6 @@
 """A hinge of a rigid link sticking and slipping by friction, the forward method (issue 34; latdyn/analyses/
-transient_sensitivities.py ``_linked_held_forces`` and ``_held_dependent_motion``, exact since heldcol,
-``_linked_held_stiffness_along``, a central difference; docs/parameters.md, "Friction").
+transient_sensitivities.py ``_linked_held_forces``, ``_linked_held_stiffness_along``, ``_held_dependent_motion``, exact
+since heldcol; docs/parameters.md, "Friction").
 
 On a model with rigid links a held angle θ_j moves the reduced residual r_min = Pᵀ r_all not only through K_all's
 column of it but through the dependent nodes that hang from the joint, through P and through the dependent rates;
