@@ -56,6 +56,16 @@ output:
     a2: {hinge: gim2.start, quantity: angle}
     r2: {hinge: gim2.start, quantity: rate}
     vi: {point: inner, quantity: velocity, component: z}
+    pin: {point: tip, quantity: position, frame: outer, component: y}
+    vin: {point: tip, quantity: velocity, frame: inner, component: x}
+    ke: {energy: kinetic}
+    se: {energy: strain}
+    te: {energy: total}
+    lm: {momentum: linear, component: x}
+    am: {momentum: angular, component: z}
+    mz: {element: "boom.element[0]", quantity: moment_z}
+    my: {element: "boom.element[1]", quantity: moment_y}
+    t1: {hinge: gim1.start, quantity: torque}
 """
 
 
@@ -177,8 +187,10 @@ def test_the_inner_ring_sticks_and_slips(gimbal):
 def test_the_gimbal_sticking_by_friction_agrees_with_richardson_central_differences(gimbal, name):
     """Each probe's sensitivity over the rows against Richardson-extrapolated central differences of whole runs
     (h = 1e-3 p and h/2, the step fixed), relative to the probe's largest: measured ≤ 1.4e-8 (Fc), 2.9e-8 (k),
-    4.4e-8 (m), 1.5e-8 (EI) with the exact held column (heldcol; 1.5e-8, 2.9e-8, 4.4e-8, 1.5e-8 with the central
-    differences before); at h = 1e-4 p the reference's own noise (h against h/2) reached 3e-6 (m)."""
+    4.4e-8 (m), 1.5e-8 (EI) with the exact held terms (heldcol; 1.5e-8, 2.9e-8, 4.4e-8, 1.5e-8 with the central
+    differences before); at h = 1e-4 p the reference's own noise (h against h/2) reached 3e-6 (m). The probes in a
+    body's axes, the energies, momenta, bending moments and the outer hinge's torque refused before heldcol: ≤ 3.3e-8
+    (vin, m)."""
     p0 = yaml.safe_load(GIMBAL)["parameters"][name]
     h = 1e-3 * abs(p0)
     central = []
@@ -198,6 +210,19 @@ def test_the_discrete_adjoint_still_refuses_the_stick_on_rigid_links():
     data["solve"]["sensitivity_method"] = "adjoint"
     with pytest.raises(SceneError, match=r"beams\.gim2\.start\.hinge\.friction.*guides or rigid links"):
         latdyn.run(latdyn.load_scene(data))
+
+
+@pytest.mark.parametrize("probe", ["ew: {energy: external_work}", "t2: {hinge: gim2.start, quantity: torque}",
+                                   'nx: {element: "boom.element[1]", quantity: axial_force}'])
+def test_a_stick_on_rigid_links_beside_a_probe_not_checked_is_refused_naming_the_friction(probe):
+    """Guard: the external work (3.6e-3 of itself off Richardson differences on this gimbal with the refusal lifted),
+    the stuck ring's own torque (64 times) and an element's axial force (not checked: 6.7e-6 at h = 1e-3 p, 3.2e-5 at
+    3e-4 p, at Newton's tolerance 1e-12 too) are refused beside a held angle on rigid links, naming the friction and
+    the probe."""
+    text = GIMBAL.replace("    t1: {hinge: gim1.start", f"    {probe}\n    t1: {{hinge: gim1.start")
+    assert probe in text
+    with pytest.raises(SceneError, match=r"beams\.gim2\.start\.hinge\.friction.*probe '" + probe[:2] + "'"):
+        _run(text)
 
 
 def test_a_stick_on_rigid_links_beside_a_latch_is_refused_naming_the_friction():

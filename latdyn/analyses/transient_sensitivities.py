@@ -1612,9 +1612,10 @@ class TransientSensitivities(ParameterDerivatives):
         (:data:`HELD_FROM_THE_START` at t = 0). A hinge held on a model with rigid links is carried by the forward
         method (``through_links``: :meth:`_linked_held_forces`, :meth:`_linked_held_stiffness_along`,
         :meth:`_held_dependent_motion`) where no guide, latch, rigid stop, cable or controller is in the model and the
-        probes are points in global axes and joints' angles and rates (checked against Richardson differences on the
-        gimbals of tests/test_sensitivities_linked_sticks.py; the rest is not); the discrete adjoint (its own call)
-        refuses it. The probes read it (:meth:`record`), energies and momenta too: their forms c_q are on all
+        probes are those :meth:`_probes_unchecked_through_links` checks beside a held angle (against Richardson
+        differences on the gimbals of tests/test_sensitivities_linked_sticks.py; the rest is not); the discrete
+        adjoint (its own call) refuses it.
+        The probes read it (:meth:`record`), energies and momenta too: their forms c_q are on all
         coordinates, the stuck joint's slot included; the controllers' sensors too
         (:meth:`_controllers_drive_stuck_joints_alone`; tests/test_sensitivities_sticks_beside.py)."""
         model = self.model
@@ -1625,11 +1626,12 @@ class TransientSensitivities(ParameterDerivatives):
             guides = any(h.end == "guide" for h in model.hinges)
             events = model.cables is not None or any(
                 h.lock_at is not None or (h.limits is not None and h.contact is None) for h in model.hinges)
-            probes = self._probes_unchecked_through_links()
+            probes = self._probes_unchecked_through_links(held=True)
             if guides or events or probes or self.controllers is not None:
                 what = ("guides" if guides else "latches, rigid stops or cables" if events
                         else "controllers" if self.controllers is not None
-                        else f"probe {probes[0]!r} (not a point in global axes, a joint's angle or rate)")
+                        else f"probe {probes[0]!r} (not a point, a joint's angle or rate, a frictionless joint's "
+                             "torque, a kinetic, strain or total energy, a momentum or an element's bending moment)")
                 self._refuse_sticking(new, f"{happens} in a model with rigid links beside {what} (their terms "
                                            "of the held angle through the reduction are not carried)", joint)
         if not self._impulse_weighted:
@@ -1719,12 +1721,31 @@ class TransientSensitivities(ParameterDerivatives):
         return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
                                        "vdot": release["vdot"], "dvdot": release["dvdot"], "restarts": 2, "settles": False}}
 
-    def _probes_unchecked_through_links(self) -> list:
+    def _probes_unchecked_through_links(self, held: bool = False) -> list:
         """The names of the probes whose terms of a held angle or a rest through the rigid links' reduction are not
-        checked: all but points in global axes and joints' angles and rates (:meth:`_refuse_what_a_held_angle_moves`,
-        :meth:`_refuse_a_linked_rest`)."""
-        return [p.name for p in self.probes if not ((p.kind == "point" and p.frame == "global")
-                                                    or (p.kind == "hinge" and p.quantity in ("angle", "rate")))]
+        checked: all but points in global axes and joints' angles and rates (:meth:`_refuse_a_linked_rest`); beside
+        a held angle (``held``, :meth:`_refuse_what_a_held_angle_moves`) since heldcol also points in a body's axes,
+        the kinetic, strain and total energies, momenta, elements' bending moments and the torques of joints without
+        friction (the gimbals of tests/test_sensitivities_linked_sticks.py: ≤ 3.3e-8 of each probe's largest
+        sensitivity off Richardson differences with the inner ring stuck, ≤ 3.0e-7 with the boom's end hinge, at
+        Newton's default tolerance). Not those: the external work (3.6e-3 off with the ring stuck, 6.2e-6 with the
+        end hinge: the held angle's part of the work is not carried through the reduction), a friction joint's torque
+        (the stuck ring's 64 times its sensitivity off: its reaction's derivative does not take the held column
+        through the reduction) and an element's axial force and torque (the axial force 6.7e-6 off at h = 1e-3 p and
+        3.2e-5 at 3e-4 p, at Newton's tolerance 1e-12 too: not settled)."""
+        def checked(probe) -> bool:
+            if (probe.kind == "point" and probe.frame == "global") or (
+                    probe.kind == "hinge" and probe.quantity in ("angle", "rate")):
+                return True
+            if not held:
+                return False
+            if probe.kind == "hinge" and probe.quantity == "torque":
+                return self.model.hinges[joint_of(self.model, probe)].friction is None
+            return probe.kind in ("point", "momentum") or (
+                probe.kind == "element" and probe.quantity in ("moment_y", "moment_z")) or (
+                probe.kind == "energy" and probe.quantity in ("kinetic", "strain", "total"))
+
+        return [p.name for p in self.probes if not checked(p)]
 
     def _refuse_a_linked_rest(self, new, j: int) -> None:
         """A hinge resting on its rigid stop in a model with rigid links is differentiated where no guide, latch,
