@@ -272,3 +272,30 @@ def test_a_flexible_nodes_hinge_sticking_beside_rigid_links_agrees_with_richards
         expected = (4 * central[1][probe] - central[0][probe]) / 3
         error = np.abs(flexible_end.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max()
         assert error <= 1e-6, (probe, name, error)
+
+
+#: the gimbal with the outer ring's hinge against friction too: held from t = 0 beside the inner one (both held at
+#: once on the first rows), then slipping
+TWO_HELD = GIMBAL.replace("stiffness: 6.0, damping: 0.02}",
+                          'stiffness: 6.0, damping: 0.02, friction: {coulomb: "0.6*Fc", stick_rate: 0.02}}').replace(
+    "    t1: {hinge: gim1.start, quantity: torque}\n", "    r1: {hinge: gim1.start, quantity: rate}\n")
+assert "0.6*Fc" in TWO_HELD and "r1: {hinge: gim1.start" in TWO_HELD
+
+
+def test_two_rings_held_at_once_agree_with_richardson_central_differences():
+    """Both rings' hinges held at once (each held angle's column, its move of K w and of the dependent nodes, summed
+    over the held joints): the probes by Fc against Richardson differences as above, measured ≤ 4.0e-8 (vin); by k
+    2.1e-7 (tip_z), as with the central differences before heldcol."""
+    result = _run(TWO_HELD)
+    both = (result.probes["r1"] == 0.0) & (result.probes["r2"] == 0.0)
+    assert both[0] and np.count_nonzero(both) >= 2 and not both.all()
+    p0 = yaml.safe_load(TWO_HELD)["parameters"]["Fc"]
+    h = 1e-3 * p0
+    central = []
+    for step in (h, h / 2):
+        up, down = _run(TWO_HELD, False, Fc=p0 + step), _run(TWO_HELD, False, Fc=p0 - step)
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
+    for probe in central[0]:
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        error = np.abs(result.sensitivities[(probe, "Fc")] - expected).max() / np.abs(expected).max()
+        assert error <= 1e-6, (probe, error)
