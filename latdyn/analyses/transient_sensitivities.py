@@ -154,8 +154,8 @@ from latdyn.analyses.prescribed_rates import linked_columns
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives,
                                            rates_taken_anew)
-from latdyn.analyses.joint_force_sensitivities import (held_sensor_forms, is_joint_force, joint_force_derivatives,
-                                                       joint_force_forms, joint_of)
+from latdyn.analyses.joint_force_sensitivities import (held_reaction_columns, held_sensor_forms, is_joint_force,
+                                                       joint_force_derivatives, joint_force_forms, joint_of)
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
 from latdyn.analyses.weight_derivative import (_generated, _load_part, cable_stiffness_by_rates,
                                                configuration_tangent_of_weight, geometric_product,
@@ -1630,8 +1630,8 @@ class TransientSensitivities(ParameterDerivatives):
             if guides or events or probes or self.controllers is not None:
                 what = ("guides" if guides else "latches, rigid stops or cables" if events
                         else "controllers" if self.controllers is not None
-                        else f"probe {probes[0]!r} (not a point, a joint's angle or rate, a frictionless joint's "
-                             "torque, a kinetic, strain or total energy, a momentum or an element's bending moment)")
+                        else f"probe {probes[0]!r} (not a point, a joint's angle, rate or torque, a kinetic, strain "
+                             "or total energy, a momentum or an element's bending moment)")
                 self._refuse_sticking(new, f"{happens} in a model with rigid links beside {what} (their terms "
                                            "of the held angle through the reduction are not carried)", joint)
         if not self._impulse_weighted:
@@ -1725,23 +1725,21 @@ class TransientSensitivities(ParameterDerivatives):
         """The names of the probes whose terms of a held angle or a rest through the rigid links' reduction are not
         checked: all but points in global axes and joints' angles and rates (:meth:`_refuse_a_linked_rest`); beside
         a held angle (``held``, :meth:`_refuse_what_a_held_angle_moves`) since heldcol also points in a body's axes,
-        the kinetic, strain and total energies, momenta, elements' bending moments and the torques of joints without
-        friction (the gimbals of tests/test_sensitivities_linked_sticks.py: ≤ 3.3e-8 of each probe's largest
-        sensitivity off Richardson differences with the inner ring stuck, ≤ 3.0e-7 with the boom's end hinge, at
-        Newton's default tolerance). Not those: the external work (3.6e-3 off with the ring stuck, 6.2e-6 with the
-        end hinge: the held angle's part of the work is not carried through the reduction), a friction joint's torque
-        (the stuck ring's 64 times its sensitivity off: its reaction's derivative does not take the held column
-        through the reduction) and an element's axial force and torque (the axial force 6.7e-6 off at h = 1e-3 p and
-        3.2e-5 at 3e-4 p, at Newton's tolerance 1e-12 too: not settled)."""
+        the kinetic, strain and total energies, momenta, elements' bending moments and joints' torques, a stuck one's
+        reaction with its held angles' column (:func:`latdyn.analyses.joint_force_sensitivities.held_reaction_columns`)
+        (the gimbals of tests/test_sensitivities_linked_sticks.py: ≤ 3.3e-8 of each probe's largest sensitivity off
+        Richardson differences with the inner ring stuck, its own torque 1.1e-7 – 6.6e-7, ≤ 3.0e-7 with the boom's
+        end hinge, at Newton's default tolerance). Not those: the external work (3.6e-3 off with the ring stuck, 6.2e-6
+        with the end hinge: the held angle's part of the work is not carried through the reduction) and an element's
+        axial force and torque (the axial force 6.7e-6 off at h = 1e-3 p and 3.2e-5 at 3e-4 p, at Newton's tolerance
+        1e-12 too: not settled)."""
         def checked(probe) -> bool:
             if (probe.kind == "point" and probe.frame == "global") or (
                     probe.kind == "hinge" and probe.quantity in ("angle", "rate")):
                 return True
             if not held:
                 return False
-            if probe.kind == "hinge" and probe.quantity == "torque":
-                return self.model.hinges[joint_of(self.model, probe)].friction is None
-            return probe.kind in ("point", "momentum") or (
+            return probe.kind in ("point", "momentum") or (probe.kind == "hinge" and probe.quantity == "torque") or (
                 probe.kind == "element" and probe.quantity in ("moment_y", "moment_z")) or (
                 probe.kind == "energy" and probe.quantity in ("kinetic", "strain", "total"))
 
@@ -1993,6 +1991,10 @@ class TransientSensitivities(ParameterDerivatives):
         stuck = np.flatnonzero(np.any(self.held, axis=1)) if self.held is not None else np.zeros(0, np.int64)
         if len(stuck) and free:   # a controller driving a free joint from a held angle: its δθ (held_sensor_forms)
             for j, column in held_sensor_forms(self, state, free, stuck).items():
+                forces[j] = forces[j] + column @ self.held[stuck]
+        reactions = [j for j in forces if j not in free]
+        if len(stuck) and reactions and self.model.links is not None:   # a reaction through the links by the δθ
+            for j, column in held_reaction_columns(self, state, reactions, stuck).items():
                 forces[j] = forces[j] + column @ self.held[stuck]
         if shifted and free:
             rates = joint_force_forms(self.explicit_time.laws, state, free)
