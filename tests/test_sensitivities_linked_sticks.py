@@ -1,6 +1,6 @@
 """A hinge of a rigid link sticking and slipping by friction, the forward method (issue 34; latdyn/analyses/
-transient_sensitivities.py ``_linked_held_forces``, ``_linked_held_stiffness_along``, ``_held_dependent_motion``;
-docs/parameters.md, "Friction").
+transient_sensitivities.py ``_linked_held_forces``, ``_linked_held_stiffness_along``, ``_held_dependent_motion``, exact
+since heldcol; docs/parameters.md, "Friction").
 
 On a model with rigid links a held angle θ_j moves the reduced residual r_min = Pᵀ r_all not only through K_all's
 column of it but through the dependent nodes that hang from the joint, through P and through the dependent rates;
@@ -56,6 +56,17 @@ output:
     a2: {hinge: gim2.start, quantity: angle}
     r2: {hinge: gim2.start, quantity: rate}
     vi: {point: inner, quantity: velocity, component: z}
+    pin: {point: tip, quantity: position, frame: outer, component: y}
+    vin: {point: tip, quantity: velocity, frame: inner, component: x}
+    ke: {energy: kinetic}
+    se: {energy: strain}
+    te: {energy: total}
+    lm: {momentum: linear, component: x}
+    am: {momentum: angular, component: z}
+    mz: {element: "boom.element[0]", quantity: moment_z}
+    my: {element: "boom.element[1]", quantity: moment_y}
+    t1: {hinge: gim1.start, quantity: torque}
+    t2: {hinge: gim2.start, quantity: torque}
 """
 
 
@@ -67,9 +78,100 @@ def _run(text: str, sensitivities: bool = True, **moved):
     return latdyn.run(latdyn.load_scene(data))
 
 
+#: the held angle's step in the tests' own central differences along it (rad)
+ANGLE_STEP = 1e-5
+
+
+def _along_the_angle(owner, state, of) -> np.ndarray:
+    """Σ_j ∂of/∂θ_j δθ_j over the held angles, ``of(moved state)`` an array: a central difference in the test (step
+    :data:`ANGLE_STEP`), the state's angle moved, the dependent nodes completed (the free rates and accelerations
+    held)."""
+    out = 0.0
+    for j in np.flatnonzero(np.any(owner.held, axis=1)):
+        values = []
+        for sign in (1.0, -1.0):
+            moved = state.copy()
+            moved.theta[j] += sign * ANGLE_STEP
+            owner.assembler.complete_links(moved)
+            values.append(np.asarray(of(moved), float))
+        slope = (values[0] - values[1]) / (2 * ANGLE_STEP)
+        out = out + slope[..., None] * owner.held[j]
+    return out
+
+
 @pytest.fixture(scope="module")
 def gimbal():
-    return _run(GIMBAL)
+    """The gimbal's run, the held angle's three terms watched on the way (the reduced residual's column
+    ``_linked_held_forces``, the weight's ``_linked_held_stiffness_along``, the dependent nodes' move
+    ``_held_dependent_motion``): at their first two calls each against the tests' central differences along the
+    angle, and every completion of the links at a state whose angles are not the state's own made inside them (an
+    evaluation along the angle) counted."""
+    from latdyn.analyses.transient_sensitivities import TransientSensitivities as Owner
+    from latdyn.assembly.assembler import Assembler
+
+    complete = Assembler.complete_links
+    watched = {"moved": 0, "angles": None, "forces": [], "weight": [], "motion": []}
+
+    def complete_counted(self, state):
+        angles = watched["angles"]
+        watched["moved"] += angles is not None and not np.array_equal(state.theta, angles)
+        return complete(self, state)
+
+    def inside(method, state, *args):
+        watched["angles"] = state.theta.copy()
+        try:
+            return method(state, *args)
+        finally:
+            watched["angles"] = None
+
+    forces, weight, motion = Owner._linked_held_forces, Owner._linked_held_stiffness_along, Owner._held_dependent_motion
+
+    def forces_watched(self, state, inertia):
+        out = inside(lambda *a: forces(self, *a), state, inertia)
+        if len(watched["forces"]) < 2:
+            watched["forces"].append((out, _along_the_angle(self, state, lambda moved: self.assembler.evaluate(
+                moved, matrices=False, inertia=inertia).residual)))
+        return out
+
+    def weight_watched(self, state, w):
+        out = inside(lambda *a: weight(self, *a), state, w)
+        if len(watched["weight"]) < 2:
+            watched["weight"].append((out, _along_the_angle(self, state, lambda moved: self.assembler.evaluate(
+                moved, matrices=True).combined(0.0, 0.0, 1.0) @ w)))
+        return out
+
+    def motion_watched(self, state, dx, dpi, rates):
+        before = dx.copy()
+        inside(lambda *a: motion(self, *a), state, dx, dpi, rates)
+        if len(watched["motion"]) < 2:
+            nodes = self.model.links.dependent
+            differenced = _along_the_angle(self, state, lambda moved: moved.x[nodes])
+            watched["motion"].append(((dx - before)[nodes], differenced))
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Assembler, "complete_links", complete_counted)
+        patch.setattr(Owner, "_linked_held_forces", forces_watched)
+        patch.setattr(Owner, "_linked_held_stiffness_along", weight_watched)
+        patch.setattr(Owner, "_held_dependent_motion", motion_watched)
+        result = _run(GIMBAL)
+    result.watched = watched
+    return result
+
+
+def test_the_held_angles_terms_are_exact_not_differenced(gimbal):
+    """The held angle's terms come from the exact reduced K's column of θ_j, its move of K w and J's column of it
+    (heldcol), no state along the angle made inside them (before, central differences: two reduced evaluations per
+    held joint at every ∂r/∂p and every weighing, two completions at every row: 88 such completions in this run), and
+    they agree with the tests' central differences along θ_j (step 1e-5 rad) of the reduced residual, of K w and of
+    the dependent positions: measured 6.5e-11, 1.4e-10 and 2.6e-11 of the largest entry, the differences' truncation.
+    Fails on the base (the completions along the angle counted)."""
+    watched = gimbal.watched
+    assert len(watched["forces"]) == 2 and len(watched["motion"]) == 2 and len(watched["weight"]) >= 1
+    assert watched["moved"] == 0, watched["moved"]
+    for exact, differenced in watched["forces"] + watched["weight"] + watched["motion"]:
+        scale = np.abs(differenced).max()
+        assert scale > 0.0
+        assert np.abs(exact - differenced).max() <= 1e-8 * scale, np.abs(exact - differenced).max() / scale
 
 
 def test_the_inner_ring_sticks_and_slips(gimbal):
@@ -85,8 +187,13 @@ def test_the_inner_ring_sticks_and_slips(gimbal):
 @pytest.mark.parametrize("name", ["Fc", "k", "m", "EI"])
 def test_the_gimbal_sticking_by_friction_agrees_with_richardson_central_differences(gimbal, name):
     """Each probe's sensitivity over the rows against Richardson-extrapolated central differences of whole runs
-    (h = 1e-3 p and h/2, the step fixed), relative to the probe's largest: measured ≤ 1.5e-8 (Fc), 5.9e-8 (k),
-    5.6e-8 (m), 1.4e-8 (EI); at h = 1e-4 p the reference's own noise (h against h/2) reached 3e-6 (m)."""
+    (h = 1e-3 p and h/2, the step fixed), relative to the probe's largest: measured ≤ 1.4e-8 (Fc), 2.9e-8 (k),
+    4.4e-8 (m), 1.5e-8 (EI) with the exact held terms (heldcol; 1.5e-8, 2.9e-8, 4.4e-8, 1.5e-8 with the central
+    differences before); at h = 1e-4 p the reference's own noise (h against h/2) reached 3e-6 (m). The probes in a
+    body's axes, the energies, momenta, bending moments and the outer hinge's torque refused before heldcol: ≤ 3.3e-8
+    (vin, m); the stuck ring's own torque (its reaction, with the held angle's column since heldcol: 64 times its
+    sensitivity off without) 1.1e-7 (Fc, EI), 6.6e-7 (m: 2.1e-7 at h = 3e-3 p, 3.4e-6 at 3e-4 p, the reference's
+    noise)."""
     p0 = yaml.safe_load(GIMBAL)["parameters"][name]
     h = 1e-3 * abs(p0)
     central = []
@@ -106,6 +213,21 @@ def test_the_discrete_adjoint_still_refuses_the_stick_on_rigid_links():
     data["solve"]["sensitivity_method"] = "adjoint"
     with pytest.raises(SceneError, match=r"beams\.gim2\.start\.hinge\.friction.*guides or rigid links"):
         latdyn.run(latdyn.load_scene(data))
+
+
+@pytest.mark.parametrize("probe, load", [
+    ('nx: {element: "boom.element[1]", quantity: axial_force}', ""),
+    ("ew: {energy: external_work}", "  - {at: inner, force: [0.1, 0, 0]}\n")])
+def test_a_stick_on_rigid_links_beside_a_probe_not_checked_is_refused_naming_the_friction(probe, load):
+    """Guard: an element's axial force (not checked: 6.7e-6 off Richardson differences at h = 1e-3 p, 3.2e-5 at
+    3e-4 p, at Newton's tolerance 1e-12 too) and the external work beside a load on a node that follows the links
+    (its power's move with the held angle not carried) are refused beside a held angle on rigid links, naming the
+    friction and the probe."""
+    text = GIMBAL.replace("    t1: {hinge: gim1.start", f"    {probe}\n    t1: {{hinge: gim1.start").replace(
+        "loads:\n", "loads:\n" + load)
+    assert probe in text and load in text
+    with pytest.raises(SceneError, match=r"beams\.gim2\.start\.hinge\.friction.*probe '" + probe[:2] + "'"):
+        _run(text)
 
 
 def test_a_stick_on_rigid_links_beside_a_latch_is_refused_naming_the_friction():
@@ -139,9 +261,10 @@ def flexible_end():
 @pytest.mark.parametrize("name", ["Fc", "EI"])
 def test_a_flexible_nodes_hinge_sticking_beside_rigid_links_agrees_with_richardson_central_differences(
         flexible_end, name):
-    """The same path for a hinge on a free node (Pᵀ K_all's column alone would do there; the difference along the
-    angle finds nothing hanging from it): measured ≤ 3.0e-7 (Fc; the differences' truncation h against h/2 1e-4,
-    which Richardson removes), 1.3e-7 (EI)."""
+    """The same path for a hinge on a free node (Pᵀ K_all's column alone would do there: nothing hangs from it):
+    measured ≤ 3.0e-7 (Fc; the differences' truncation h against h/2 1e-4, which Richardson removes), 1.3e-7 (EI),
+    the exact column (heldcol) and the central difference before alike: Newton's tolerance, 1.7e-9 (EI) at
+    ``tol: 1e-12``, Fc 2.6e-8 there at h = 3e-4 p."""
     rate = flexible_end.probes["r2"]
     assert rate[0] == 0.0 and np.count_nonzero(rate[1:] == 0.0) >= 1 and np.count_nonzero(rate) > 10
     p0 = yaml.safe_load(FLEXIBLE_END)["parameters"][name]
@@ -154,3 +277,58 @@ def test_a_flexible_nodes_hinge_sticking_beside_rigid_links_agrees_with_richards
         expected = (4 * central[1][probe] - central[0][probe]) / 3
         error = np.abs(flexible_end.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max()
         assert error <= 1e-6, (probe, name, error)
+
+
+#: the gimbal with the outer ring's hinge against friction too: held from t = 0 beside the inner one (both held at
+#: once on the first rows), then slipping
+TWO_HELD = GIMBAL.replace("stiffness: 6.0, damping: 0.02}",
+                          'stiffness: 6.0, damping: 0.02, friction: {coulomb: "0.6*Fc", stick_rate: 0.02}}').replace(
+    "    t1: {hinge: gim1.start, quantity: torque}\n", "    r1: {hinge: gim1.start, quantity: rate}\n")
+assert "0.6*Fc" in TWO_HELD and "r1: {hinge: gim1.start" in TWO_HELD
+
+
+def test_two_rings_held_at_once_agree_with_richardson_central_differences():
+    """Both rings' hinges held at once (each held angle's column, its move of K w and of the dependent nodes, summed
+    over the held joints): the probes by Fc against Richardson differences as above, measured ≤ 1.1e-7 (t2, the inner
+    ring's reaction), the others ≤ 4.0e-8 (vin); by k 2.1e-7 (tip_z), as with the central differences before heldcol
+    (the probes then allowed)."""
+    result = _run(TWO_HELD)
+    both = (result.probes["r1"] == 0.0) & (result.probes["r2"] == 0.0)
+    assert both[0] and np.count_nonzero(both) >= 2 and not both.all()
+    p0 = yaml.safe_load(TWO_HELD)["parameters"]["Fc"]
+    h = 1e-3 * p0
+    central = []
+    for step in (h, h / 2):
+        up, down = _run(TWO_HELD, False, Fc=p0 + step), _run(TWO_HELD, False, Fc=p0 - step)
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
+    for probe in central[0]:
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        error = np.abs(result.sensitivities[(probe, "Fc")] - expected).max() / np.abs(expected).max()
+        assert error <= 1e-6, (probe, error)
+
+
+#: the gimbal with its external work recorded, at Newton's tolerance 1e-12 (at the default the reference's own noise,
+#: 6.7e-6 of the work's largest by EI, hides the derivative's agreement)
+EXTERNAL_WORK = GIMBAL.replace(
+    "    t1: {hinge: gim1.start", "    ew: {energy: external_work}\n    t1: {hinge: gim1.start").replace(
+    "solve: {analysis: transient,", "solve: {analysis: transient, tol: 1.0e-12,")
+assert "ew: {energy: external_work}" in EXTERNAL_WORK and "tol: 1.0e-12" in EXTERNAL_WORK
+
+
+def test_the_external_work_through_sticks_on_rigid_links_agrees_with_richardson_central_differences():
+    """The external work beside the inner ring's sticks (refused before heldcol): at a stick or a release the loop
+    evaluates the step's end again after the jump (the coordinates renumbered), as after a latch, and the work's
+    derivative takes the same correction (latdyn/analyses/energy_sensitivities.py ``external_work_after_event``);
+    without it the work by Fc was 3.6e-3 of itself off from the second stick on. Measured 1.2e-9 (Fc), the other
+    probes ≤ 1.1e-7 (t2)."""
+    result = _run(EXTERNAL_WORK)
+    p0 = yaml.safe_load(EXTERNAL_WORK)["parameters"]["Fc"]
+    h = 1e-3 * p0
+    central = []
+    for step in (h, h / 2):
+        up, down = _run(EXTERNAL_WORK, False, Fc=p0 + step), _run(EXTERNAL_WORK, False, Fc=p0 - step)
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
+    for probe in central[0]:
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        error = np.abs(result.sensitivities[(probe, "Fc")] - expected).max() / np.abs(expected).max()
+        assert error <= (1e-8 if probe == "ew" else 1e-6), (probe, error)

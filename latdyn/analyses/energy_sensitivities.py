@@ -762,12 +762,17 @@ def external_work_after_event(owner, before: dict, after: dict, new, kind: str) 
     from the power and torques after the jump; a latch (the coordinates renumbered) has the loop evaluate the
     step's end again after the jump, so that the step's own trapezoid took the power after it,
     ½ h (P_n + P⁺_{n+1}): its sensitivity moves by ½ h (δP⁺ − δP⁻) + ½ δh (P⁺ − P⁻). Nothing without an
-    external-work probe."""
+    external-work probe. A stick and a release renumber the coordinates as a latch does, and the loop evaluates the
+    step's end again after them too (latdyn/timeloop/loop.py ``_accept``: its reactions' count changed): the same
+    correction (without it the gimbal's work by F_c was 3.6e-3 of itself off Richardson differences from its second
+    stick on, 1.2e-9 with it at Newton's tolerance 1e-12, tests/test_sensitivities_linked_sticks.py; on the braked
+    panel of tests/test_sensitivities_sticks_beside.py, whose power hardly jumps at its sticks, 3.7e-8 either way)."""
     if "external_work_terms" not in before:
         return after
     terms = _power(owner, new, after)
     work = before["external_work_sensitivity"]
-    if kind == "latch":
+    renumbered = np.shape(before["dq"])[0] != np.shape(after["dq"])[0]   # a stick or a release renumbers too
+    if kind == "latch" or renumbered:
         held = before["external_work_terms"]
         work = work + 0.5 * before["h"] * (terms[1] - held[1]) + 0.5 * np.asarray(before["dh"]) * (terms[0] - held[0])
     return {**after, "external_work_sensitivity": work, "external_work_terms": terms,

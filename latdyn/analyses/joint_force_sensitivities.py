@@ -39,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["is_joint_force", "joint_of", "refusal", "joint_force_derivatives", "joint_force_forms",
-           "held_sensor_forms"]
+           "held_reaction_columns", "held_sensor_forms"]
 
 
 def is_joint_force(probe) -> bool:
@@ -180,6 +180,40 @@ def _held_through_links(owner, state, held: list) -> dict:
     return dict(zip(held, forms))
 
 
+def held_reaction_columns(owner, state, joints: list, stuck: np.ndarray) -> dict:
+    """{joint: (s,)}: for each held joint of ``joints`` on a model with rigid links, its reaction's move with each held
+    angle of ``stuck`` (s joints friction holds), which :func:`reaction_forms_through_links` leaves out (its forms are
+    on the free coordinates; a held angle is none and its δθ is carried apart). The reaction on d = θ_j is
+    r_d = r_all,d + Σ_c J_c,dᵀ r_c, so along θ_i at fixed free coordinates, rates and accelerations
+
+        ∂r_d/∂θ_i = ∂r_all,d/∂θ_i + Σ_c (J_c,dᵀ ∂r_c/∂θ_i + ∂(J_c,dᵀ r_c)/∂θ_i at fixed r_c),
+
+    ∂r_all/∂θ_i the exact column on every assembled row (the dependent nodes moved with θ_i, their rates and
+    accelerations too: latdyn/analyses/prescribed_rates.py :func:`linked_columns`) and the last the geometric term's
+    row d on θ_i's column (:func:`_edge_wrench_derivative`). The forward method adds it times the carried δθ
+    (``TransientSensitivities._joint_forces``). Without it the gimbal's stuck inner ring's torque was 64 times its
+    sensitivity off Richardson differences (tests/test_sensitivities_linked_sticks.py)."""
+    from latdyn.analyses.prescribed_rates import linked_columns
+    from latdyn.assembly.linked import evaluate_linked
+
+    model, assembler = owner.model, owner.assembler
+    held_dofs = [int(d) for d in model.hinge_dofs[np.asarray(stuck, np.int64)]]
+    _, moved = linked_columns(assembler, state, held_dofs, True)
+    ev = evaluate_linked(model.links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
+    J, columns, dep = ev.jacobian, ev.jacobian_columns, ev.dependent_rows
+    r_dep = assembler.evaluate_assembled(state, False, 1.0, True).residual[dep]   # the wrenches r_c
+    out = {}
+    for j in joints:
+        d = int(model.hinge_dofs[j])
+        column = moved[:, d].copy()
+        at = np.flatnonzero(columns == d)
+        if len(at):
+            column += moved[:, dep] @ J[:, at[0]]
+            column += _edge_wrench_derivative(owner, state, j, r_dep)[held_dofs]
+        out[j] = column
+    return out
+
+
 def reaction_forms_through_links(owner, state, rows: np.ndarray) -> list:
     """[(c_q, c_v, c_v̇ (n,) each, explicit (k,))] of the reactions on the constrained coordinates ``rows`` of a model
     with guides or rigid links (their reduction, latdyn/assembly/linked.py; a held joint's angle or slide, a prescribed
@@ -228,7 +262,7 @@ def reaction_forms_through_links(owner, state, rows: np.ndarray) -> list:
             for part, values in zip(form, (c_q, c_v, c_vdot, explicit)):
                 part += through @ values[m:]
             if int(d) in joint_of_row:
-                form[0] += _edge_wrench_derivative(owner, state, joint_of_row[int(d)], r_dep)
+                form[0] += _edge_wrench_derivative(owner, state, joint_of_row[int(d)], r_dep)[:model.n_dofs]
             elif int(d) in root_of_row:
                 form[0] += _root_wrench_derivative(owner, state, *root_of_row[int(d)], r_dep)
         out.append(tuple(form))
@@ -264,13 +298,13 @@ def _dense(product) -> np.ndarray:
 
 
 def _edge_wrench_derivative(owner, state, j: int, r_dep: np.ndarray) -> np.ndarray:
-    """Σ_c ∂(J_c,dᵀ r_c)/∂q at fixed r_c (n,) for the joint ``j`` of an edge of the links' tree: the generated
-    ``slide_wrench`` (``hinge_wrench`` for a revolute edge) at each dependent node c below it, its derivative by
-    the edge parent's δx, δπ and c's δx chained with their J (as csrc/links.c's geometric term (assemble_linked_into)
-    takes it for the free coordinates' rows)."""
+    """Σ_c ∂(J_c,dᵀ r_c)/∂q at fixed r_c (n_total + 1,: every column of the slots, a held joint's angle too) for the
+    joint ``j`` of an edge of the links' tree: the generated ``slide_wrench`` (``hinge_wrench`` for a revolute edge) at
+    each dependent node c below it, its derivative by the edge parent's δx, δπ and c's δx chained with their J (as
+    csrc/links.c's geometric term (assemble_linked_into) takes it for the free coordinates' rows)."""
     model, links, kernels = owner.model, owner.model.links, owner.kernels
-    native, n = owner.assembler.native().links, model.n_dofs
-    out = np.zeros(n)
+    native, n = owner.assembler.native().links, model.n_total
+    out = np.zeros(n + 1)
     for c_index, c in enumerate(links.dependent):
         r = r_dep[6 * c_index:6 * c_index + 6]
         for e in links.path(int(c)):

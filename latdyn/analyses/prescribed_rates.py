@@ -33,7 +33,7 @@ import numpy as np
 
 from latdyn.scene.expressions import _PROBES, TimeFunction, _drop_deltas, cached_entry, keep_entry
 
-__all__ = ["PrescribedRates", "third_derivative"]
+__all__ = ["PrescribedRates", "linked_columns", "third_derivative"]
 
 
 def third_derivative(law):
@@ -220,6 +220,43 @@ class PrescribedRates:
                                                    columns.ctypes.data, int(bool(inertia)), *pointers[2:],
                                                    by_along.ctypes.data)
         return total, out[:model.n_dofs].copy(), moves, (by_along, residual)
+
+
+def linked_columns(assembler, state, coordinates, inertia: bool) -> tuple:
+    """(∂r_min/∂q_c (len(coordinates), n_dofs), ∂r_all/∂q_c (len(coordinates), n_total + 1), every coordinate's row
+    before the reduction) of a model with rigid links or guides at ``state`` for each coordinate
+    c of ``coordinates`` that is no free one (a held joint's angle), at fixed free coordinates, rates and
+    accelerations and q̇_c = q̈_c = 0 — the exact reduced K's column of c had it been free (with ``inertia`` the
+    inertia tangent and the dependent rates' term: K_min = Pᵀ K_all P + ∂Pᵀ/∂q · r_all + Pᵀ(C_·dep ∂(J v)/∂q +
+    M_·dep ∂(J a + c)/∂q), latdyn/assembly/linked.py; without it the static residual's). The prescribed motions'
+    path at the unit rate on c (module docstring, csrc/linked_prescribed_rates.c): the dependent nodes that hang from
+    c move by J_·c, their rates by ∂(J v)/∂q_c and accelerations by ∂(J a + c)/∂q_c, the blocks take those moves as
+    c's own, and r_min = Pᵀ r_all adds the geometric term ∂Pᵀ/∂q_c · r_all. One native evaluation with the blocks,
+    then one call per coordinate."""
+    from latdyn.assembly.linked import linked_pattern
+
+    model = assembler.model
+    native = assembler.native(True)
+    linked_pattern(assembler, native)   # its links laid out for the numbering now (evaluate_linked)
+    assembler.complete_links(state)
+    native.evaluate(state, True, 1.0, inertia, inertia)
+    body = None
+    if inertia and len(model.body_nodes):
+        body = np.ascontiguousarray(assembler.joint_body_inertia_stiffness(state, 1.0), float)
+    size = model.n_total + 1
+    loads, couplings = load_block_columns(assembler), coupling_entries(assembler)
+    scratch_mask, moved, total, column = np.empty(size, np.int64), np.empty(3 * size), np.empty(size), np.empty(size)
+    out, assembled = np.zeros((len(coordinates), model.n_dofs)), np.zeros((len(coordinates), size))
+    for i, c in enumerate(coordinates):
+        mask, unit = np.zeros(size, np.int64), np.zeros(3 * size)
+        mask[c], unit[c] = 1, 1.0
+        native.library.latdyn_linked_prescribed_time_rate(
+            native.model_ref, native.work_ref, ctypes.byref(native.configuration(state)), mask.ctypes.data,
+            unit.ctypes.data, int(bool(inertia)), None if body is None else body.ctypes.data, loads.ctypes.data,
+            None if couplings is None else couplings.ctypes.data, scratch_mask.ctypes.data, moved.ctypes.data,
+            total.ctypes.data, column.ctypes.data)
+        out[i], assembled[i] = column[:model.n_dofs], total
+    return out, assembled
 
 
 def load_block_columns(assembler) -> np.ndarray:

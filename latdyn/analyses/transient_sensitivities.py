@@ -75,8 +75,11 @@ angle's δθ is carried (``held``) and enters the residual through the exact K's
 ``_sensor_derivatives``); a release restarts as after a stop, the held δθ back among the free coordinates (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`;
 what is refused there: :meth:`TransientSensitivities._refuse_sticking`; docs/parameters.md, "Friction"). On a model
 with rigid links the held angle moves the reduced residual, the impulse's weight and the dependent nodes through the
-reduction too: central differences along the angle (:meth:`TransientSensitivities._linked_held_forces`,
-:meth:`TransientSensitivities._linked_held_stiffness_along`, :meth:`TransientSensitivities._held_dependent_motion`).
+reduction too: the reduced residual by the exact reduced K's column of the angle had it been free
+(:meth:`TransientSensitivities._linked_held_forces`, the prescribed motions' path at a unit rate on it) and the
+dependent nodes by J's column of it (:meth:`TransientSensitivities._held_dependent_motion`), and the weight by
+∂(K w)/∂θ_j (:meth:`TransientSensitivities._linked_held_stiffness_along`), exactly (no central difference along the
+angle since heldcol).
 
 A hinge resting on its rigid stop (locked there after landing with restitution 0, released at a step's end where its
 reaction would pull it off; or put back on it at the end of a step it started on the stop and ended beyond):
@@ -147,14 +150,17 @@ from latdyn.analyses.parameter_stiffness import (controller_parameter_along, exa
                                                  stiffness_along as parameter_stiffness_along,
                                                  stiffness_along_all as parameter_stiffness_along_all,
                                                  time_shift_along)
+from latdyn.analyses.prescribed_rates import linked_columns
 from latdyn.analyses.sensitivities import (_BODY_KEY, _CABLE_KEY, _GUIDE_KEY, _HINGE_KEY, _INITIAL_VELOCITY_KEY,
                                            _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE, ParameterDerivatives,
                                            rates_taken_anew)
-from latdyn.analyses.joint_force_sensitivities import (held_sensor_forms, is_joint_force, joint_force_derivatives,
-                                                       joint_force_forms, joint_of)
+from latdyn.analyses.joint_force_sensitivities import (held_reaction_columns, held_sensor_forms, is_joint_force,
+                                                       joint_force_derivatives, joint_force_forms, joint_of)
 from latdyn.analyses.step_matrix import ExactStepMatrix, turns_about_one_axis
-from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configuration_tangent_of_weight,
-                                               geometric_product, linked_configuration_tangent,
+from latdyn.analyses.weight_derivative import (_generated, _load_part, cable_stiffness_by_rates,
+                                               configuration_tangent_of_weight, geometric_product,
+                                               geometric_second_product, linked_configuration_tangent,
+                                               linked_generated_loads,
                                                linked_geometric_rate_in_time,
                                                linked_geometric_derivative, linked_has_rest, linked_rest_product,
                                                linked_cable_rates_product, linked_coupling_rates_product,
@@ -165,6 +171,7 @@ from latdyn.analyses.weight_derivative import (cable_stiffness_by_rates, configu
                                                stiffness_moving_with_rates, times)
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
+from latdyn.assembly.linked import dependent_columns
 from latdyn.errors import SceneError, SolverError
 from latdyn.model.model import lock_tolerance
 from latdyn.numerics import csr
@@ -1436,62 +1443,112 @@ class TransientSensitivities(ParameterDerivatives):
         """Whether friction holds an angle (:attr:`held` not 0) on a model with rigid links."""
         return self.model.links is not None and self.held is not None and bool(np.any(self.held))
 
-    def _held_angle_moved(self, state, j: int, eta: float):
-        """``state`` with hinge j's angle moved by ``eta`` and the dependent nodes completed (their positions,
-        rates and accelerations: the free rates and accelerations held, latdyn/model/links.py)."""
-        moved = state.copy()
-        moved.theta[j] += eta
-        self.assembler.complete_links(moved)
-        return moved
-
     def _linked_held_forces(self, state, inertia: bool) -> np.ndarray:
         """Σ_j ∂r_min/∂θ_j δθ_j (n, k) over the joints friction holds, on a model with rigid links: the reduced
         residual r_min = Pᵀ r_all(q_all(z, θ_j)) moves with a held angle through the joint's own blocks (Pᵀ K_all's
         column of θ_j), the dependent nodes that hang from it (Pᵀ K_all J_·θj), P itself (∂Pᵀ/∂θ_j · r_all) and
-        the dependent rates at fixed free rates (Pᵀ(C_·dep ∂(J v)/∂θ_j + M_·dep ∂(J a + c)/∂θ_j)) — the exact K's
-        column of θ_j had it been free. The reduction forms those terms for the free columns only
-        (latdyn/assembly/linked.py), so here a central difference of r_min along θ_j (step :data:`WEIGHT_STEP`
-        rad, the dependent nodes completed: :meth:`_held_angle_moved`), two evaluations per held joint: a
-        hand-written difference (docs/parameters.md, "Friction"). Without it (Pᵀ of K_all's column alone, as
-        :meth:`_held_forces` forms it without links) the gimbal's tip was 0.86 of its sensitivity off Richardson
-        differences (tests/test_sensitivities_linked_sticks.py)."""
-        held, assembler = self.held, self.assembler
-        out = np.zeros((self.model.n_dofs, held.shape[1]))
-        for j in np.flatnonzero(np.any(held, axis=1)):
-            ahead, behind = (np.asarray(assembler.evaluate(self._held_angle_moved(state, j, s * WEIGHT_STEP),
-                                                           matrices=False, inertia=inertia).residual, float)
-                             for s in (1.0, -1.0))
-            out += np.outer((ahead - behind) / (2 * WEIGHT_STEP), held[j])
-        return out
+        the dependent rates at fixed free rates (Pᵀ(C_·dep ∂(J v)/∂θ_j + M_·dep ∂(J a + c)/∂θ_j); θ̇_j = θ̈_j = 0
+        while it is held) — the exact K's column of θ_j had it been free, which the prescribed motions' path forms
+        for a coordinate that is no free one (latdyn/analyses/prescribed_rates.py :func:`linked_columns`,
+        csrc/linked_prescribed_rates.c at the unit rate on θ_j): one native evaluation at ``state``, then one call
+        per held joint. Without those terms (Pᵀ of K_all's column alone, as :meth:`_held_forces` forms it without
+        links) the gimbal's tip was 0.86 of its sensitivity off Richardson differences; a central difference of r_min
+        along θ_j (step :data:`WEIGHT_STEP` rad, two reduced evaluations per held joint) stood here before heldcol, and
+        this agrees with it to 6.5e-11 of the column, the difference's truncation
+        (tests/test_sensitivities_linked_sticks.py)."""
+        held = self.held
+        hinges = np.flatnonzero(np.any(held, axis=1))
+        columns, _ = linked_columns(self.assembler, state, [int(d) for d in self.model.hinge_dofs[hinges]], inertia)
+        return columns.T @ held[hinges]
 
     def _linked_held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
         """Σ_j ∂(K w)/∂θ_j δθ_j (n, k) over the joints friction holds on a model with rigid links, K the
         evaluation's (the impulse's and the restart's weight W = M + dt²K, its geometric term ∂Pᵀ/∂q · r_all
         with the inertia forces at ``state``'s accelerations): the held angle moves W as it moves r_min
-        (:meth:`_linked_held_forces`), a central difference of K w along θ_j (step :data:`WEIGHT_STEP` rad)."""
-        held, assembler = self.held, self.assembler
-        out = np.zeros((self.model.n_dofs, held.shape[1]))
-        for j in np.flatnonzero(np.any(held, axis=1)):
-            ahead, behind = (times(assembler.evaluate(self._held_angle_moved(state, j, s * WEIGHT_STEP),
-                                                      matrices=True).combined(0.0, 0.0, 1.0), w[:, None])[:, 0]
-                             for s in (1.0, -1.0))
-            out += np.outer((ahead - behind) / (2 * WEIGHT_STEP), held[j])
+        (:meth:`_linked_held_forces`). With K_red = Pᵀ K_all P + ∂Pᵀ/∂q · r_all (latdyn/assembly/linked.py) and the
+        held angle's move on the assembled coordinates m = e_θj + J_·θj (the dependent nodes hanging from it),
+        exactly:
+
+            ∂(K_red w)/∂θ_j = Pᵀ [H(u) m + K_all ∂(J w)/∂θ_j] + ∂Pᵀ/∂θ_j · K_all u
+                              + ∂Pᵀ/∂q[w] · ∂r_all/∂θ_j + ∂/∂θ_j(∂Pᵀ/∂q[w]) · r_all,      u = P w,
+
+        H(u) = ∂(K_all u)/∂q_all the generated elements', joint bodies' and point loads' parts at u
+        (latdyn/analyses/weight_derivative.py ``_generated``, ``_load_part``: W's K, the elements' gravity tangent
+        not in it; the hinges' blocks are on their own angles, the held one's on its reaction row, and the blocks not
+        generated there, controllers' and cables', are refused beside a stick on links,
+        :meth:`_refuse_what_a_held_angle_moves`), ∂(J w)/∂θ_j the compiled links' rates' derivative at rates w
+        (:func:`latdyn.assembly.linked.dependent_columns`), the geometric terms the forward step's on θ_j's column
+        (``latdyn_linked_geometric_product``) and on w's (:func:`geometric_product`) with ∂r_all/∂θ_j the inertia
+        forces' exact column (:func:`linked_columns`), and the links' second derivatives along the unit on θ_j
+        (:func:`latdyn.analyses.weight_derivative.geometric_second_product`). Two native evaluations per weighing
+        (one with the inertia tangent), then no evaluation per held joint. A central difference of K w along θ_j
+        (step :data:`WEIGHT_STEP` rad, two reduced evaluations with the matrices per held joint) stood here before
+        heldcol; this agrees with it to 1.4e-10 (the gimbal) and 3.0e-10 (the boom's end hinge) of the product at
+        random w at every step while stuck (tests/test_sensitivities_linked_sticks.py)."""
+        import ctypes
+
+        model, assembler, held = self.model, self.assembler, self.held
+        n, n_asm, size = model.n_dofs, model.n_assembled, model.n_total + 1
+        hinges = np.flatnonzero(np.any(held, axis=1))
+        coordinates = [int(d) for d in model.hinge_dofs[hinges]]
+        _, moved_residual = linked_columns(assembler, state, coordinates, True)   # ∂r_all/∂θ_j, the inertia forces'
+        ev = assembler.evaluate(state, matrices=True)
+        P, r_all, K_all = ev.projection, ev.assembled_residual, ev._assembled(0.0, 0.0, 1.0, True)  # noqa: SLF001
+        u, y = np.zeros(size), np.zeros(size)
+        u[:n_asm] = np.asarray(P @ w).reshape(-1)
+        y[:n_asm] = np.asarray(K_all @ u[:n_asm]).reshape(-1)
+        parts = [_generated(assembler, state, w, 1.0, False, full=u),
+                 _load_part(assembler, state, w, 1.0, full=u, exact=linked_generated_loads(assembler))]
+        rows, cols, values = (np.concatenate([part[i] for part in parts]) for i in range(3))
+        assembled = rows < n_asm
+        rows, cols, values = rows[assembled], cols[assembled], values[assembled]
+        dependent = model.node_dofs[model.links.dependent].ravel()
+        at_rates_w = state.copy()   # the independent rates w, every other 0: ∂(J w)/∂θ_j
+        for name in ("v", "w", "theta_dot", "a", "alpha", "theta_ddot"):
+            getattr(at_rates_w, name)[...] = 0.0
+        unpack_free(model, w, at_rates_w.v, at_rates_w.w, at_rates_w.theta_dot)
+        native = assembler.native()
+        out = np.zeros((n, held.shape[1]))
+        for i, (j, d) in enumerate(zip(hinges, coordinates)):
+            _, rates_moved = dependent_columns(assembler, at_rates_w, d)
+            jacobian, _ = dependent_columns(assembler, state, d)   # the links' buffers at the state again
+            move = np.zeros(size)
+            move[d], move[dependent] = 1.0, jacobian.ravel()
+            inner = np.zeros(n_asm)
+            np.add.at(inner, rows, values * move[cols])
+            moved_w = np.zeros(n_asm)
+            moved_w[dependent] = rates_moved.ravel()
+            inner += np.asarray(K_all @ moved_w).reshape(-1)
+            column = np.asarray(P.T @ inner).reshape(-1)
+            marked, product = np.zeros(size, np.int64), np.zeros(size)
+            marked[d] = 1
+            native.library.latdyn_linked_geometric_product(native.model_ref, ctypes.byref(native.configuration(state)),
+                                                           y.ctypes.data, marked.ctypes.data, move.ctypes.data,
+                                                           product.ctypes.data)
+            unit = np.zeros(size)
+            unit[d] = 1.0
+            column += (product[:n] + geometric_product(assembler, state, moved_residual[i][:n_asm], w)
+                       + geometric_second_product(assembler, state, r_all, w, unit))
+            out += np.outer(column, held[j])
         return out
 
     def _held_dependent_motion(self, state, dx: np.ndarray, dpi: np.ndarray, rates) -> None:
         """Add the dependent nodes' moves by the held angles into (δx, δπ) and, with ``rates``, their rates' (δv, δω)
-        (n_nodes, 3, k) on a model with rigid links: a node that hangs from a held joint moves with its δθ_j
-        (J's column of θ_j, a constrained column of the reduction), its rates v_dep = J v too; a central difference
-        of the completed dependent nodes along θ_j (step :data:`WEIGHT_STEP` rad; δπ from δT Tᵀ = skew δπ)."""
+        (n_nodes, 3, k) on a model with rigid links: a node that hangs from a held joint moves with its δθ_j by J's
+        column of θ_j (a constrained column of the compiled links' slots), its rates v_dep = J v by ∂(J v)/∂θ_j at
+        fixed free rates (the generated edge kernels' ``*_rates_D_q`` composed along the tree):
+        :func:`latdyn.assembly.linked.dependent_columns`, no evaluation of the model. A central difference of the
+        completed dependent nodes along θ_j stood here before heldcol; this agrees with it to 2.6e-11 (δx), 1.7e-11
+        (δπ), 2.1e-13 (δv) on the gimbal of tests/test_sensitivities_linked_sticks.py."""
+        dependent = self.model.links.dependent
         for j in np.flatnonzero(np.any(self.held, axis=1)):
-            ahead, behind = (self._held_angle_moved(state, j, s * WEIGHT_STEP) for s in (1.0, -1.0))
-            for node in self.model.links.dependent:
-                turn = (ahead.T[node] - behind.T[node]) / (2 * WEIGHT_STEP) @ state.T[node].T
-                dx[node] += np.outer((ahead.x[node] - behind.x[node]) / (2 * WEIGHT_STEP), self.held[j])
-                dpi[node] += np.outer(np.array([turn[2, 1], turn[0, 2], turn[1, 0]]), self.held[j])
+            jacobian, by_velocity = dependent_columns(self.assembler, state, int(self.model.hinge_dofs[j]))
+            for k, node in enumerate(dependent):
+                dx[node] += np.outer(jacobian[k, :3], self.held[j])
+                dpi[node] += np.outer(jacobian[k, 3:], self.held[j])
                 if rates is not None:
-                    rates[0][node] += np.outer((ahead.v[node] - behind.v[node]) / (2 * WEIGHT_STEP), self.held[j])
-                    rates[1][node] += np.outer((ahead.w[node] - behind.w[node]) / (2 * WEIGHT_STEP), self.held[j])
+                    rates[0][node] += np.outer(by_velocity[k, :3], self.held[j])
+                    rates[1][node] += np.outer(by_velocity[k, 3:], self.held[j])
 
     def _stick_candidates(self, carried: dict, old, new) -> None:
         """For each joint the time loop may stick at the end of the step old → new (its rate reversed or fell into
@@ -1555,9 +1612,10 @@ class TransientSensitivities(ParameterDerivatives):
         (:data:`HELD_FROM_THE_START` at t = 0). A hinge held on a model with rigid links is carried by the forward
         method (``through_links``: :meth:`_linked_held_forces`, :meth:`_linked_held_stiffness_along`,
         :meth:`_held_dependent_motion`) where no guide, latch, rigid stop, cable or controller is in the model and the
-        probes are points in global axes and joints' angles and rates (checked against Richardson differences on the
-        gimbals of tests/test_sensitivities_linked_sticks.py; the rest is not); the discrete adjoint (its own call)
-        refuses it. The probes read it (:meth:`record`), energies and momenta too: their forms c_q are on all
+        probes are those :meth:`_probes_unchecked_through_links` checks beside a held angle (against Richardson
+        differences on the gimbals of tests/test_sensitivities_linked_sticks.py; the rest is not); the discrete
+        adjoint (its own call) refuses it.
+        The probes read it (:meth:`record`), energies and momenta too: their forms c_q are on all
         coordinates, the stuck joint's slot included; the controllers' sensors too
         (:meth:`_controllers_drive_stuck_joints_alone`; tests/test_sensitivities_sticks_beside.py)."""
         model = self.model
@@ -1568,11 +1626,13 @@ class TransientSensitivities(ParameterDerivatives):
             guides = any(h.end == "guide" for h in model.hinges)
             events = model.cables is not None or any(
                 h.lock_at is not None or (h.limits is not None and h.contact is None) for h in model.hinges)
-            probes = self._probes_unchecked_through_links()
+            probes = self._probes_unchecked_through_links(held=True)
             if guides or events or probes or self.controllers is not None:
                 what = ("guides" if guides else "latches, rigid stops or cables" if events
                         else "controllers" if self.controllers is not None
-                        else f"probe {probes[0]!r} (not a point in global axes, a joint's angle or rate)")
+                        else f"probe {probes[0]!r} (not a point, a joint's angle, rate or torque, a kinetic, strain "
+                             "or total energy, the external work without loads on the links' nodes, a momentum or an "
+                             "element's bending moment)")
                 self._refuse_sticking(new, f"{happens} in a model with rigid links beside {what} (their terms "
                                            "of the held angle through the reduction are not carried)", joint)
         if not self._impulse_weighted:
@@ -1662,12 +1722,32 @@ class TransientSensitivities(ParameterDerivatives):
         return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
                                        "vdot": release["vdot"], "dvdot": release["dvdot"], "restarts": 2, "settles": False}}
 
-    def _probes_unchecked_through_links(self) -> list:
+    def _probes_unchecked_through_links(self, held: bool = False) -> list:
         """The names of the probes whose terms of a held angle or a rest through the rigid links' reduction are not
-        checked: all but points in global axes and joints' angles and rates (:meth:`_refuse_what_a_held_angle_moves`,
-        :meth:`_refuse_a_linked_rest`)."""
-        return [p.name for p in self.probes if not ((p.kind == "point" and p.frame == "global")
-                                                    or (p.kind == "hinge" and p.quantity in ("angle", "rate")))]
+        checked: all but points in global axes and joints' angles and rates (:meth:`_refuse_a_linked_rest`); beside
+        a held angle (``held``, :meth:`_refuse_what_a_held_angle_moves`) since heldcol also points in a body's axes,
+        the kinetic, strain and total energies, momenta, elements' bending moments and joints' torques, a stuck one's
+        reaction with its held angles' column (:func:`latdyn.analyses.joint_force_sensitivities.held_reaction_columns`)
+        (the gimbals of tests/test_sensitivities_linked_sticks.py: ≤ 3.3e-8 of each probe's largest sensitivity off
+        Richardson differences with the inner ring stuck, its own torque 1.1e-7 – 6.6e-7, ≤ 3.0e-7 with the boom's
+        end hinge, at Newton's default tolerance), and the external work where no load is on a node that follows the
+        links or in its axes (1.2e-9 at Newton's tolerance 1e-12; the loads' power on a dependent node does not take
+        the held angle's move of it). Not those: that external work, and an element's axial force and torque (the
+        axial force 6.7e-6 off at h = 1e-3 p and 3.2e-5 at 3e-4 p, at Newton's tolerance 1e-12 too: not settled)."""
+        def checked(probe) -> bool:
+            if (probe.kind == "point" and probe.frame == "global") or (
+                    probe.kind == "hinge" and probe.quantity in ("angle", "rate")):
+                return True
+            if not held:
+                return False
+            if probe.kind == "energy" and probe.quantity == "external_work":
+                node, _, frame = self._load_points()
+                return not np.any(np.isin(np.concatenate([node, frame]), self.model.links.dependent))
+            return probe.kind in ("point", "momentum") or (probe.kind == "hinge" and probe.quantity == "torque") or (
+                probe.kind == "element" and probe.quantity in ("moment_y", "moment_z")) or (
+                probe.kind == "energy" and probe.quantity in ("kinetic", "strain", "total"))
+
+        return [p.name for p in self.probes if not checked(p)]
 
     def _refuse_a_linked_rest(self, new, j: int) -> None:
         """A hinge resting on its rigid stop in a model with rigid links is differentiated where no guide, latch,
@@ -1915,6 +1995,10 @@ class TransientSensitivities(ParameterDerivatives):
         stuck = np.flatnonzero(np.any(self.held, axis=1)) if self.held is not None else np.zeros(0, np.int64)
         if len(stuck) and free:   # a controller driving a free joint from a held angle: its δθ (held_sensor_forms)
             for j, column in held_sensor_forms(self, state, free, stuck).items():
+                forces[j] = forces[j] + column @ self.held[stuck]
+        reactions = [j for j in forces if j not in free]
+        if len(stuck) and reactions and self.model.links is not None:   # a reaction through the links by the δθ
+            for j, column in held_reaction_columns(self, state, reactions, stuck).items():
                 forces[j] = forces[j] + column @ self.held[stuck]
         if shifted and free:
             rates = joint_force_forms(self.explicit_time.laws, state, free)

@@ -248,3 +248,22 @@ def _rates_tangent(assembler, state, native, links, columns, free_cols, dense: b
             full = sps.csr_matrix(full)
         out.append(full)
     return tuple(out)
+
+
+def dependent_columns(assembler, state, coordinate: int) -> tuple:
+    """(J_·c, ∂(J v)/∂q_c) (n_dep, 6) each: the dependent nodes' [δd, δπ] per unit of ``coordinate`` (a free one or
+    a constrained one: a held joint's angle) and their rates' (δv, δω) at fixed independent rates, in tree order,
+    as the compiled step composes them (the slots' J and ``latdyn_dependent_rates_tangent``, csrc/links.c) at
+    ``state`` (its dependent nodes completed here); zero rows for a node that does not hang from it."""
+    native_model = assembler.native()
+    assembler.complete_links(state)
+    native_model.dependent_rates_tangent(state)
+    native, dependent = native_model.links, assembler.model.links.dependent
+    jacobian, by_velocity = np.zeros((len(dependent), 6)), np.zeros((len(dependent), 6))
+    for k, c in enumerate(dependent):
+        s = native.slot_of_node[int(c)]
+        at = np.flatnonzero(native.columns[s, :native.count[s]] == coordinate)
+        if len(at):
+            jacobian[k] = native.jacobian[s, :, at[0]]
+            by_velocity[k] = native.rates_tangent[s, :6, at[0]]
+    return jacobian, by_velocity
