@@ -83,7 +83,9 @@ the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
 friction sticks or releases beside geometry parameters or a controller's probe, or with another event at one
 instant or while stuck (refused when it sticks, :meth:`_refuse_a_stick`; friction slipping, and its sticks and
-releases otherwise — beside latches, stops, cables, continuous controllers without states and joint-force and
+releases otherwise — beside latches, stops, cables, continuous controllers without states, controllers with states
+or sampled ones that drive the stuck joint alone (their sensors read the held angle: θ̄ += D_θᵀ s̄ at each step's
+states and each sample, their held δS and δy through the friction events' restarts and jumps) and joint-force and
 section-force probes too —, are taken: the forward method's stick — a stop's impulse with restitution 0, the held
 angle's δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
 its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
@@ -194,11 +196,13 @@ class AdjointSensitivities(TransientSensitivities):
         reverse pass does not transpose its stick or release (``why``; else the checks below): the forward method's
         own refusals (:meth:`TransientSensitivities._refuse_what_a_held_angle_moves`: guides or rigid links, directions
         without inertia, controllers with states or sampled ones driving another coordinate), and this pass's: a stick
-        beside geometry parameters (the held angle's terms of the start's move are not formed), beside controllers with
-        states or sampled ones (their held terms are not transposed), with nothing else free, and beside a controller's
-        probe, an energy or a momentum (its forms of the held angle are not formed). The events the forward method takes
-        beside a stick are taken (a latch, a stop or a cable's change while no joint is stuck: :meth:`step`,
-        :meth:`_stick_or_release_stored`), continuous controllers without states, and probes of points, joints' angles,
+        beside geometry parameters (the held angle's terms of the start's move are not formed), with nothing else free,
+        and beside a controller's probe, an energy or a momentum (its forms of the held angle are not formed). The
+        events the forward method takes beside a stick are taken (a latch, a stop or a cable's change while no joint is
+        stuck: :meth:`step`, :meth:`_stick_or_release_stored`), continuous controllers without states, controllers
+        with states or sampled ones driving the stuck joint alone (their sensors' held δθ, θ̄ += D_θᵀ s̄:
+        adjoint_controller_states.py ``_held_sensed_transposed``; their held δS and δy through the stick's and
+        release's restart and jump, :meth:`_friction_event_transposed`), and probes of points, joints' angles,
         rates and forces, section forces, cables and points in a body's frame (:meth:`_held_forms`). Everything else
         is transposed (:meth:`_friction_event_transposed`). ``happens`` says what the joint does, for the message
         (``HELD_FROM_THE_START`` at t = 0)."""
@@ -209,10 +213,6 @@ class AdjointSensitivities(TransientSensitivities):
             self._refuse_what_a_held_angle_moves(state, happens, joint)   # SceneError: the forward method refuses it too
             if self.geometry is not None:
                 why = "beside geometry parameters"
-            elif self._controller_states() is not None or self._sampled_controllers() is not None:
-                # the forward method takes those driving the stuck joint alone (its sensors' held δθ); their states'
-                # and samples' held terms are not transposed here
-                why = "beside controllers with states or sampled ones"
             elif self.model.n_dofs == 0:
                 why = NOTHING_ELSE_FREE
             else:
@@ -814,15 +814,21 @@ class AdjointSensitivities(TransientSensitivities):
                     y_bar, u_bar = samples_t.restart_transposed(sample["state"], bars, y_bar, gradient)
                     if states_t is not None:   # the continuous states held through the restart (ControllerStates.hold)
                         S_bar = S_bar + states_t.held_map(sample["state"]).T @ u_bar
+                    # the angles friction holds: K's columns of them times δθ in the restart's ∂r/∂p
+                    # (TransientSensitivities.after_sample), ū = −M⁻ᵀs̄ where a step's w stands: θ̄ += K_θᵀū
+                    theta_bar = self._held_step_transposed(sample["state"], -u_bar, theta_bar)
                 q_bar, v_bar, vdot_bar, a_bar = bars
                 q_bar, v_bar = q_bar.copy(), v_bar.copy()
                 y_bar, sampled_bar = samples_t.sample_transposed(sample["state"], sample["due"], sample["S"], q_bar,
-                                                                 v_bar, y_bar, sampled_bar, gradient)
+                                                                 v_bar, y_bar, sampled_bar, gradient, theta_bar)
             if samples_t is not None:   # the held outputs the step was taken with
                 outputs[:] = entry["outputs"]
             if entry.get("friction") is not None:   # a stick's or release's restart, renumbering (and jump)
-                q_bar, v_bar, vdot_bar, theta_bar, by_event, t_by_event = self._friction_event_transposed(
-                    entry, q_bar, v_bar, vdot_bar + a_bar, theta_bar)
+                with self._controllers_at(carried, i + 1):   # the states as accepted at the event
+                    q_bar, v_bar, vdot_bar, theta_bar, by_event, t_by_event, held_bars = \
+                        self._friction_event_transposed(entry, q_bar, v_bar, vdot_bar + a_bar, theta_bar,
+                                                        (carried, i, S_bar, y_bar))
+                S_bar, y_bar = held_bars
                 gradient += by_event
                 t_bar = t_bar + t_by_event
                 a_bar = np.zeros_like(v_bar)
@@ -899,13 +905,15 @@ class AdjointSensitivities(TransientSensitivities):
                     q_bar, v_bar, vdot_bar, a_bar = bars
                     theta_bar = self._held_step_transposed(new, w, theta_bar)
                     continue
+            theta_bar = theta_bar.copy()   # the states' sensors add their held angles' part in place
             bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar]
             w = self._step_transposed(carried, i, (new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old),
-                                      bars, gradient)
+                                      bars, gradient, theta_bar)
             q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
             if samples_t is not None:   # the held δy's part of the step's ∂r/∂p
                 y_bar = samples_t.held_transposed(new, w, y_bar)
-            theta_bar = self._held_step_transposed(new, w, theta_bar)
+            with self._controllers_at(carried, i + 1):   # K's columns of the held angles as the step's ∂r/∂p took them
+                theta_bar = self._held_step_transposed(new, w, theta_bar)
         if carried.get("numbering_start") is not None and (self._with_events() or self._may_stick()):
             self._numbered(carried["numbering_start"])
         for column, (c_q, c_v, c_vdot, explicit, *c_S) in seeds.get(0, []):   # δS_0 = 0: a state's seed adds nothing
@@ -954,11 +962,13 @@ class AdjointSensitivities(TransientSensitivities):
         return states_t.at(carried["controller_start"] if index == 0 else
                            carried["trajectory"][index - 1]["controller"])
 
-    def _step_transposed(self, carried: dict, i: int, step: tuple, bars: list, gradient: np.ndarray) -> np.ndarray:
+    def _step_transposed(self, carried: dict, i: int, step: tuple, bars: list, gradient: np.ndarray,
+                         theta_bar: np.ndarray | None = None) -> np.ndarray:
         """Step ``i`` of the reverse pass from Python (module docstring: z̄, w, the bars' update; where its size moves
         with p the step size's column and δh's functional transposed, :meth:`_step_size_column`,
         :meth:`_step_size_transposed`): ``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄, ḡ] at its end replaced by those at its
-        start, ``gradient`` (k, m) updated in place; returns the step's w (a sampled controller's held part,
+        start, ``gradient`` (k, m) and ``theta_bar`` (the held angles' adjoints: the states' sensors read a held angle,
+        ``StatesTransposed.after_step_transposed``) updated in place; returns the step's w (a sampled controller's held part,
         :meth:`SamplesTransposed.held_transposed`). With continuous controllers' states (S̄, f̄ not None) the hooks of
         latdyn/analyses/adjoint_controller_states.py around it, in the forward method's reverse order: ``after_step``
         transposed first (h̄ gains by_hᵀS̄_{n+1}), the step's matrix condensed from (S_n, f_n), the states' B by_h in
@@ -979,7 +989,7 @@ class AdjointSensitivities(TransientSensitivities):
                 timed = entry.get("timed_end") and adjoint_time.moves_in_time(self)   # δs's ∂s/∂t δt_{n+1} onto t̄
                 t_bar = t_bar.copy()
                 held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, v_bar,
-                                                                       gradient, t_bar if timed else None)
+                                                                       gradient, t_bar if timed else None, theta_bar)
                 condensed = states_t.condensed(before, h)
             with condensed:
                 C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
@@ -1050,7 +1060,7 @@ class AdjointSensitivities(TransientSensitivities):
 
     # ------------------------------------------------------------------ sticking by friction transposed
     def _friction_event_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray,
-                                   theta_bar: np.ndarray) -> tuple:
+                                   theta_bar: np.ndarray, held: tuple) -> tuple:
         """The transpose of the forward method's stick or release at the end of the step ``entry`` holds
         (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`, its
         :meth:`_restart`), its pieces in reverse order, for the bars (q̄, v̄, s̄ = v̇̄ + ā) after it and θ̄ (n_hinges, m),
@@ -1067,13 +1077,27 @@ class AdjointSensitivities(TransientSensitivities):
         The restart sets δv̇ and δa afresh (the stick's ``dvdot`` 0): nothing of v̇̄ or ā passes. Beside laws in t the
         restart and the jump are at t_e + δt_e, as the forward method takes them (its ``time_shift`` there: δt_e
         non-zero after an event until a step lands on the grid), their ∂/∂t onto t̄ (latdyn/analyses/adjoint_time.py).
-        Returns (q̄, v̄, v̇̄, θ̄ before it, (k, m) into the gradient, (m,) into t̄); the model left on the numbering before
-        it."""
+        Beside controllers with states or sampled ones (``held`` = (carried, the step's index, S̄, ȳ), S̄ or ȳ None
+        without them) what the forward method holds through it, transposed (:meth:`_held_weights_transposed`): the
+        restart's ∂r/∂p holds the continuous states' B δS (:meth:`TransientSensitivities.after_events`:
+        ``ControllerStates.hold``) and the sampled outputs' A_y δy (``SampledTerms.held``, set for the step), and
+        its weight's (∂K/∂p)v̇ their moves along v̇; a stick's jump (:meth:`TransientSensitivities._stick_candidates`,
+        after ``ControllerStates.after_step`` released δS) the sampled outputs' alone.
+        Returns (q̄, v̄, v̇̄, θ̄ before it, (k, m) into the gradient, (m,) into t̄, (S̄, ȳ) before it); the model left on
+        the numbering before it."""
         kind, j = entry["friction"]
         model, scale = self.model, self.scene.solve.dt * self.scene.solve.dt
+        carried, i, S_bar, y_bar = held
+        states_t, samples_t = self._states_transposed(), self._samples_transposed()
         theta_bar = theta_bar.copy()
         self._restart_weight = None
+        self._weights_met = [] if states_t is not None or samples_t is not None else None
         q_bar, v_bar, _, gradient, t_bar = self._restart_transposed(entry, q_bar, v_bar, s_bar)
+        if states_t is not None:   # δS held through the restart: B δS in its ∂r/∂p, ∂(B δS)/∂q v̇ in its weight's
+            S_bar = self._held_weights_transposed(carried, i, S_bar, 1.0, states_t, restart=True)
+        if samples_t is not None:   # the held δy likewise: A_y δy
+            y_bar = self._held_weights_transposed(carried, i, y_bar, 1.0, samples_t, restart=True)
+        self._weights_met = None
         stuck = np.flatnonzero(model.stuck)   # on the numbering after it: the angles held through the restart
         if len(stuck) and model.n_dofs:
             after, u_bar = self._restart_u
@@ -1087,11 +1111,15 @@ class AdjointSensitivities(TransientSensitivities):
             theta_bar[j] = q_bar[model.hinge_dofs[j]]
         q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
         if kind == "release":
-            return q_bar, v_bar, np.zeros_like(v_bar), theta_bar, gradient, t_bar
+            return q_bar, v_bar, np.zeros_like(v_bar), theta_bar, gradient, t_bar, (S_bar, y_bar)
         q_bar[model.hinge_dofs[j]] += theta_bar[j]   # the held δθ_j: δq[θ_j] at the stick
         theta_bar[j] = 0.0
+        self._weights_met = [] if samples_t is not None else None
         v_bar, q_by_jump, vdot_by_jump, by_jump, t_by_jump = self._impulse_transposed(
             {**entry, "event": (j, "stick", 0.0)}, v_bar)
+        if samples_t is not None:   # the held δy through the jump: ∂(A_y δy)/∂q along its Δv in its weight
+            y_bar = self._held_weights_transposed(carried, i, y_bar, -1.0, samples_t)
+        self._weights_met = None
         stuck = np.flatnonzero(model.stuck)   # the other joints friction holds through the jump
         if len(stuck):
             change, u_bar = self._impulse_weight
@@ -1100,7 +1128,8 @@ class AdjointSensitivities(TransientSensitivities):
             weight = (scale * self._held_stiffness_columns(new, change, stuck)
                       + self._held_columns(accelerated, stuck, True) - self._held_columns(at_rest, stuck, True))
             theta_bar[stuck] -= weight.T @ u_bar
-        return q_bar + q_by_jump, v_bar, vdot_by_jump, theta_bar, gradient + by_jump, t_bar + t_by_jump
+        return (q_bar + q_by_jump, v_bar, vdot_by_jump, theta_bar, gradient + by_jump, t_bar + t_by_jump,
+                (S_bar, y_bar))
 
     def _held_columns(self, state, stuck: np.ndarray, inertia: bool, element_gravity: bool = True) -> np.ndarray:
         """(n, s): the forward method's held forces (:meth:`TransientSensitivities._held_forces`: K's column of each
