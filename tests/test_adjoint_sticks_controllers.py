@@ -62,7 +62,8 @@ output:
     mid: {point: "boom.node[1]", quantity: displacement, component: norm}
 """
 
-#: the same boom under a sampled PD at 25 Hz (period 4 dt) in place of the PI: it sticks and slips ten times to 0.62
+#: the same boom under a sampled PD at 25 Hz (period 4 dt) in place of the PI: stuck from t = 0 to 0.2, it slips and
+#: sticks again eight times to 0.62 (measured)
 BOOM_PD = (BOOM_PI
            .replace("and a PI on the hinge", "and a sampled PD on the hinge")
            .replace("Kp: 2.0, Ki: 4.0}", "Kp: 2.0, Kd: 0.2}")
@@ -90,9 +91,9 @@ def forward_pd():
 def test_the_adjoint_through_sticks_beside_a_controller_on_the_joint_equals_the_forward_method(tmp_path, text,
                                                                                               forward_pd):
     """The boom sticks and slips under its controller: the CLI's adjoint (summary.json) equals the forward method
-    through the API. Measured: PI 3.3e-14, sampled PD 2.0e-13 of each output's largest derivative (refused on
-    7fbef8b). Left out, the sensors' held angles would have made 2.4e-2 (PI) and 1.8e-2 (PD); the held angles' terms
-    of a sample's restart, 1.1 on the braked panel of tests/test_sensitivities_sticks_beside.py (its PD at 100 Hz)."""
+    through the API. Measured: PI 5.8e-14, sampled PD 3.7e-14 of each output's largest derivative (refused on
+    7fbef8b). Left out, the held angles' terms of a sample's restart would have made 1.1 on the braked panel of
+    tests/test_sensitivities_sticks_beside.py (its PD at 100 Hz)."""
     completed, out = latdyn_run(tmp_path, text, quiet=True)
     assert completed.returncode == 0, completed.stderr
     adjoint = json.loads((out / "summary.json").read_text())
@@ -105,9 +106,11 @@ def test_the_adjoint_through_sticks_beside_a_controller_on_the_joint_equals_the_
 
 def test_the_sampled_pd_s_forward_method_agrees_with_richardson_differences(forward_pd):
     """The forward method the adjoint equals, against Richardson-extrapolated central differences of whole runs by
-    F_c (relative steps 1e-4 and 5e-5, the time step fixed): 1.3e-9 of each probe's largest (measured). The held
-    angle's term matters here: with a sample's δs leaving out the stuck joint's held δθ the derivatives by F_c are
-    1.4e-2 off (EI 1.8e-2, A, Kp, Kd: docs/parameters.md, "Friction by the adjoint")."""
+    F_c (relative steps 1e-4 and 5e-5, the time step fixed): 6.9e-10 of each probe's largest (measured; EI 1.8e-8,
+    A 2.7e-8, Kp 2.8e-8, Kd 8.4e-9, not run here). The held angle's term matters here: with a sample's δs leaving out
+    the stuck joint's held δθ the derivatives by F_c are 1.4e-2 off (EI 1.8e-2, A 1.4e-2, Kp 1.1e-2, Kd 1.5e-2;
+    the PI's 1.2e-3 – 3.6e-3: docs/parameters.md, "Friction by the adjoint"). A guard of the forward method (it took
+    this scene on 7fbef8b too)."""
     p0 = yaml.safe_load(BOOM_PD)["parameters"]["Fc"]
     central = []
     for step in (1e-4 * p0, 5e-5 * p0):
