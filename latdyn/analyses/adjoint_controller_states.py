@@ -131,7 +131,8 @@ class StatesTransposed:
         q̄, v̄ (a sensor reading a rate: δs = D_q δq + D_v δv) and the gradient updated in place, and ``t_bar`` (where
         the step's end moves in time: δs's ∂s/∂t δt_{n+1} along the prescribed motions, :meth:`_sensed_transposed`)
         and ``theta_bar`` (the held angles' adjoints, where friction holds a joint through the step: δs reads its
-        held δθ, :func:`_held_sensed_transposed`); returns (held̄ (P, m), the adjoint of the step's δh through δS_{n+1} += by_h δh (m,))."""
+        held δθ, :func:`_held_sensed_transposed`);
+        returns (held̄ (P, m), the adjoint of the step's δh through δS_{n+1} += by_h δh (m,))."""
         hh = 0.5 * h
         held_bar = np.zeros_like(S_bar)
         h_bar = np.zeros(S_bar.shape[1])
@@ -361,10 +362,10 @@ def _held_sensed_transposed(owner, sensed, probes: list, s_bar: np.ndarray, thet
     zero = np.zeros((owner.model.n_dofs, len(stuck)))
     saved, owner.held = owner.held, owner._unit_held(stuck)
     try:
-        D_theta = np.asarray(sensed(zero, zero if reads_rates(probes) else None), float).reshape(len(probes), len(stuck))
+        D_theta = np.asarray(sensed(zero, zero if reads_rates(probes) else None), float)
     finally:
         owner.held = saved
-    theta_bar[stuck] += D_theta.T @ s_bar
+    theta_bar[stuck] += D_theta.reshape(len(probes), len(stuck)).T @ s_bar
 
 
 def _held_map_along(owner, held_map, columns: int, state, w: np.ndarray) -> np.ndarray:

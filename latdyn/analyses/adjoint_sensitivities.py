@@ -968,7 +968,8 @@ class AdjointSensitivities(TransientSensitivities):
         with p the step size's column and δh's functional transposed, :meth:`_step_size_column`,
         :meth:`_step_size_transposed`): ``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄, ḡ] at its end replaced by those at its
         start, ``gradient`` (k, m) and ``theta_bar`` (the held angles' adjoints: the states' sensors read a held angle,
-        ``StatesTransposed.after_step_transposed``) updated in place; returns the step's w (a sampled controller's held part,
+        ``StatesTransposed.after_step_transposed``) updated in place;
+        returns the step's w (a sampled controller's held part,
         :meth:`SamplesTransposed.held_transposed`). With continuous controllers' states (S̄, f̄ not None) the hooks of
         latdyn/analyses/adjoint_controller_states.py around it, in the forward method's reverse order: ``after_step``
         transposed first (h̄ gains by_hᵀS̄_{n+1}), the step's matrix condensed from (S_n, f_n), the states' B by_h in
