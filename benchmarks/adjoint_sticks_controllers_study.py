@@ -1,5 +1,5 @@
 """The adjoint through friction sticks beside a controller with states or a sampled one on the stuck joint: the study
-behind tests/test_adjoint_sticks_controllers.py and docs/parameters.md, "Friction by the adjoint" (issue 34).
+behind tests/test_adjoint_held_beside_controllers.py and docs/parameters.md, "Friction by the adjoint" (issue 34).
 
     python benchmarks/adjoint_sticks_controllers_study.py [--scene pi|pd] [--step 1e-4]
 
@@ -22,7 +22,7 @@ import yaml
 
 import latdyn
 from latdyn.analyses import adjoint_controller_states, sensitivities
-from tests.test_adjoint_sticks_controllers import BOOM_PD, BOOM_PI
+from tests.test_adjoint_held_beside_controllers import BOOM_PD, BOOM_PI
 from tests.test_sensitivities_adjoint import _disagreement
 
 

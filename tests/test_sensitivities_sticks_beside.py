@@ -8,7 +8,7 @@ coordinates, the stuck joint's included: latdyn/analyses/energy_sensitivities.py
 sensors likewise (latdyn/analyses/sensitivities.py ``_sensor_derivatives``: a state's δs and a sample's δs). A
 controller with states or a sampled one that drives a coordinate other than a stuck joint is still refused where a
 joint sticks (its condensed terms of the held angle there are not carried); the discrete adjoint refuses the energies
-and momenta beside a stick and takes the controllers (tests/test_adjoint_sticks_controllers.py). Reference:
+and momenta beside a stick and takes the controllers (tests/test_adjoint_held_beside_controllers.py). Reference:
 Richardson-extrapolated central differences of whole runs, the time step fixed."""
 from __future__ import annotations
 
