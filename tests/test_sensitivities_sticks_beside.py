@@ -7,8 +7,9 @@ and momenta take it through their gradient's entry at the joint's slot, as the p
 coordinates, the stuck joint's included: latdyn/analyses/energy_sensitivities.py ``_StateForms``); a controller's
 sensors likewise (latdyn/analyses/sensitivities.py ``_sensor_derivatives``: a state's δs and a sample's δs). A
 controller with states or a sampled one that drives a coordinate other than a stuck joint is still refused where a
-joint sticks (its condensed terms of the held angle there are not carried); the discrete adjoint refuses all of
-these beside a stick. Reference: Richardson-extrapolated central differences of whole runs, the time step fixed."""
+joint sticks (its condensed terms of the held angle there are not carried); the discrete adjoint refuses the energies
+and momenta beside a stick and takes the controllers (tests/test_adjoint_held_beside_controllers.py). Reference:
+Richardson-extrapolated central differences of whole runs, the time step fixed."""
 from __future__ import annotations
 
 import numpy as np
@@ -159,20 +160,6 @@ def test_a_stick_beside_a_pi_that_drives_another_coordinate_stays_refused():
         _run(PI_ON_A_LOAD)
     assert refused.value.key == "beams.arm.end.hinge.friction"
     assert "at t = 0 " in refused.value.expected and "drive another coordinate" in refused.value.expected
-
-
-@pytest.mark.parametrize("text", [PI, SAMPLED], ids=["pi", "sampled_pd"])
-def test_the_adjoint_refuses_a_stick_beside_controllers(text):
-    """Guard: the discrete adjoint does not transpose a stick beside controllers with states or sampled ones (the
-    forward method takes those driving the stuck joint alone) — refused naming the joint's friction, expecting the
-    forward method."""
-    data = yaml.safe_load(text)
-    data["solve"]["sensitivity_method"] = "adjoint"
-    with pytest.raises(SceneError) as refused:
-        latdyn.run(latdyn.load_scene(data))
-    assert refused.value.key == "beams.arm.end.hinge.friction"
-    expected = refused.value.expected
-    assert "beside controllers" in expected and "sensitivity_method: forward" in expected
 
 
 def test_the_adjoint_refuses_energies_beside_a_stick():

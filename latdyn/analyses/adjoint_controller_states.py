@@ -126,10 +126,12 @@ class StatesTransposed:
 
     def after_step_transposed(self, state, h: float, terms: dict, S_bar: np.ndarray, f_bar: np.ndarray,
                               q_bar: np.ndarray, v_bar: np.ndarray, gradient: np.ndarray,
-                              t_bar: np.ndarray | None = None) -> tuple:
+                              t_bar: np.ndarray | None = None, theta_bar: np.ndarray | None = None) -> tuple:
         """The transpose of ``ControllerStates.after_step`` (module docstring) for the bars at the step's end:
         q̄, v̄ (a sensor reading a rate: δs = D_q δq + D_v δv) and the gradient updated in place, and ``t_bar`` (where
-        the step's end moves in time: δs's ∂s/∂t δt_{n+1} along the prescribed motions, :meth:`_sensed_transposed`);
+        the step's end moves in time: δs's ∂s/∂t δt_{n+1} along the prescribed motions, :meth:`_sensed_transposed`)
+        and ``theta_bar`` (the held angles' adjoints, where friction holds a joint through the step: δs reads its
+        held δθ, :func:`_held_sensed_transposed`);
         returns (held̄ (P, m), the adjoint of the step's δh through δS_{n+1} += by_h δh (m,))."""
         hh = 0.5 * h
         held_bar = np.zeros_like(S_bar)
@@ -146,6 +148,8 @@ class StatesTransposed:
         for c in self.states.controllers:   # δs = D_q δq + D_v δv: the forward method's map on unit columns, transposed
             if len(self.states.sensors[c.name]):
                 self._sensed_transposed(c, state, sensed_bar[c.name], q_bar, v_bar, t_bar)
+                _held_sensed_transposed(self.owner, lambda dq, dv: self.states._sensed(c, state, dq, None, dv),
+                                        self.states.sensors[c.name], sensed_bar[c.name], theta_bar)
         return held_bar, h_bar
 
     def _sensed_transposed(self, c, state, s_bar: np.ndarray, q_bar: np.ndarray, v_bar: np.ndarray,
@@ -343,6 +347,27 @@ def _sensed_forms(owner, sensed, probes: list) -> tuple:
     return both[:, :n], both[:, n:]
 
 
+def _held_sensed_transposed(owner, sensed, probes: list, s_bar: np.ndarray, theta_bar: np.ndarray | None) -> None:
+    """θ̄ += D_θᵀ s̄ in place on the rows of the joints friction holds now (``owner.model.stuck``): a stuck joint's
+    angle is no free coordinate, and the forward method's sensors read its held δθ as the joint's δθ
+    (latdyn/analyses/sensitivities.py ``_sensor_derivatives`` adds ``owner.held``), so δs = D_q δq + D_v δv + D_θ δθ;
+    D_θ is the forward method's map ``sensed(dq, dv)`` of the sensors ``probes`` on zero δq (and δv) with a unit held
+    δθ of each stuck joint (:meth:`AdjointSensitivities._unit_held`). Nothing where no joint is stuck or ``theta_bar``
+    is None."""
+    from latdyn.analyses.sensitivities import reads_rates
+
+    stuck = np.flatnonzero(owner.model.stuck)
+    if theta_bar is None or not len(stuck):
+        return
+    zero = np.zeros((owner.model.n_dofs, len(stuck)))
+    saved, owner.held = owner.held, owner._unit_held(stuck)
+    try:
+        D_theta = np.asarray(sensed(zero, zero if reads_rates(probes) else None), float)
+    finally:
+        owner.held = saved
+    theta_bar[stuck] += D_theta.reshape(len(probes), len(stuck)).T @ s_bar
+
+
 def _held_map_along(owner, held_map, columns: int, state, w: np.ndarray) -> np.ndarray:
     """(n, ``columns``): ∂(``held_map`` x)/∂q along ``w`` for the unit columns of x, the forward method's
     ``_terms_beside_stiffness_along`` central difference (step WEIGHT_STEP ℓ/|w|_∞) of the held part alone."""
@@ -436,10 +461,12 @@ class SamplesTransposed:
         return y_bar, u_bar
 
     def sample_transposed(self, state, due: list, S_before: np.ndarray, q_bar: np.ndarray, v_bar: np.ndarray,
-                          y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray) -> tuple:
+                          y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray,
+                          theta_bar: np.ndarray | None = None) -> tuple:
         """The sample of the controllers ``due`` at ``state`` (their states ``S_before`` before it) transposed
         (class docstring; a sensor reading a rate: δs = D_q δq + D_v δv, δv the sample's state's, v̄ += D_vᵀ s̄): q̄, v̄
-        and ``gradient`` updated in place; returns (ȳ, S̄) before the sample."""
+        and ``gradient`` updated in place, and ``theta_bar`` (the held angles' adjoints where friction holds a joint
+        at the sample: δs reads its held δθ, :func:`_held_sensed_transposed`); returns (ȳ, S̄) before the sample."""
         from latdyn.analyses.sensitivities import _sensor_derivatives
 
         sampled, owner = self.sampled, self.owner
@@ -456,13 +483,15 @@ class SamplesTransposed:
             gradient += np.outer(y_p, out_bar) + g_p.T @ by_rate
             S_bar[rows] = S_bar[rows] + g_S.T @ by_rate + np.outer(y_S, out_bar)
             y_bar[i] = 0.0
-            if len(c.reads):   # the forward method's SampledTerms.sample: δs = D_q δq + D_v δv
-                D_q, D_v = _sensed_forms(owner, lambda dq, dv: _sensor_derivatives(owner, sampled.sensors[c.name],
-                                                                                   state, dq, None, dv),
-                                         sampled.sensors[c.name])
+            if len(c.reads):   # the forward method's SampledTerms.sample: δs = D_q δq + D_v δv (+ the held δθ)
+                def sensed(dq, dv, c=c):
+                    return _sensor_derivatives(owner, sampled.sensors[c.name], state, dq, None, dv)
+
+                D_q, D_v = _sensed_forms(owner, sensed, sampled.sensors[c.name])
                 q_bar += D_q.T @ s_bar
                 if D_v is not None:
                     v_bar += D_v.T @ s_bar
+                _held_sensed_transposed(owner, sensed, sampled.sensors[c.name], s_bar, theta_bar)
         return y_bar, S_bar
 
     def start_transposed(self, state, y_bar: np.ndarray, S_bar: np.ndarray, gradient: np.ndarray,

@@ -83,15 +83,17 @@ the jump and restart. What is refused (:func:`adjoint_refusal`, exit 2 naming ``
 everything the forward method refuses, and what leaves the recurrence above and its events' pieces: a joint that
 friction sticks or releases beside geometry parameters or a controller's probe, or with another event at one
 instant or while stuck (refused when it sticks, :meth:`_refuse_a_stick`; friction slipping, and its sticks and
-releases otherwise — beside latches, stops, cables, continuous controllers without states and joint-force and
+releases otherwise — beside latches, stops, cables, continuous controllers without states, controllers with states
+or sampled ones that drive the stuck joint alone (their sensors read the held angle: θ̄ += D_θᵀ s̄ at each step's
+states and each sample, their held δS and δy through the friction events' restarts and jumps) and joint-force and
 section-force probes too —, are taken: the forward method's stick — a stop's impulse with restitution 0, the held
 angle's δθ_j = δq[θ_j], a stop's restart —, the steps while stuck — K's column of the held angle times δθ_j in ∂r/∂p — and
 its release — δq[θ_j] = δθ_j, a stop's restart — transposed, the held angles' adjoints θ̄ carried back beside the
-bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`), a hinge resting on
-its rigid stop beside controllers with states or sampled ones (exit 1 when it happens,
-:meth:`_refuse_what_a_rest_meets`; else its coming to rest — the landed impact with restitution 0 and the restart on
-the locked numbering —, the steps it rests, its release at a step's end, :meth:`_release_transposed`, and its projection
-back onto the stop, :meth:`_projected_transposed`, are transposed). Controllers are taken:
+bars: :meth:`_friction_event_transposed`, :meth:`_held_step_transposed`, :meth:`_held_forms`). A hinge resting on
+its rigid stop is taken: its coming to rest — the landed impact with restitution 0 and the restart on the locked
+numbering —, the steps it rests, its release at a step's end, :meth:`_release_transposed`, and its projection back
+onto the stop, :meth:`_projected_transposed`, are transposed (beside controllers with states or sampled ones the
+held δS and δy of the restarts too, :meth:`_held_through_restart`; the projection the forward method refuses there). Controllers are taken:
 continuous ones without states enter E and the matrices as in the forward method; with states and sampled ones
 (beside events too: :meth:`_held_weights_transposed`; reading rates too) and controller probes (an output naming t at
 a row whose time moves: its ∂f/∂t seeded on t̄ there, :meth:`reverse`) through the states' and held outputs' bars
@@ -129,7 +131,7 @@ from latdyn.analyses.probe_derivatives import is_probe_here, probe_derivatives, 
 from latdyn.analyses.sensitivities import (_BODY_KEY, _LOAD_KEY, _SECTION_KEY, SENSITIVITIES_FILE,
                                            rates_taken_anew)
 from latdyn.analyses.transient_sensitivities import (HELD_FROM_THE_START, TransientSensitivities, _NodeRotations,
-                                                     _StepColumns, friction_key, stop_key)
+                                                     _StepColumns, friction_key)
 from latdyn.analyses.weight_derivative import configuration_tangent_of_weight, transposed_times
 from latdyn.assembly.assembler import free_acceleration, free_velocity, pack, unpack_free
 from latdyn.assembly.factorization import factorization_for, solve_linear, solve_linear_csr
@@ -194,11 +196,13 @@ class AdjointSensitivities(TransientSensitivities):
         reverse pass does not transpose its stick or release (``why``; else the checks below): the forward method's
         own refusals (:meth:`TransientSensitivities._refuse_what_a_held_angle_moves`: guides or rigid links, directions
         without inertia, controllers with states or sampled ones driving another coordinate), and this pass's: a stick
-        beside geometry parameters (the held angle's terms of the start's move are not formed), beside controllers with
-        states or sampled ones (their held terms are not transposed), with nothing else free, and beside a controller's
-        probe, an energy or a momentum (its forms of the held angle are not formed). The events the forward method takes
-        beside a stick are taken (a latch, a stop or a cable's change while no joint is stuck: :meth:`step`,
-        :meth:`_stick_or_release_stored`), continuous controllers without states, and probes of points, joints' angles,
+        beside geometry parameters (the held angle's terms of the start's move are not formed), with nothing else free,
+        and beside a controller's probe, an energy or a momentum (its forms of the held angle are not formed). The
+        events the forward method takes beside a stick are taken (a latch, a stop or a cable's change while no joint is
+        stuck: :meth:`step`, :meth:`_stick_or_release_stored`), continuous controllers without states, controllers
+        with states or sampled ones driving the stuck joint alone (their sensors' held δθ, θ̄ += D_θᵀ s̄:
+        adjoint_controller_states.py ``_held_sensed_transposed``; their held δS and δy through the stick's and
+        release's restart and jump, :meth:`_friction_event_transposed`), and probes of points, joints' angles,
         rates and forces, section forces, cables and points in a body's frame (:meth:`_held_forms`). Everything else
         is transposed (:meth:`_friction_event_transposed`). ``happens`` says what the joint does, for the message
         (``HELD_FROM_THE_START`` at t = 0)."""
@@ -209,10 +213,6 @@ class AdjointSensitivities(TransientSensitivities):
             self._refuse_what_a_held_angle_moves(state, happens, joint)   # SceneError: the forward method refuses it too
             if self.geometry is not None:
                 why = "beside geometry parameters"
-            elif self._controller_states() is not None or self._sampled_controllers() is not None:
-                # the forward method takes those driving the stuck joint alone (its sensors' held δθ); their states'
-                # and samples' held terms are not transposed here
-                why = "beside controllers with states or sampled ones"
             elif self.model.n_dofs == 0:
                 why = NOTHING_ELSE_FREE
             else:
@@ -237,32 +237,6 @@ class AdjointSensitivities(TransientSensitivities):
                                     for h in self.model.hinges)
         return self._sticks_here
 
-    def _refuse_what_a_rest_meets(self, new, hinge: int) -> None:
-        """What the reverse pass does not transpose where ``hinge`` comes to rest on its rigid stop, leaves it or is
-        put back on it (:meth:`_refuse_a_rest`): controllers with states or sampled ones (their held terms through the
-        rest's restart are not transposed). Geometry parameters are taken: the released boom's end angle by the tip's
-        z (tests/test_sensitivities_hinge_on_stop.py RELEASE), 4.3e-9 off the forward method's (3.7e-7 of that small
-        derivative, 0.009), is the round-off both carry, not a term left out: ∂r/∂X of the stiff boom (6.5e7 on the
-        free coordinates at t = 0) and K δq of the start it moves cancel to 17 (5.9 on the hinge's row), so one
-        rounding of ∂r/∂X moves the forward method's own derivative by up to 2.8e-9 (three draws of a relative 1.1e-16
-        on each entry; tests/test_adjoint_geometry_linked.py)."""
-        if self._states_transposed() is not None or self._samples_transposed() is not None:
-            self._refuse_a_rest(new, hinge, "beside controllers with states or sampled ones (their held terms "
-                                            "through the rest's restart are not transposed)")
-
-    def _refuse_a_rest(self, new, hinge: int, why: str) -> None:
-        """SolverError (exit 1: the rows before it keep their derivatives) where ``hinge`` rests on its rigid stop
-        at ``new`` in a way the reverse pass does not transpose (``why``), naming its ``limits``. Transposed: its
-        coming to rest, the steps it rests, its release (:meth:`_release_transposed`) and its projection back onto
-        the stop (:meth:`_projected_transposed`); the forward method's own refusals of them come first
-        (:meth:`TransientSensitivities._refuse_what_a_rest_moves`, :meth:`_refuse_resting`)."""
-        joint = self.model.hinges[int(hinge)]
-        raise SolverError(f"the sensitivities at t = {float(new.t):.6g} meet a hinge resting on its stop "
-                          f"({stop_key(joint)}) {why}: the discrete adjoint transposes its coming to rest, the "
-                          "steps it rests, its release and its projection back onto the stop, not this; expected "
-                          "solve.sensitivity_method: forward (the default), which differentiates it "
-                          "(docs/parameters.md, \"The discrete adjoint\")")
-
     def step(self, carried: dict, old, new, h: float, a_old: np.ndarray, a_new: np.ndarray,
              lands: bool = True) -> dict:
         """The accepted step ``old`` → ``new`` stored (its end state before the events, size and algorithmic
@@ -277,8 +251,6 @@ class AdjointSensitivities(TransientSensitivities):
             entry["outputs"] = self.scene.controller_outputs.values.copy()
         if self._with_events():
             event = self._event(old, new) if self.model.n_dofs else None
-            if event is not None and event[1] == "rest":   # put back on its stop: transposed, but not beside these
-                self._refuse_what_a_rest_meets(new, event[0])
             cable = self._cable_event(old, new, event)
             if (event is not None or cable is not None) and self.model.stuck.any():   # the forward method's refusal
                 self._refuse_a_stick(new, int(np.flatnonzero(self.model.stuck)[0]),
@@ -331,8 +303,15 @@ class AdjointSensitivities(TransientSensitivities):
         rest follows the landed impact with restitution 0 (or the projection) that ``entry`` already holds, its
         restart on the locked numbering (``numbering_end``, ``after``: :meth:`_restart_transposed`); a release
         (``rest`` = ("release", j)) restarts as after a stop with δt 0 (:meth:`_release_transposed`). Refused as the
-        forward method refuses them (:meth:`TransientSensitivities._settle_or_release`, :meth:`_refuse_resting`)
-        and beside controllers with states or sampled ones (:meth:`_refuse_a_rest`)."""
+        forward method refuses them (:meth:`TransientSensitivities._settle_or_release`, :meth:`_refuse_resting`).
+        Beside controllers with states or sampled ones the held δS and δy of the restarts are transposed as at a stop
+        (:meth:`_held_through_restart`); the projection back onto the stop the forward method refuses beside them
+        (:meth:`TransientSensitivities._refuse_what_a_rest_moves`). Geometry parameters are taken: the released boom's
+        end angle by the tip's z (tests/test_sensitivities_hinge_on_stop.py RELEASE), 4.3e-9 off the forward method's
+        (3.7e-7 of that small derivative, 0.009), is the round-off both carry, not a term left out: ∂r/∂X of the stiff
+        boom (6.5e7 on the free coordinates at t = 0) and K δq of the start it moves cancel to 17 (5.9 on the hinge's
+        row), so one rounding of ∂r/∂X moves the forward method's own derivative by up to 2.8e-9 (three draws of a
+        relative 1.1e-16 on each entry; tests/test_adjoint_geometry_linked.py)."""
         before = entry.get("resting")
         if before is None:
             return
@@ -352,7 +331,6 @@ class AdjointSensitivities(TransientSensitivities):
                 self._refuse_resting(new, j, "a hinge comes to rest on its stop without an impact landed on it")
         elif event is not None or entry.get("cable") is not None or entry.get("friction") is not None:
             self._refuse_resting(new, j, "a hinge leaves its stop beside another event at one instant")
-        self._refuse_what_a_rest_meets(new, j)
         if self.model.stuck.any():   # the held angles' terms of the rest's restart are not transposed
             self._refuse_a_stick(new, int(np.flatnonzero(self.model.stuck)[0]),
                                  "while a hinge comes to rest on its stop or leaves it")
@@ -814,21 +792,28 @@ class AdjointSensitivities(TransientSensitivities):
                     y_bar, u_bar = samples_t.restart_transposed(sample["state"], bars, y_bar, gradient)
                     if states_t is not None:   # the continuous states held through the restart (ControllerStates.hold)
                         S_bar = S_bar + states_t.held_map(sample["state"]).T @ u_bar
+                    # the angles friction holds: K's columns of them times δθ in the restart's ∂r/∂p
+                    # (TransientSensitivities.after_sample), ū = −M⁻ᵀs̄ where a step's w stands: θ̄ += K_θᵀū
+                    theta_bar = self._held_step_transposed(sample["state"], -u_bar, theta_bar)
                 q_bar, v_bar, vdot_bar, a_bar = bars
                 q_bar, v_bar = q_bar.copy(), v_bar.copy()
                 y_bar, sampled_bar = samples_t.sample_transposed(sample["state"], sample["due"], sample["S"], q_bar,
-                                                                 v_bar, y_bar, sampled_bar, gradient)
+                                                                 v_bar, y_bar, sampled_bar, gradient, theta_bar)
             if samples_t is not None:   # the held outputs the step was taken with
                 outputs[:] = entry["outputs"]
             if entry.get("friction") is not None:   # a stick's or release's restart, renumbering (and jump)
-                q_bar, v_bar, vdot_bar, theta_bar, by_event, t_by_event = self._friction_event_transposed(
-                    entry, q_bar, v_bar, vdot_bar + a_bar, theta_bar)
+                with self._controllers_at(carried, i + 1):   # the states as accepted at the event
+                    q_bar, v_bar, vdot_bar, theta_bar, by_event, t_by_event, held_bars = \
+                        self._friction_event_transposed(entry, q_bar, v_bar, vdot_bar + a_bar, theta_bar,
+                                                        (carried, i, S_bar, y_bar))
+                S_bar, y_bar = held_bars
                 gradient += by_event
                 t_bar = t_bar + t_by_event
                 a_bar = np.zeros_like(v_bar)
             elif entry.get("rest") is not None:   # released from its stop at the step's end: a stop's restart
-                q_bar, v_bar, by_release, t_by_release = self._release_transposed(entry, q_bar, v_bar,
-                                                                                 vdot_bar + a_bar)
+                with self._controllers_at(carried, i + 1):   # the states as accepted at the release
+                    q_bar, v_bar, by_release, t_by_release, (S_bar, y_bar) = self._release_transposed(
+                        entry, q_bar, v_bar, vdot_bar + a_bar, (carried, i, S_bar, y_bar))
                 gradient += by_release
                 t_bar = t_bar + t_by_release
                 vdot_bar, a_bar = np.zeros_like(v_bar), np.zeros_like(v_bar)   # set afresh by the restart
@@ -899,13 +884,15 @@ class AdjointSensitivities(TransientSensitivities):
                     q_bar, v_bar, vdot_bar, a_bar = bars
                     theta_bar = self._held_step_transposed(new, w, theta_bar)
                     continue
+            theta_bar = theta_bar.copy()   # the states' sensors add their held angles' part in place
             bars = [q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar]
             w = self._step_transposed(carried, i, (new, h, turn, turn_t, tangent, tangent_t, beta_p, gamma_p, old),
-                                      bars, gradient)
+                                      bars, gradient, theta_bar)
             q_bar, v_bar, vdot_bar, a_bar, S_bar, f_bar, t_bar, g_bar = bars
             if samples_t is not None:   # the held δy's part of the step's ∂r/∂p
                 y_bar = samples_t.held_transposed(new, w, y_bar)
-            theta_bar = self._held_step_transposed(new, w, theta_bar)
+            with self._controllers_at(carried, i + 1):   # K's columns of the held angles as the step's ∂r/∂p took them
+                theta_bar = self._held_step_transposed(new, w, theta_bar)
         if carried.get("numbering_start") is not None and (self._with_events() or self._may_stick()):
             self._numbered(carried["numbering_start"])
         for column, (c_q, c_v, c_vdot, explicit, *c_S) in seeds.get(0, []):   # δS_0 = 0: a state's seed adds nothing
@@ -954,11 +941,14 @@ class AdjointSensitivities(TransientSensitivities):
         return states_t.at(carried["controller_start"] if index == 0 else
                            carried["trajectory"][index - 1]["controller"])
 
-    def _step_transposed(self, carried: dict, i: int, step: tuple, bars: list, gradient: np.ndarray) -> np.ndarray:
+    def _step_transposed(self, carried: dict, i: int, step: tuple, bars: list, gradient: np.ndarray,
+                         theta_bar: np.ndarray | None = None) -> np.ndarray:
         """Step ``i`` of the reverse pass from Python (module docstring: z̄, w, the bars' update; where its size moves
         with p the step size's column and δh's functional transposed, :meth:`_step_size_column`,
         :meth:`_step_size_transposed`): ``bars`` [q̄, v̄, v̇̄, ā, S̄, f̄, t̄, ḡ] at its end replaced by those at its
-        start, ``gradient`` (k, m) updated in place; returns the step's w (a sampled controller's held part,
+        start, ``gradient`` (k, m) and ``theta_bar`` (the held angles' adjoints: the states' sensors read a held angle,
+        ``StatesTransposed.after_step_transposed``) updated in place;
+        returns the step's w (a sampled controller's held part,
         :meth:`SamplesTransposed.held_transposed`). With continuous controllers' states (S̄, f̄ not None) the hooks of
         latdyn/analyses/adjoint_controller_states.py around it, in the forward method's reverse order: ``after_step``
         transposed first (h̄ gains by_hᵀS̄_{n+1}), the step's matrix condensed from (S_n, f_n), the states' B by_h in
@@ -979,7 +969,7 @@ class AdjointSensitivities(TransientSensitivities):
                 timed = entry.get("timed_end") and adjoint_time.moves_in_time(self)   # δs's ∂s/∂t δt_{n+1} onto t̄
                 t_bar = t_bar.copy()
                 held_bar, h_by_states = states_t.after_step_transposed(new, h, terms, S_bar, f_bar, q_bar, v_bar,
-                                                                       gradient, t_bar if timed else None)
+                                                                       gradient, t_bar if timed else None, theta_bar)
                 condensed = states_t.condensed(before, h)
             with condensed:
                 C_t, K_t, solve_transposed, solve = self._transposed_step_system(new, tangent, beta_p, gamma_p)
@@ -1050,7 +1040,7 @@ class AdjointSensitivities(TransientSensitivities):
 
     # ------------------------------------------------------------------ sticking by friction transposed
     def _friction_event_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray,
-                                   theta_bar: np.ndarray) -> tuple:
+                                   theta_bar: np.ndarray, held: tuple) -> tuple:
         """The transpose of the forward method's stick or release at the end of the step ``entry`` holds
         (:meth:`TransientSensitivities._stick_candidates`, :meth:`TransientSensitivities._stick_or_release`, its
         :meth:`_restart`), its pieces in reverse order, for the bars (q̄, v̄, s̄ = v̇̄ + ā) after it and θ̄ (n_hinges, m),
@@ -1067,13 +1057,23 @@ class AdjointSensitivities(TransientSensitivities):
         The restart sets δv̇ and δa afresh (the stick's ``dvdot`` 0): nothing of v̇̄ or ā passes. Beside laws in t the
         restart and the jump are at t_e + δt_e, as the forward method takes them (its ``time_shift`` there: δt_e
         non-zero after an event until a step lands on the grid), their ∂/∂t onto t̄ (latdyn/analyses/adjoint_time.py).
-        Returns (q̄, v̄, v̇̄, θ̄ before it, (k, m) into the gradient, (m,) into t̄); the model left on the numbering before
-        it."""
+        Beside controllers with states or sampled ones (``held`` = (carried, the step's index, S̄, ȳ), S̄ or ȳ None
+        without them) what the forward method holds through it, transposed (:meth:`_held_weights_transposed`): the
+        restart's ∂r/∂p holds the continuous states' B δS (:meth:`TransientSensitivities.after_events`:
+        ``ControllerStates.hold``) and the sampled outputs' A_y δy (``SampledTerms.held``, set for the step), and
+        its weight's (∂K/∂p)v̇ their moves along v̇; a stick's jump (:meth:`TransientSensitivities._stick_candidates`,
+        after ``ControllerStates.after_step`` released δS) the sampled outputs' alone.
+        Returns (q̄, v̄, v̇̄, θ̄ before it, (k, m) into the gradient, (m,) into t̄, (S̄, ȳ) before it); the model left on
+        the numbering before it."""
         kind, j = entry["friction"]
         model, scale = self.model, self.scene.solve.dt * self.scene.solve.dt
+        carried, i, S_bar, y_bar = held
+        states_t, samples_t = self._states_transposed(), self._samples_transposed()
         theta_bar = theta_bar.copy()
         self._restart_weight = None
+        self._weights_met = [] if states_t is not None or samples_t is not None else None
         q_bar, v_bar, _, gradient, t_bar = self._restart_transposed(entry, q_bar, v_bar, s_bar)
+        S_bar, y_bar = self._held_through_restart(held)
         stuck = np.flatnonzero(model.stuck)   # on the numbering after it: the angles held through the restart
         if len(stuck) and model.n_dofs:
             after, u_bar = self._restart_u
@@ -1087,11 +1087,15 @@ class AdjointSensitivities(TransientSensitivities):
             theta_bar[j] = q_bar[model.hinge_dofs[j]]
         q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
         if kind == "release":
-            return q_bar, v_bar, np.zeros_like(v_bar), theta_bar, gradient, t_bar
+            return q_bar, v_bar, np.zeros_like(v_bar), theta_bar, gradient, t_bar, (S_bar, y_bar)
         q_bar[model.hinge_dofs[j]] += theta_bar[j]   # the held δθ_j: δq[θ_j] at the stick
         theta_bar[j] = 0.0
+        self._weights_met = [] if samples_t is not None else None
         v_bar, q_by_jump, vdot_by_jump, by_jump, t_by_jump = self._impulse_transposed(
             {**entry, "event": (j, "stick", 0.0)}, v_bar)
+        if samples_t is not None:   # the held δy through the jump: ∂(A_y δy)/∂q along its Δv in its weight
+            y_bar = self._held_weights_transposed(carried, i, y_bar, -1.0, samples_t)
+        self._weights_met = None
         stuck = np.flatnonzero(model.stuck)   # the other joints friction holds through the jump
         if len(stuck):
             change, u_bar = self._impulse_weight
@@ -1100,7 +1104,22 @@ class AdjointSensitivities(TransientSensitivities):
             weight = (scale * self._held_stiffness_columns(new, change, stuck)
                       + self._held_columns(accelerated, stuck, True) - self._held_columns(at_rest, stuck, True))
             theta_bar[stuck] -= weight.T @ u_bar
-        return q_bar + q_by_jump, v_bar, vdot_by_jump, theta_bar, gradient + by_jump, t_bar + t_by_jump
+        return (q_bar + q_by_jump, v_bar, vdot_by_jump, theta_bar, gradient + by_jump, t_bar + t_by_jump,
+                (S_bar, y_bar))
+
+    def _held_through_restart(self, held: tuple) -> tuple:
+        """(S̄, ȳ) of ``held`` = (carried, the step's index, S̄, ȳ) before the stop's restart just transposed
+        (:meth:`_restart_transposed`, which met its weight's moves in ``self._weights_met``): the continuous states'
+        B δS in its ∂r/∂p and ∂(B δS)/∂q v̇ in its weight's (``ControllerStates.hold``), the sampled outputs' A_y δy
+        likewise (``SampledTerms.held``), transposed (:meth:`_held_weights_transposed`); S̄ or ȳ None without them."""
+        carried, i, S_bar, y_bar = held
+        states_t, samples_t = self._states_transposed(), self._samples_transposed()
+        if states_t is not None:
+            S_bar = self._held_weights_transposed(carried, i, S_bar, 1.0, states_t, restart=True)
+        if samples_t is not None:
+            y_bar = self._held_weights_transposed(carried, i, y_bar, 1.0, samples_t, restart=True)
+        self._weights_met = None
+        return S_bar, y_bar
 
     def _held_columns(self, state, stuck: np.ndarray, inertia: bool, element_gravity: bool = True) -> np.ndarray:
         """(n, s): the forward method's held forces (:meth:`TransientSensitivities._held_forces`: K's column of each
@@ -1277,17 +1296,23 @@ class AdjointSensitivities(TransientSensitivities):
                   if adjoint_time.moves_in_time(self) else np.zeros(u_bar.shape[1]))
         return q_bar + q_part, v_part, vdot_part, p_part, t_part
 
-    def _release_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray) -> tuple:
+    def _release_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray,
+                            held: tuple) -> tuple:
         """The transpose of the forward method's release of a hinge from its rigid stop at the end of the step
         ``entry`` holds (:meth:`TransientSensitivities._settle_or_release`, :meth:`_release_candidates`): a stop's
         restart at the step's end (:meth:`_restart_transposed`, δt of the release 0: the step's end) on the free
         numbering, then the renumbering (:meth:`_renumbering_transposed`: the released angle's δθ and rate were 0,
         its bars go nowhere). The restart sets δv̇, δa afresh (the release's ``dvdot`` 0): nothing of s̄ = v̇̄ + ā
-        passes. Returns (q̄, v̄ before it, (k, m) into the gradient, (m,) into t̄); the model left on the numbering
-        before it."""
+        passes. Beside controllers with states or sampled ones (``held`` = (carried, the step's index, S̄, ȳ)) their
+        held δS and δy in the restart (:meth:`_held_through_restart`; the forward method's second restart at the
+        release, without rigid links the first again, is this one). Returns (q̄, v̄ before it, (k, m) into the
+        gradient, (m,) into t̄, (S̄, ȳ) before it); the model left on the numbering before it."""
+        self._weights_met = [] if self._states_transposed() is not None or self._samples_transposed() is not None \
+            else None
         q_bar, v_bar, _, gradient, t_part = self._restart_transposed(entry, q_bar, v_bar, s_bar)
+        held = self._held_through_restart(held)
         q_bar, v_bar = self._renumbering_transposed(entry, q_bar, v_bar)
-        return q_bar, v_bar, gradient, t_part
+        return q_bar, v_bar, gradient, t_part, held
 
     def _restart_transposed(self, entry: dict, q_bar: np.ndarray, v_bar: np.ndarray, s_bar: np.ndarray) -> tuple:
         """The transpose of the forward method's :meth:`_restart` at the stored state after the event (on its
