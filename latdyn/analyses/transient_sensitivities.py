@@ -1658,6 +1658,11 @@ class TransientSensitivities(ParameterDerivatives):
             return {**carried, "pending": {**pending, "settles": True}}
         if pending is not None or j not in self._releases:
             self._refuse_resting(new, j, "a hinge leaves its stop beside another event at one instant")
+        if model.links is not None:   # fuzznew: the release through the reduction, wrong on a scene not the test's
+            self._refuse_resting(new, j, "a hinge leaves its stop in a model with rigid links (its release's restarts "
+                                         "through the reduction were 4.6e-2 off Richardson differences on a gimbal "
+                                         "released after a short rest, benchmarks/fuzz_lifted.py seed 1 case 5; "
+                                         "coming to rest and resting there are taken)")
         release = self._releases[j]
         return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
                                        "vdot": release["vdot"], "dvdot": release["dvdot"], "restarts": 2, "settles": False}}
