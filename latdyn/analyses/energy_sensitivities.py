@@ -768,7 +768,11 @@ def external_work_after_event(owner, before: dict, after: dict, new, kind: str) 
     step's end again after them too (latdyn/timeloop/loop.py ``_accept``: its reactions' count changed): the same
     correction (without it the gimbal's work by F_c was 3.6e-3 of itself off Richardson differences from its second
     stick on, 1.2e-9 with it at Newton's tolerance 1e-12, tests/test_sensitivities_linked_sticks.py; on the braked
-    panel of tests/test_sensitivities_sticks_beside.py, whose power hardly jumps at its sticks, 3.7e-8 either way)."""
+    panel of tests/test_sensitivities_sticks_beside.py, whose power hardly jumps at its sticks, 3.7e-8 either way).
+    The re-evaluation gives the step's end its prescribed motions' reactions after the jump too (loop.py
+    ``drive_work`` takes them from it), so the drive's term moves by ½ Σ_d Δq_d (δr⁺_d − δr⁻_d), Δq_d the step's
+    (``external_work_drive_increment``; without it a prescribed hinge beside sticks was 4.9e-4 of the work's largest
+    off, 4.0e-8 with it, tests/test_sensitivities_work_at_events.py)."""
     if "external_work_terms" not in before:
         return after
     terms = _power(owner, new, after)
