@@ -680,6 +680,7 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
     held = before.get("external_work_drive")
     rows_old, dreaction_old = held if held is not None else _drive_reactions(owner, old, before)
     drive = _drive_reactions(owner, new, after)
+    increment = np.zeros(0)
     if len(drive[0]):   # ½ Σ_d Δq_d (δr_d,n + δr_d,n+1): csrc/drive_sensitivities.c, the loop's too
         increment, dreaction_new = (np.ascontiguousarray(a, np.float64) for a in (
             _drive_increments(owner.model, owner.assembler.kernels, old, new, drive[0]), drive[1]))
@@ -687,7 +688,8 @@ def external_work_step(owner, before: dict, after: dict, old, new, h: float) -> 
         _work_accounts().latdyn_drive_work_sensitivity(len(increment), k, increment.ctypes.data,
                                                        dreaction_old.ctypes.data, dreaction_new.ctypes.data,
                                                        work.ctypes.data)
-    return {**after, "external_work_sensitivity": work, "external_work_terms": terms, "external_work_drive": drive}
+    return {**after, "external_work_sensitivity": work, "external_work_terms": terms, "external_work_drive": drive,
+            "external_work_drive_increment": increment}
 
 
 def _dissipated_step(owner, before: dict, after: dict, old, new) -> dict:
@@ -766,17 +768,24 @@ def external_work_after_event(owner, before: dict, after: dict, new, kind: str) 
     step's end again after them too (latdyn/timeloop/loop.py ``_accept``: its reactions' count changed): the same
     correction (without it the gimbal's work by F_c was 3.6e-3 of itself off Richardson differences from its second
     stick on, 1.2e-9 with it at Newton's tolerance 1e-12, tests/test_sensitivities_linked_sticks.py; on the braked
-    panel of tests/test_sensitivities_sticks_beside.py, whose power hardly jumps at its sticks, 3.7e-8 either way)."""
+    panel of tests/test_sensitivities_sticks_beside.py, whose power hardly jumps at its sticks, 3.7e-8 either way).
+    The re-evaluation gives the step's end its prescribed motions' reactions after the jump too (loop.py
+    ``drive_work`` takes them from it), so the drive's term moves by ½ Σ_d Δq_d (δr⁺_d − δr⁻_d), Δq_d the step's
+    (``external_work_drive_increment``; without it a prescribed hinge beside sticks was 4.9e-4 of the work's largest
+    off, 4.0e-8 with it, tests/test_sensitivities_work_at_events.py)."""
     if "external_work_terms" not in before:
         return after
     terms = _power(owner, new, after)
     work = before["external_work_sensitivity"]
     renumbered = np.shape(before["dq"])[0] != np.shape(after["dq"])[0]   # a stick or a release renumbers too
+    drive = _drive_reactions(owner, new, after)
     if kind == "latch" or renumbered:
         held = before["external_work_terms"]
         work = work + 0.5 * before["h"] * (terms[1] - held[1]) + 0.5 * np.asarray(before["dh"]) * (terms[0] - held[0])
-    return {**after, "external_work_sensitivity": work, "external_work_terms": terms,
-            "external_work_drive": _drive_reactions(owner, new, after)}
+        if len(drive[0]):   # the drive's reactions at the step's end after the jump too (loop.py drive_work):
+            # ½ Σ_d Δq_d (δr⁺_d − δr⁻_d), the prescribed coordinates in the same order in both numberings
+            work = work + 0.5 * before["external_work_drive_increment"] @ (drive[1] - before["external_work_drive"][1])
+    return {**after, "external_work_sensitivity": work, "external_work_terms": terms, "external_work_drive": drive}
 
 
 def _drive_reactions(owner, state, carried: dict) -> tuple:

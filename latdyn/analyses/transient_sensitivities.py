@@ -1630,9 +1630,9 @@ class TransientSensitivities(ParameterDerivatives):
             if guides or events or probes or self.controllers is not None:
                 what = ("guides" if guides else "latches, rigid stops or cables" if events
                         else "controllers" if self.controllers is not None
-                        else f"probe {probes[0]!r} (not a point, a joint's angle, rate or torque, a kinetic, strain "
-                             "or total energy, the external work without loads on the links' nodes, a momentum or an "
-                             "element's bending moment)")
+                        else f"probe {probes[0]!r} (not a point, a joint's angle, rate or torque, a kinetic, strain, "
+                             "potential or total energy, the external work without loads on the links' nodes, a "
+                             "momentum or an element's section force)")
                 self._refuse_sticking(new, f"{happens} in a model with rigid links beside {what} (their terms "
                                            "of the held angle through the reduction are not carried)", joint)
         if not self._impulse_weighted:
@@ -1732,16 +1732,20 @@ class TransientSensitivities(ParameterDerivatives):
         Richardson differences with the inner ring stuck, its own torque 1.1e-7 – 6.6e-7, ≤ 3.0e-7 with the boom's
         end hinge, at Newton's default tolerance), and the external work where no load is on a node that follows the
         links or in its axes (1.2e-9 at Newton's tolerance 1e-12; the loads' power on a dependent node does not take
-        the held angle's move of it). Not those: that external work, and an element's axial force and torque (the
-        axial force 6.7e-6 off at h = 1e-3 p and 3.2e-5 at 3e-4 p, at Newton's tolerance 1e-12 too: not settled)."""
+        the held angle's move of it); and since workstick an element's axial force and torque (Richardson
+        differences of the gimbal with its boom's EA 1e3: axial forces ≤ 7.2e-9 by F_c and 3.3e-9 by EI, torque
+        2.8e-9 and 1.9e-8; at the boom's EA 1e5 the axial force was 2.0e-6, 6.2e-6, 2.0e-5 off at h = 1e-3, 3e-4,
+        1e-4 p, growing as 1/h with the differences at h and h/2 as far apart: the roundoff of the reference's stiff
+        stretch, not the derivative), and the potential energy (the gimbal under gravity, stuck and released twice:
+        1.8e-9 by F_c, 4.5e-12 by m, 9.2e-10 by EI, 1.3e-8 by k at Newton's tolerance 1e-12). Not that external work."""
         def checked(probe) -> bool:
             if probe.kind == "energy" and probe.quantity == "external_work":
                 node, _, frame = self._load_points()
                 return not np.any(np.isin(np.concatenate([node, frame]), self.model.links.dependent))
             return probe.kind in ("point", "momentum") or (
                 probe.kind == "hinge" and probe.quantity in ("angle", "rate", "torque")) or (
-                probe.kind == "element" and probe.quantity in ("moment_y", "moment_z")) or (
-                probe.kind == "energy" and probe.quantity in ("kinetic", "strain", "total"))
+                probe.kind == "element" and probe.quantity in ("moment_y", "moment_z", "axial_force", "torque")) or (
+                probe.kind == "energy" and probe.quantity in ("kinetic", "strain", "potential", "total"))
 
         return [p.name for p in self.probes if not checked(p)]
 
