@@ -56,7 +56,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import random
 import sys
@@ -83,14 +82,7 @@ TOL = 1e-6
 BOUND = 1e-9
 
 
-def _r(x: float) -> float:
-    return float(round(x, 4))
-
-
-def _unit(rng: random.Random) -> list[float]:
-    v = [rng.gauss(0, 1) for _ in range(3)]
-    n = math.sqrt(sum(c * c for c in v))
-    return [_r(c / n) for c in v]
+_r, _unit = five._r, five._unit   # coordinates rounded as fuzz_combined5 rounds them; a random unit vector
 
 
 def _skew(rng: random.Random, main: int) -> list[float]:

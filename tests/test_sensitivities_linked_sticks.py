@@ -82,6 +82,23 @@ def _run(text: str, sensitivities: bool = True, **moved):
 ANGLE_STEP = 1e-5
 
 
+
+def _richardson_errors(text: str, result, name: str) -> dict:
+    """Each probe's largest distance over the rows of ``result``'s sensitivity by ``name`` from Richardson-extrapolated
+    central differences of whole runs of ``text`` (h = 1e-3 |p| and h/2, the step fixed), relative to the
+    reference's largest."""
+    p0 = yaml.safe_load(text)["parameters"][name]
+    h = 1e-3 * abs(p0)
+    central = []
+    for step in (h, h / 2):
+        up, down = _run(text, False, **{name: p0 + step}), _run(text, False, **{name: p0 - step})
+        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
+    errors = {}
+    for probe in central[0]:
+        expected = (4 * central[1][probe] - central[0][probe]) / 3
+        errors[probe] = float(np.abs(result.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max())
+    return errors
+
 def _along_the_angle(owner, state, of) -> np.ndarray:
     """Σ_j ∂of/∂θ_j δθ_j over the held angles, ``of(moved state)`` an array: a central difference in the test (step
     :data:`ANGLE_STEP`), the state's angle moved, the dependent nodes completed (the free rates and accelerations
@@ -194,15 +211,8 @@ def test_the_gimbal_sticking_by_friction_agrees_with_richardson_central_differen
     (vin, m); the stuck ring's own torque (its reaction, with the held angle's column since heldcol: 64 times its
     sensitivity off without) 1.1e-7 (Fc, EI), 6.6e-7 (m: 2.1e-7 at h = 3e-3 p, 3.4e-6 at 3e-4 p, the reference's
     noise)."""
-    p0 = yaml.safe_load(GIMBAL)["parameters"][name]
-    h = 1e-3 * abs(p0)
-    central = []
-    for step in (h, h / 2):
-        up, down = _run(GIMBAL, False, **{name: p0 + step}), _run(GIMBAL, False, **{name: p0 - step})
-        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
-    for probe in central[0]:
-        expected = (4 * central[1][probe] - central[0][probe]) / 3
-        error = np.abs(gimbal.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max()
+    errors = _richardson_errors(GIMBAL, gimbal, name)
+    for probe, error in errors.items():
         assert error <= 1e-6, (probe, name, error)
 
 
@@ -266,15 +276,8 @@ def test_a_flexible_nodes_hinge_sticking_beside_rigid_links_agrees_with_richards
     ``tol: 1e-12``, Fc 2.6e-8 there at h = 3e-4 p."""
     rate = flexible_end.probes["r2"]
     assert rate[0] == 0.0 and np.count_nonzero(rate[1:] == 0.0) >= 1 and np.count_nonzero(rate) > 10
-    p0 = yaml.safe_load(FLEXIBLE_END)["parameters"][name]
-    h = 1e-3 * abs(p0)
-    central = []
-    for step in (h, h / 2):
-        up, down = _run(FLEXIBLE_END, False, **{name: p0 + step}), _run(FLEXIBLE_END, False, **{name: p0 - step})
-        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
-    for probe in central[0]:
-        expected = (4 * central[1][probe] - central[0][probe]) / 3
-        error = np.abs(flexible_end.sensitivities[(probe, name)] - expected).max() / np.abs(expected).max()
+    errors = _richardson_errors(FLEXIBLE_END, flexible_end, name)
+    for probe, error in errors.items():
         assert error <= 1e-6, (probe, name, error)
 
 
@@ -294,15 +297,8 @@ def test_two_rings_held_at_once_agree_with_richardson_central_differences():
     result = _run(TWO_HELD)
     both = (result.probes["r1"] == 0.0) & (result.probes["r2"] == 0.0)
     assert both[0] and np.count_nonzero(both) >= 2 and not both.all()
-    p0 = yaml.safe_load(TWO_HELD)["parameters"]["Fc"]
-    h = 1e-3 * p0
-    central = []
-    for step in (h, h / 2):
-        up, down = _run(TWO_HELD, False, Fc=p0 + step), _run(TWO_HELD, False, Fc=p0 - step)
-        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
-    for probe in central[0]:
-        expected = (4 * central[1][probe] - central[0][probe]) / 3
-        error = np.abs(result.sensitivities[(probe, "Fc")] - expected).max() / np.abs(expected).max()
+    errors = _richardson_errors(TWO_HELD, result, "Fc")
+    for probe, error in errors.items():
         assert error <= 1e-6, (probe, error)
 
 
@@ -327,15 +323,8 @@ def test_the_external_work_through_sticks_on_rigid_links_agrees_with_richardson_
     too (refused before workstick). Measured (boom's EA 1e3, by Fc): work 7.3e-10, axial force
     7.2e-9, torque 1.3e-9, the other probes ≤ 5.2e-9 (my); by EI (not run here) 5.4e-10, 3.2e-9, 9.1e-10, ≤ 5.6e-9 (t2)."""
     result = _run(EXTERNAL_WORK)
-    p0 = yaml.safe_load(EXTERNAL_WORK)["parameters"]["Fc"]
-    h = 1e-3 * p0
-    central = []
-    for step in (h, h / 2):
-        up, down = _run(EXTERNAL_WORK, False, Fc=p0 + step), _run(EXTERNAL_WORK, False, Fc=p0 - step)
-        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
-    for probe in central[0]:
-        expected = (4 * central[1][probe] - central[0][probe]) / 3
-        error = np.abs(result.sensitivities[(probe, "Fc")] - expected).max() / np.abs(expected).max()
+    errors = _richardson_errors(EXTERNAL_WORK, result, "Fc")
+    for probe, error in errors.items():
         assert error <= {"ew": 1e-8, "nx": 1e-7, "tx": 1e-7}.get(probe, 1e-6), (probe, error)
 
 
@@ -355,13 +344,6 @@ def test_the_potential_energy_beside_sticks_on_rigid_links_agrees_with_richardso
     result = _run(UNDER_GRAVITY)
     assert list(np.flatnonzero(result.probes["r2"] == 0.0)) == [0, 1, 2, 3, 4, 5, 6, 7, 10, 11, 12, 13, 14, 16, 17,
                                                                   18, 19, 20]
-    p0 = yaml.safe_load(UNDER_GRAVITY)["parameters"]["Fc"]
-    h = 1e-3 * p0
-    central = []
-    for step in (h, h / 2):
-        up, down = _run(UNDER_GRAVITY, False, Fc=p0 + step), _run(UNDER_GRAVITY, False, Fc=p0 - step)
-        central.append({k: (up.probes[k] - down.probes[k]) / (2 * step) for k in up.probes if k != "t"})
-    for probe in central[0]:
-        expected = (4 * central[1][probe] - central[0][probe]) / 3
-        error = np.abs(result.sensitivities[(probe, "Fc")] - expected).max() / np.abs(expected).max()
+    errors = _richardson_errors(UNDER_GRAVITY, result, "Fc")
+    for probe, error in errors.items():
         assert error <= (1e-8 if probe == "pe" else 1e-6), (probe, error)
