@@ -77,12 +77,14 @@ process), times the sensors' generated gradients, through the chain of controlle
   joint's own angle as the laws' part of (∂K/∂p) w does, the ``hinge_force`` stiffness with the derivative law in the
   law's slot and ``contact_stiffness_D_law`` (:func:`_moved_forces_along`), and the output's gradient by it
   with SymPy's mixed second derivatives as the other reads; since ctrlexact likewise a cable's tension whose EA,
-  damping or rest length a parameter moves (N linear in (EA, c): ``cable_tension``'s gradient at (∂EA/∂p, ∂c/∂p)
-  times w; ∂²N/∂L0∂q = −(1/L0) ∂N_el/∂q) and a
-  shear-rigid element's section force whose section values a parameter moves (S linear in the stiffness values:
-  ``beam_section_forces_D_q`` at the section [L0, δσ] times w) — before, the difference below, 6.0e-11 – 1.1e-10 of
-  each column off Richardson differences of the block at the 3D boom's latch, 2.4e-12 – 3.8e-14 now
-  (tests/test_weight_derivative_controllers_sensed.py);
+  damping or rest length a parameter moves and an element's section force whose section values a parameter moves,
+  since shearsec both by generated second derivatives (``cable_tension_D_q_D_section``'s ∂²N/∂σ∂q,
+  ``beam_section_forces_D_q_D_section``'s ∂((∂S/∂q) w)/∂σ, contracted with the parameter's δσ), a shear-flexible
+  element's too (its axial force reads EI and 1/GA through μ = 1/(1 + 12 EI/(GA L²))) — before, the difference
+  below, 6.0e-11 – 1.1e-10 of each column off Richardson differences of the block at the 3D boom's latch, 2.4e-12 –
+  3.8e-14 now; at the shear-flexible wheel's stops, pd reading
+  the root element's M_z and axial force, by EI and GA 1.1e-13 – 2.4e-11 and 9.4e-12 – 6.1e-11 where the difference was
+  1.4e-11 – 1.0e-9 and 7.0e-10 – 8.3e-8 (tests/test_weight_derivative_controllers_sensed.py);
 * the angles friction holds (:func:`held_angles_along`): a held angle is no free coordinate, so its K column times δθ_j
   moves along w as ∂(K e_j)/∂q w, the generated ``beam_stiffness_D_q`` at the unit on the held slot times w_e and the
   couplings' row of the held angle from the controllers' second derivatives (``_controller_curvatures``), with W's K:
@@ -91,10 +93,9 @@ process), times the sensors' generated gradients, through the chain of controlle
   whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now; the difference
   that remains below takes W's K's columns too, ``TransientSensitivities._held_forces`` without ``element_gravity``).
 
-Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a shear-flexible
-element's
-section force whose section values a parameter moves (its axial force reads EI through μ = 1/(1 + 12 EI/(GA L²))), or
-a section force or a point a geometry parameter moves (no kernel gives ∂²s/∂X∂q) (:func:`_sensed_forces_generated`);
+Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a section force
+or a point a geometry parameter moves (no kernel gives ∂²s/∂X∂q), or a stuck or locked joint's force
+(:func:`_sensed_forces_generated`);
 a controller whose output's second derivatives along q are not generated
 (``weight_derivative._exact_controllers``: a free joint's force whose law's slope does not parse back as a law, a
 variant generated before the sensors' second-derivative kernels, an output whose second derivatives are not
