@@ -868,6 +868,25 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         tangent=configuration_tangent("section_forces_along", "section_forces_along_D_q", plane,
                                       "∂((∂S/∂q) a)/∂q at fixed a, row-major: [k, d] = ∂((∂S/∂q) a)_k/∂q_d"))
 
+    # the same product (∂S/∂q) a and its derivative by the section values at fixed a and configuration,
+    # ∂((∂S/∂q) a)/∂σ: the forward-mode program of the lowered product seeded with the section values' unit vectors
+    # (section_tangent), the move along w of a section-force sensor's ∂S/∂p that an event's impulse weight needs for a
+    # parameter in a section value, (∂²S/∂σ∂q) w δσ (latdyn/analyses/parameter_stiffness.py ``_section_force_along``);
+    # exact whether or not S is linear in σ (a shear-flexible section's axial force reads EI through μ)
+    b = Builder(kin.auxiliary + shear_definitions)
+    psi = b.vector("psi", kin.psi)
+    Bm = b.matrix("B", kin.B)
+    rename = dict(zip(psi_symbols, psi))
+    by_psi = b.matrix("dS_dpsi", [[sp.diff(f, p).xreplace(rename) for p in psi_symbols] for f in sections])
+    by_q = _matmul(by_psi, Bm)
+    along = [sp.Add(*[by_q[k][c] * direction[c] for c in range(N)]) for k in range(len(sections))]
+    add("beam_section_forces_D_q_D_section", "The section forces' derivative along a direction, (∂S/∂q) a (a in the "
+        "velocity block), and its exact derivative by the section values EA … 1/GAz at fixed a and configuration "
+        "(forward mode of the lowered product, codegen/forward.py)", "Eqs. 22-43", [cv.GEOMETRY, cv.VELOCITY, cv.SECTION],
+        [Output("section_forces_along", (4,), along)], b,
+        tangent=section_tangent("section_forces_along", "section_forces_along_D_section",
+                                "∂((∂S/∂q) a)/∂(EA EIy EIz GJ rhoA rhoIy rhoIz cGAy cGAz), row-major (4, 9)"))
+
     # the element's energies [U, T, V] (strain, kinetic, gravity potential) and their derivatives by the section
     # values: an energy probe's explicit ∂/∂p (latdyn/analyses/energy_sensitivities.py)
     b = Builder(kin.auxiliary + shear_definitions)

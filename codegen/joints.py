@@ -956,6 +956,29 @@ def _cable_tension_D_q_D_q_kernel() -> KernelSpec:
                       variant="joints", equations="Eq. 2 (the end points); cables, issue 32")
 
 
+def _cable_tension_D_q_D_section_kernel() -> KernelSpec:
+    """The gradient of a taut cable element's tension N (:func:`_cable_tension_kernel`, the damper's c ℓ̇ included,
+    at fixed rates) by the end coordinates and its exact derivative by the element's rest length share L0, EA and c:
+    ∂²N/∂σ∂q, the move along w of a tension sensor's ∂N/∂p for a parameter in the cable's EA, damping or rest
+    length (latdyn/analyses/parameter_stiffness.py ``_tension_along``) — generated, so no fact of the law (N linear
+    in (EA, c), N_el = EA (ℓ/L0 − 1)) is used by hand there."""
+    geometry, velocity, section = CABLE_GEOMETRY.symbols(), CABLE_VELOCITY.symbols(), CABLE_SECTION.symbols()
+    delta = sp.Matrix(sp.symbols("delta_0:12"))
+    moved = sp.Matrix([cable_terms(_cable_moved(list(geometry), delta), velocity, section)[4]])
+    gradient = _jacobian(moved, delta, {d: 0 for d in delta})
+    L0, _, EA, c = section
+    by_section = gradient.T.jacobian(sp.Matrix([L0, EA, c]))
+    outputs = [Output("cable_tension_D_q", (12,), _rows(gradient),
+                      "∂N/∂[d1, π1, d2, π2] at fixed velocities (spatial update)"),
+               Output("cable_tension_D_q_D_section", (12, 3), _rows(by_section),
+                      "∂(∂N/∂q_c)/∂[L0, EA, c] at fixed ends and velocities: row c the gradient's column")]
+    return KernelSpec(name="cable_tension_D_q_D_section", doc="The gradient of a taut cable element's tension by the "
+                      "end coordinates and its exact derivative by the rest length share, EA and the damping "
+                      "(a tension sensor in an event's impulse weight with a parameter of the cable)",
+                      inputs=[CABLE_GEOMETRY, CABLE_VELOCITY, CABLE_SECTION], outputs=outputs, variant="joints",
+                      equations="Eq. 2 (the end points); cables, issue 32; their sensitivities, issue 34")
+
+
 RELATIVE_GEOMETRY = Argument("relative_geometry", 27, "x_n[3] x_b[3] T_n[9] r[3] T_b[9]: the reference points of the "
                              "point's node and of the body, the node's frame, the point from the node's reference "
                              "point in node axes, and the body's frame (frames row-major)")
@@ -1476,7 +1499,7 @@ def build_kernels() -> list[KernelSpec]:
             _hinge_wrench_kernel(), _root_wrench_kernel(),
             _link_edge_kernel(prismatic=True), _slide_wrench_kernel(), _cable_force_kernel(),
             _cable_stiffness_D_q_kernel(), _cable_rest_length_kernel(), _cable_stiffness_D_rest_length_kernel(),
-            _cable_tension_kernel(), _cable_tension_D_q_D_q_kernel(),
+            _cable_tension_kernel(), _cable_tension_D_q_D_q_kernel(), _cable_tension_D_q_D_section_kernel(),
             _point_velocity_in_body_kernel(), _point_velocity_in_body_D_q_D_q_kernel(),
             _closure_edge_kernel(rod=False), _closure_edge_kernel(rod=True), _closure_wrench_kernel(rod=False),
             _closure_wrench_kernel(rod=True),

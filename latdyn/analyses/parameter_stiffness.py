@@ -77,12 +77,14 @@ process), times the sensors' generated gradients, through the chain of controlle
   joint's own angle as the laws' part of (∂K/∂p) w does, the ``hinge_force`` stiffness with the derivative law in the
   law's slot and ``contact_stiffness_D_law`` (:func:`_moved_forces_along`), and the output's gradient by it
   with SymPy's mixed second derivatives as the other reads; since ctrlexact likewise a cable's tension whose EA,
-  damping or rest length a parameter moves (N linear in (EA, c): ``cable_tension``'s gradient at (∂EA/∂p, ∂c/∂p)
-  times w; ∂²N/∂L0∂q = −(1/L0) ∂N_el/∂q) and a
-  shear-rigid element's section force whose section values a parameter moves (S linear in the stiffness values:
-  ``beam_section_forces_D_q`` at the section [L0, δσ] times w) — before, the difference below, 6.0e-11 – 1.1e-10 of
-  each column off Richardson differences of the block at the 3D boom's latch, 2.4e-12 – 3.8e-14 now
-  (tests/test_weight_derivative_controllers_sensed.py);
+  damping or rest length a parameter moves and an element's section force whose section values a parameter moves,
+  since shearsec both by generated second derivatives (``cable_tension_D_q_D_section``'s ∂²N/∂σ∂q,
+  ``beam_section_forces_D_q_D_section``'s ∂((∂S/∂q) w)/∂σ, contracted with the parameter's δσ), a shear-flexible
+  element's too (its axial force reads EI and 1/GA through μ = 1/(1 + 12 EI/(GA L²))) — before, the difference
+  below, 6.0e-11 – 1.1e-10 of each column off Richardson differences of the block at the 3D boom's latch, 2.4e-12 –
+  3.8e-14 now; at the shear-flexible wheel's stops, pd reading
+  the root element's M_z and axial force, by EI and GA 1.1e-13 – 2.4e-11 and 9.4e-12 – 6.1e-11 where the difference was
+  1.4e-11 – 1.0e-9 and 7.0e-10 – 8.3e-8 (tests/test_weight_derivative_controllers_sensed.py);
 * the angles friction holds (:func:`held_angles_along`): a held angle is no free coordinate, so its K column times δθ_j
   moves along w as ∂(K e_j)/∂q w, the generated ``beam_stiffness_D_q`` at the unit on the held slot times w_e and the
   couplings' row of the held angle from the controllers' second derivatives (``_controller_curvatures``), with W's K:
@@ -91,10 +93,9 @@ process), times the sensors' generated gradients, through the chain of controlle
   whole runs' Fc 7.7e-8 and 2.3e-7 off Richardson differences where they are 1.8e-8 and 2.2e-8 now; the difference
   that remains below takes W's K's columns too, ``TransientSensitivities._held_forces`` without ``element_gravity``).
 
-Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a shear-flexible
-element's
-section force whose section values a parameter moves (its axial force reads EI through μ = 1/(1 + 12 EI/(GA L²))), or
-a section force or a point a geometry parameter moves (no kernel gives ∂²s/∂X∂q) (:func:`_sensed_forces_generated`);
+Still a central difference of those terms along w (step WEIGHT_STEP ℓ/|w|_∞): a controller reading a section force
+or a point a geometry parameter moves (no kernel gives ∂²s/∂X∂q), or a stuck or locked joint's force
+(:func:`_sensed_forces_generated`);
 a controller whose output's second derivatives along q are not generated
 (``weight_derivative._exact_controllers``: a free joint's force whose law's slope does not parse back as a law, a
 variant generated before the sensors' second-derivative kernels, an output whose second derivatives are not
@@ -908,11 +909,11 @@ def _sensed_forces_generated(owner, terms) -> bool:
     """Whether every force a continuous controller reads whose laws a parameter moves (``ControllerTerms.forces_read``)
     has its ∂F/∂p's move along q generated (:func:`_moved_forces_along`): a free joint's torque or force (its laws and
     compliant stops, :func:`_hinges`, :func:`_stops`); a cable's tension (its EA, damping, rest length; ρA moves no
-    force); a shear-rigid element's section force whose section values alone a parameter moves (no geometry
-    parameter; S linear in the stiffness values, :func:`_shear_rigid`). The others keep the difference: a
-    shear-flexible element's section force (its axial force reads EI through μ; no kernel gives ∂²S/∂σ∂q), a placed
-    point and a section force that a geometry parameter moves (no kernel gives ∂²s/∂X∂q), a stuck or locked joint's
-    force (a reaction)."""
+    force: ``cable_tension_D_q_D_section``); an element's section force whose section values alone a parameter moves
+    (no geometry parameter; shear-rigid or shear-flexible: ``beam_section_forces_D_q_D_section``). The others keep the
+    difference: a placed point and a section force that a geometry parameter moves (no kernel gives ∂²s/∂X∂q), a
+    stuck or locked joint's force (a reaction), and a force whose kernel the generated variant does not hold yet (one
+    regenerated before it: the committed tree regenerates every variant at once)."""
     from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
 
     model = owner.model
@@ -922,9 +923,13 @@ def _sensed_forces_generated(owner, terms) -> bool:
         if is_joint_force(probe):
             if model.hinge_dofs[joint_of(model, probe)] >= model.n_dofs:   # a stuck or locked joint's force
                 return False
-        elif probe.kind == "element" and (owner.geometry is not None or not _shear_rigid(model, probe)):
-            return False
-        elif probe.kind not in ("cable", "element"):   # a placed point
+        elif probe.kind == "element":
+            if owner.geometry is not None or "beam_section_forces_D_q_D_section" not in owner.kernels.info:
+                return False
+        elif probe.kind == "cable":
+            if "cable_tension_D_q_D_section" not in owner.kernels.info:
+                return False
+        else:   # a placed point
             return False
     return True
 
@@ -935,13 +940,12 @@ def _moved_forces_along(owner, terms, state, w: np.ndarray) -> dict:
     * a free joint's force F = −f (its laws and compliant stops, ``ControllerTerms.sensed_force_slopes``): −∂(∂f/∂p)/∂θ
       w_θ, the generated ``hinge_force`` stiffness with the derivative law in the law's slot (:func:`_hinges`) and
       ``contact_stiffness_D_law`` (:func:`_stops`) along the joint's own angle alone;
-    * a cable's tension, its first element's N = EA (ℓ − L0)/L0 + c ℓ̇ (0 while slack): linear in (EA, c) at a fixed
-      rest length, so ∂N/∂p is N at (∂EA/∂p, ∂c/∂p) and its move along w the generated ``cable_tension``'s gradient
-      there times w on the element's ends; by the element's rest length L0, ∂N/∂L0 = −EA ℓ/L0² moves by
-      −(EA/L0²) ∂ℓ/∂q w = −(1/L0) ∂N_el/∂q w, ``cable_tension``'s gradient at c = 0 (:func:`_tension_along`);
-    * an element's section force w0 S_k + w1 S_k+1 (latdyn.assembly.control ``_section_sensor``) on a shear-rigid
-      element: ∂S/∂p = (∂S/∂σ) δσ is S at the section [L0, δσ] (linear in the stiffness values there), so its move
-      along w is the generated ``beam_section_forces_D_q`` at that section times w (:func:`_section_force_along`)."""
+    * a cable's tension, its first element's N = EA (ℓ − L0)/L0 + c ℓ̇ (0 while slack): ∂N/∂p = (∂N/∂σ) δσ over
+      σ = (L0, EA, c) moves along w as (∂²N/∂σ∂q w) δσ, the generated ``cable_tension_D_q_D_section`` times w on the
+      element's ends (:func:`_tension_along`);
+    * an element's section force w0 S_k + w1 S_k+1 (latdyn.assembly.control ``_section_sensor``), shear-rigid or
+      shear-flexible: ∂S/∂p = (∂S/∂σ) δσ moves along w as (∂((∂S/∂q) w)/∂σ) δσ, the generated
+      ``beam_section_forces_D_q_D_section`` at the element's section (:func:`_section_force_along`)."""
     from latdyn.analyses.joint_force_sensitivities import is_joint_force, joint_of
 
     model = owner.model
@@ -968,11 +972,12 @@ def _moved_forces_along(owner, terms, state, w: np.ndarray) -> dict:
 
 
 def _tension_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
-    """(k,) ∂(∂N/∂p)/∂q w of a cable's tension (:func:`_moved_forces_along`): the generated ``cable_tension``'s
-    gradient ∂N/∂[d1, π1, d2, π2] of its first element at (EA, c) = (∂EA/∂p, 0) or (0, ∂c/∂p), times w on the
-    element's ends; by the rest length, N_el = EA (ℓ/L0 − 1) gives ∂²N/∂L0∂q = −(EA/L0²) ∂ℓ/∂q = −(1/L0) ∂N_el/∂q
-    (the gradient at c = 0), times the element's share of ∂L0/∂p (a reel's L0(t) share · L0 as
-    :func:`_cables`'s); 0 while the element is slack (the sensor reads 0 there, csrc/evaluate.c)."""
+    """(k,) ∂(∂N/∂p)/∂q w of a cable's tension (:func:`_moved_forces_along`): the generated
+    ``cable_tension_D_q_D_section``'s ∂²N/∂σ∂q of its first element, σ = (L0, EA, c) (codegen/joints.py), its column
+    of the value a use moves times that use's derivative (∂EA/∂p, ∂c/∂p, or the element's share of ∂L0/∂p as
+    :func:`_cables`' reel share · L0), times w on the element's ends; 0 while the element is slack (the sensor reads 0
+    there, csrc/evaluate.c). Before (ctrlexact), by hand from facts of the law: N linear in (EA, c), and
+    N_el = EA (ℓ/L0 − 1) giving ∂²N/∂L0∂q = −(1/L0) ∂N_el/∂q."""
     from latdyn.analyses.weight_derivative import _cable_inputs
 
     model = owner.model
@@ -986,32 +991,31 @@ def _tension_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
     along = full[_scattered(model.node_dofs[cables.nodes[element]].reshape(12), model.n_total)]
     if not taut[0] or not np.any(along):
         return out
+    by_section = np.asarray(owner.kernels.cable_tension_D_q_D_section(geometry, velocity, section)[1],
+                            float).reshape(12, 3).T @ along   # ∂(∂N/∂q w)/∂[L0, EA, c]
     t = float(state.t)
     for cable, value, column, law in owner.cables.uses:
-        if cable != k or value not in ("EA", "damping", "rest_length"):
+        if cable != k or value not in _TENSION_VALUES:
             continue
-        derivative = law.value(0.0, 0.0, t)
-        moved = section.copy()
-        if value == "rest_length":   # −(1/L0) ∂N_el/∂q (the gradient at c = 0) times share · ∂L0/∂p
-            moved[0, 3] = 0.0
-            scale = -cables.share[element] * derivative / section[0, 0]
-        else:                        # N at (∂EA/∂p, 0) or (0, ∂c/∂p)
-            moved[0, 2:4] = (derivative, 0.0) if value == "EA" else (0.0, derivative)
-            scale = 1.0
-        gradient = owner.kernels.cable_tension(geometry, velocity, np.ascontiguousarray(moved))[1]
-        out[column] += scale * float(np.asarray(gradient, float).reshape(12) @ along)
+        share = cables.share[element] if value == "rest_length" else 1.0
+        out[column] += by_section[_TENSION_VALUES[value]] * share * law.value(0.0, 0.0, t)
     return out
 
 
+#: the cable values a tension reads, each its column of ``cable_tension_D_q_D_section``'s [L0, EA, c]
+_TENSION_VALUES = {"rest_length": 0, "EA": 1, "damping": 2}
+
+
 def _section_force_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
-    """(k,) ∂(∂S/∂p)/∂q w of an element's section force w0 S_k + w1 S_k+1 (:func:`_moved_forces_along`) on a
-    shear-rigid element (:func:`_shear_rigid`). There S = [EA ε̄(Ψ), GJ φ_x2/L, EIy (φ_y2 − φ_y1)/L,
-    EIz (φ_z2 − φ_z1)/L] (codegen/formulation.py ``section_forces``; ε̄ reads the section only through the shear
-    factors μ = 1/(1 + 12 EI/(GA L²)), 1 here, and Ψ(q) not at all) is linear and homogeneous in (EA, GJ, EIy, EIz)
-    and free of the other values, so ∂S/∂σ δσ is S at the section [L0, δσ] and its move along w the generated
-    ``beam_section_forces_D_q``'s ∂S/∂q there times w_e, for each section use's derivative rows δσ
-    (``ParameterDerivatives._section_derivative_blocks``), weighed as csrc/parameter_forces.c ``section_force_slope``
-    weighs ∂S/∂σ."""
+    """(k,) ∂(∂S/∂p)/∂q w of an element's section force w0 S_k + w1 S_k+1 (:func:`_moved_forces_along`): with
+    ∂S/∂p = (∂S/∂σ) δσ for each section use's derivative rows δσ (``ParameterDerivatives._section_derivative_blocks``,
+    weighed as csrc/parameter_forces.c ``section_force_slope`` weighs ∂S/∂σ), its move along w is
+    (∂((∂S/∂q) w_e)/∂σ) δσ, the generated ``beam_section_forces_D_q_D_section``'s derivative by the section values at
+    the element's section and configuration (codegen/derivation.py: forward mode of the lowered product), contracted
+    with δσ. Exact whether or not S is linear in σ: a shear-flexible element's axial force reads EI through
+    μ = 1/(1 + 12 EI/(GA L²)); before (ctrlexact), a shear-rigid one's S at the section [L0, δσ] (S linear in the
+    stiffness values there, a fact of the generated law used by hand), a shear-flexible one's a central difference
+    along w."""
     from latdyn.assembly.control import _section_sensor
 
     model = owner.model
@@ -1025,21 +1029,14 @@ def _section_force_along(owner, state, w: np.ndarray, probe) -> np.ndarray:
     uses = np.flatnonzero(blocks[0] == e) if blocks is not None else np.zeros(0, np.int64)
     if not len(uses) or not np.any(along):
         return out
-    geometry = np.ascontiguousarray(np.repeat(owner.assembler.native().element_inputs(state)[0][e:e + 1], len(uses), 0))
-    by_q = np.asarray(owner.kernels.beam_section_forces_D_q(geometry, np.ascontiguousarray(blocks[2][uses]))[1],
-                      float).reshape(len(uses), 4, -1) @ along
-    weighed = weights[0] * by_q[:, first] + (weights[1] * by_q[:, first + 1] if first < 3 else 0.0)
+    geometry = np.ascontiguousarray(owner.assembler.native().element_inputs(state)[0][e:e + 1])
+    by_section = np.asarray(owner.kernels.beam_section_forces_D_q_D_section(
+        geometry, np.ascontiguousarray(along[None]), np.ascontiguousarray(model.element_sections[e:e + 1]))[1],
+        float).reshape(4, -1)
+    moved = blocks[2][uses][:, 1:] @ by_section.T   # (uses, 4): Σ_σ ∂((∂S/∂q) w_e)/∂σ δσ (L0, slot 0, is no value)
+    weighed = weights[0] * moved[:, first] + (weights[1] * moved[:, first + 1] if first < 3 else 0.0)
     np.add.at(out, blocks[1][uses], weighed)
     return out
-
-
-def _shear_rigid(model, probe) -> bool:
-    """Whether the element a section-force ``probe`` reads is shear-rigid (its compliances 1/GAy, 1/GAz zero, the
-    last two of codegen/conventions.py SECTION_NAMES): its section forces are then linear in the stiffness values
-    (:func:`_section_force_along`); a shear-flexible one's axial force reads EI through μ, and keeps the
-    difference."""
-    e = int(model.beam_elements[probe.beam][probe.element])
-    return not np.any(model.element_sections[e, -2:])
 
 
 def held_angles_along(owner, state, w: np.ndarray):

@@ -7,10 +7,10 @@ sensitivities need δ(W w) = H δq + (∂W/∂p) w along each column's (δq, δp
 (latdyn/analyses/transient_sensitivities.py ``_weight_derivative``, latdyn/analyses/adjoint_sensitivities.py
 ``_weight_derivative_transposed``); (∂W/∂p) w is latdyn/analyses/parameter_stiffness.py's (the parameters' own
 uses, and beside them the controllers' terms of ∂r/∂p exact, ``controller_parameter_along`` (a sampled controller's
-held outputs, ``sampled_held_along``; a free joint's force, a cable's tension (EA, damping, rest length) and a
-shear-rigid element's section force by its section values, whose laws a parameter moves, read by a controller), and
-the held angles' columns, ``held_angles_along``; the terms of a controller reading another force a parameter moves (a
-shear-flexible section, a geometry parameter's section force or placed point) or outside
+held outputs, ``sampled_held_along``; a free joint's force, a cable's tension (EA, damping, rest length) and an
+element's section force by its section values, shear-flexible too, whose laws a parameter moves, read by a controller),
+and the held angles' columns, ``held_angles_along``; the terms of a controller reading another force a parameter moves
+(a geometry parameter's section force or placed point, a stuck or locked joint's force) or outside
 :func:`_exact_controllers` a central difference; with rigid links or guides beside controllers the same
 parts through the reduction, the controllers' terms along u = P w, ``linked_controller_parameter_along``, and the
 geometric term of ∂r_all/∂p, and a generated time shift, since linkedparam; beside held angles, a time shift not

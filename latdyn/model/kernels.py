@@ -433,7 +433,7 @@ ON_DEMAND = ("beam_inertia_tangent", "beam_section_forces_D_q", "beam_internal_f
              "beam_stiffness_D_section", "beam_stiffness_D_q", "point_load_stiffness_D_q", "cable_stiffness_D_q",
              "cable_stiffness_D_rest_length", "contact_stiffness_D_law", "beam_section_forces_D_q_D_q",
              "cable_tension_D_q_D_q", "point_velocity_in_body_D_q_D_q",
-             "beam_stiffness_D_reference")
+             "beam_stiffness_D_reference", "beam_section_forces_D_q_D_section", "cable_tension_D_q_D_section")
 
 #: Kernels composed from their parts in the C backend (see above), name -> parts.
 COMPOSED = {
