@@ -1219,8 +1219,9 @@ class TransientSensitivities(ParameterDerivatives):
         second derivatives times the sensors' generated gradients, chained); a central difference (step
         :data:`WEIGHT_STEP` ℓ/|w|_∞, two evaluations) of what that does not form — the held angles' columns, and the
         controllers' terms where it returns None (a controller reading a force whose ∂F/∂p's move is not generated —
-        a shear-flexible section, a geometry parameter's section force or placed point —, a
-        controller whose second derivatives along q are not generated). The parameters' own terms beside
+        a geometry parameter's section force or placed point, a stuck joint's reaction —, a controller whose second
+        derivatives along q are not generated; a section force by section values, shear-flexible too, is generated
+        since shearsec). The parameters' own terms beside
         them are generated (latdyn/analyses/parameter_stiffness.py)."""
         model, assembler = self.model, self.assembler
         exact = controller_parameter_along(self, state, w) if self.controllers is not None else None
