@@ -45,6 +45,13 @@ SPAR = (CHAIN.replace("start: {hinge: {axis: [0, 1, 1], stiffness: 3.0}}}",
         .replace("    angle: {", '    spar_m: {element: "spar.element[0]", quantity: moment_z}\n    angle: {', 1))
 
 
+def _stretched_damped_cable(rng) -> tuple:
+    """A cable element's kernel inputs at random: its end nodes' positions (about 2 apart along x) and turns, random
+    rates, and its block [L0, L0_dot, EA, c] = [1.5, 0.1, 300, 2.5] (stretched: taut)."""
+    geometry = np.concatenate([rng.normal(size=3), rng.normal(size=3) + [2.0, 0, 0], 0.2 * rng.normal(size=6)])
+    return geometry, rng.normal(size=12), np.array([1.5, 0.1, 300.0, 2.5])
+
+
 def test_the_generated_tension_second_derivative_is_the_central_difference_of_its_gradient():
     """``cable_tension_D_q_D_q`` of a damped, stretched element at random rates: its gradient is ``cable_tension``'s
     ∂N/∂q to round-off (1e-15; their CSE differs), and its derivative by the 12 end coordinates the central difference of that gradient along
@@ -52,8 +59,7 @@ def test_the_generated_tension_second_derivative_is_the_central_difference_of_it
     kernels = load_kernels("auto", "default")
     rng = np.random.default_rng(36)
     for _ in range(3):
-        geometry = np.concatenate([rng.normal(size=3), rng.normal(size=3) + [2.0, 0, 0], 0.2 * rng.normal(size=6)])
-        velocity, section = rng.normal(size=12), np.array([1.5, 0.1, 300.0, 2.5])
+        geometry, velocity, section = _stretched_damped_cable(rng)
 
         def gradient(g):
             return np.asarray(kernels.cable_tension(_row(g), _row(velocity), _row(section))[1]).reshape(12)
@@ -145,8 +151,7 @@ def test_the_generated_tension_derivative_by_its_values_is_the_central_differenc
     rng = np.random.default_rng(39)
     worst = 0.0
     for _ in range(3):
-        geometry = np.concatenate([rng.normal(size=3), rng.normal(size=3) + [2.0, 0, 0], 0.2 * rng.normal(size=6)])
-        velocity, section = rng.normal(size=12), np.array([1.5, 0.1, 300.0, 2.5])
+        geometry, velocity, section = _stretched_damped_cable(rng)
 
         def gradient(block):
             return np.asarray(kernels.cable_tension(_row(geometry), _row(velocity), _row(block))[1]).reshape(12)
