@@ -291,7 +291,8 @@ def test_the_exact_rows_on_free_coordinates_are_those_of_the_exact_matrices(scen
         exact = assembler.exact_matrices(state, dense=True)
     else:
         ev = evaluate_linked(model.links, assembler, state, True, 1.0, True, inertia_tangent=True, rates_term=True)
-        exact = [np.asarray(ev._assembled(*c, True)) for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))]
+        exact = [np.asarray(ev.combined_before_reduction(*c, True))
+                 for c in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))]
     for matrix, rows in zip(exact, assembler.exact_rows(state, np.arange(model.n_assembled))):
         assert np.any(matrix)
         np.testing.assert_allclose(rows, matrix, rtol=0, atol=1e-12 * np.abs(matrix).max())

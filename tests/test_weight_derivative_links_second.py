@@ -136,7 +136,8 @@ def test_the_links_second_derivatives_along_the_configuration_are_richardsons(te
         del assembler.advance
     assert moves == []   # no difference: the links' second derivatives are generated
 
-    K_all, C_all, M_all = (ev._assembled(*c, True) for c in ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)))
+    K_all, C_all, M_all = (ev.combined_before_reduction(*c, True)
+                           for c in ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0)))
     by_velocity, by_acceleration = ev.rates_tangent
     dq_all, dv_all, da_all = (np.asarray(ev.projection @ dq[:, 0]).reshape(-1), np.zeros(len(r)), np.zeros(len(r)))
     dv_all[ev.dependent_rows] = np.asarray(by_velocity @ dq[:, 0]).reshape(-1)

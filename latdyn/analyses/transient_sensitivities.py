@@ -1494,7 +1494,7 @@ class TransientSensitivities(ParameterDerivatives):
         coordinates = [int(d) for d in model.hinge_dofs[hinges]]
         _, moved_residual = linked_columns(assembler, state, coordinates, True)   # ∂r_all/∂θ_j, the inertia forces'
         ev = assembler.evaluate(state, matrices=True)
-        P, r_all, K_all = ev.projection, ev.assembled_residual, ev._assembled(0.0, 0.0, 1.0, True)  # noqa: SLF001
+        P, r_all, K_all = ev.projection, ev.assembled_residual, ev.combined_before_reduction(0.0, 0.0, 1.0, True)
         u, y = np.zeros(size), np.zeros(size)
         u[:n_asm] = np.asarray(P @ w).reshape(-1)
         y[:n_asm] = np.asarray(K_all @ u[:n_asm]).reshape(-1)

@@ -2333,8 +2333,8 @@ def linked_geometric_derivative(assembler, state, w: np.ndarray, dq: np.ndarray,
     n = model.n_dofs
     ev = assembler.evaluate(state, matrices=True, inertia_tangent=True)
     P, r_all = ev.projection, ev.assembled_residual
-    K_all, C_all, M_all = ev._assembled(0.0, 0.0, 1.0, True), ev._assembled(0.0, 1.0, 0.0, True), \
-        ev._assembled(1.0, 0.0, 0.0, True)
+    K_all, C_all, M_all = (ev.combined_before_reduction(*c, True) for c in ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0),
+                                                                             (1.0, 0.0, 0.0)))
     by_velocity, by_acceleration = ev.rates_tangent   # dense, or sparse on a sparse storage: applied, not converted
     convective = ev.velocity_derivative
     dependent = ev.dependent_rows

@@ -51,9 +51,13 @@ class LinkedEvaluation(SeparateMatrices):
         #: values of :attr:`pattern` (rows, cols, CSR indptr)
         self.parts = self.pattern = None
 
-    def _assembled(self, cm, cc, ck, dense):
-        """cm M + cc C + ck K on the assembled coordinates (free and dependent), before the reduction: the blocks'
-        own scatter (tests/test_sensitivities_joint_forces.py holds ``Assembler.exact_rows`` to it)."""
+    def combined_before_reduction(self, cm: float, cc: float, ck: float, dense: bool | None = None):
+        """cm M + cc C + ck K on the assembled coordinates (free and dependent), before the reduction (the M_all,
+        C_all, K_all of the module docstring; K exact where the evaluation took the inertia tangent): the blocks'
+        own scatter, which the sensitivities through rigid links compose with :attr:`projection` and
+        :attr:`assembled_residual` (the held angles' weight term, latdyn/analyses/transient_sensitivities.py; the
+        links' weight derivative, latdyn/analyses/weight_derivative.py); tests/test_sensitivities_joint_forces.py
+        holds ``Assembler.exact_rows`` to it. ``dense`` as :meth:`combined`'s."""
         raw = Evaluation(residual=None, reaction=None, blocks=self.blocks, assembler=self.assembler)
         return raw.combined(cm, cc, ck, dense=dense)
 
