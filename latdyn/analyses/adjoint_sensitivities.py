@@ -276,10 +276,12 @@ class AdjointSensitivities(TransientSensitivities):
         carried["trajectory"].append(entry)
         return carried
 
-    def after_events(self, carried: dict, new) -> dict:
+    def after_events(self, carried: dict, new, end_after_events: bool) -> dict:
         """After the events of the step just stored: the numbering and cables' sides the rows and the next
         step are taken on, and after a latch or a stop the state after its jump and restart (where the reverse
-        pass transposes the restart, :meth:`_restart_transposed`)."""
+        pass transposes the restart, :meth:`_restart_transposed`). ``end_after_events`` (the loop evaluated the
+        step's end again after the events) only moves the external work's terms, which the adjoint refuses
+        (latdyn/analyses/energy_sensitivities.py ``refusal``): not read here."""
         if carried["trajectory"]:
             carried["trajectory"][-1].pop("pending", None)
         if self._with_events() and carried["trajectory"]:

@@ -757,16 +757,15 @@ def _damper_torques(owner, state, carried: dict) -> tuple:
     return torque, dtorque, dtheta
 
 
-def external_work_after_event(owner, before: dict, after: dict, new, kind: str) -> dict:
-    """``after`` (the carried sensitivities restarted after the event of kind ``kind`` that ended the last
-    step at ``new``; ``before``: those of that step's end, before the jump) with the external work's terms
-    taken after the jump, as the loop takes them (latdyn/timeloop/loop.py ``_accept``): the next step starts
-    from the power and torques after the jump; a latch (the coordinates renumbered) has the loop evaluate the
-    step's end again after the jump, so that the step's own trapezoid took the power after it,
-    ½ h (P_n + P⁺_{n+1}): its sensitivity moves by ½ h (δP⁺ − δP⁻) + ½ δh (P⁺ − P⁻). Nothing without an
-    external-work probe. A stick and a release renumber the coordinates as a latch does, and the loop evaluates the
-    step's end again after them too (latdyn/timeloop/loop.py ``_accept``: its reactions' count changed): the same
-    correction (without it the gimbal's work by F_c was 3.6e-3 of itself off Richardson differences from its second
+def external_work_after_event(owner, before: dict, after: dict, new, end_after_events: bool) -> dict:
+    """``after`` (the carried sensitivities restarted after the events that ended the last step at ``new``;
+    ``before``: those of that step's end, before the jump) with the external work's terms taken after the jump,
+    as the loop takes them (latdyn/timeloop/loop.py ``_accept``): the next step starts from the power and torques
+    after the jump; where the loop evaluated the step's end again after the events (``end_after_events``, which
+    it says: a latch, a stick, a release, their renumbering changing its reactions' count, and a rest on a stop),
+    the step's own trapezoid took the power after the jump, ½ h (P_n + P⁺_{n+1}): its sensitivity moves by
+    ½ h (δP⁺ − δP⁻) + ½ δh (P⁺ − P⁻). Nothing without an external-work probe. At a stick and a release
+    too (without the correction the gimbal's work by F_c was 3.6e-3 of itself off Richardson differences from its second
     stick on, 1.2e-9 with it at Newton's tolerance 1e-12, tests/test_sensitivities_linked_sticks.py; on the braked
     panel of tests/test_sensitivities_sticks_beside.py, whose power hardly jumps at its sticks, 3.7e-8 either way).
     The re-evaluation gives the step's end its prescribed motions' reactions after the jump too (loop.py
@@ -777,9 +776,8 @@ def external_work_after_event(owner, before: dict, after: dict, new, kind: str) 
         return after
     terms = _power(owner, new, after)
     work = before["external_work_sensitivity"]
-    renumbered = np.shape(before["dq"])[0] != np.shape(after["dq"])[0]   # a stick or a release renumbers too
     drive = _drive_reactions(owner, new, after)
-    if kind == "latch" or renumbered:
+    if end_after_events:
         held = before["external_work_terms"]
         work = work + 0.5 * before["h"] * (terms[1] - held[1]) + 0.5 * np.asarray(before["dh"]) * (terms[0] - held[0])
         if len(drive[0]):   # the drive's reactions at the step's end after the jump too (loop.py drive_work):

@@ -1378,12 +1378,15 @@ class TransientSensitivities(ParameterDerivatives):
         rate = linked_geometric_rate_in_time(assembler, state, inertia_forces, w, motion_rates)
         return np.outer(rate, self.time_shift)
 
-    def after_events(self, carried: dict, new) -> dict:
+    def after_events(self, carried: dict, new, end_after_events: bool) -> dict:
         """``carried`` after the events of the step ended at ``new`` (its coordinates renumbered, its
         accelerations restarted): δq, δv on the new numbering and the restart differentiated: after a
         latch the consistent accelerations, M δv̇ = −(∂r/∂p + K δq + C δv); after a stop those of
         :func:`latdyn.timeloop.events.restart_accelerations`, W v̇ = −r(q, v, 0), so
-        W δv̇ = −(∂r/∂p + K δq + C δv + dt² δ(K)v̇) (K exact, at the restarted v̇); δa = δv̇."""
+        W δv̇ = −(∂r/∂p + K δq + C δv + dt² δ(K)v̇) (K exact, at the restarted v̇); δa = δv̇.
+        ``end_after_events``: whether the loop evaluated the step's end again after the events (latdyn/timeloop/
+        loop.py ``_accept``), so that the step's external work took its end's power and drives' reactions after
+        the jump (:func:`external_work_after_event`)."""
         carried = self._settle_or_release(self._stick_or_release(carried, new), new)
         pending = carried.get("pending")
         states = self._controller_states()
@@ -1394,7 +1397,7 @@ class TransientSensitivities(ParameterDerivatives):
             states.hold(carried)
         try:
             carried = external_work_after_event(self, carried, self._restart(carried, new, pending), new,
-                                                pending["kind"])
+                                                end_after_events)
         finally:
             self.time_shift = None
             if states is not None:

@@ -740,8 +740,12 @@ class TimeLoop:
         # power of point loads and prescribed motion: from the last Newton evaluation
         # (within the Newton tolerance of the converged state) when there is one
         evaluation = getattr(integrator, "last_evaluation", None)
-        if evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs or events.resting:
-            # resting on a stop: the step ends where the projection put it back (events.HingeEvents)
+        # the step's end evaluated again, after the events: where their renumbering changed the reactions' count (a
+        # latch, a stick, a release) and resting on a stop (the step ends where the projection put it back,
+        # events.HingeEvents); the sensitivities are told so (after_events: the work's terms at the step's end)
+        end_after_events = (evaluation is None or len(evaluation.reaction) != model.n_total - model.n_dofs
+                            or events.resting)
+        if end_after_events:
             evaluation = self.assembler.evaluate(new, matrices=False)
         new_power = evaluation.external_power
         external_work = self.probes.external_work + 0.5 * h * (progress.power + new_power)
@@ -774,7 +778,7 @@ class TimeLoop:
         self._torques_from(after, ended_drive if after is evaluation else None)
         progress.dissipated = self.probes.dissipated = dissipated + events.loss
         if self.sensitivities is not None:   # after the events: their renumbering and restarted accelerations
-            progress.sensitivities = self.sensitivities.after_events(carried, new)
+            progress.sensitivities = self.sensitivities.after_events(carried, new, end_after_events)
         progress.state = new
         progress.algorithmic_acceleration = integrator.a
         progress.locked, progress.stuck, progress.resting = model.locked.copy(), model.stuck.copy(), model.resting.copy()
