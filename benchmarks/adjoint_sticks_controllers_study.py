@@ -20,19 +20,9 @@ from contextlib import contextmanager
 import numpy as np
 import yaml
 
-import latdyn
 from latdyn.analyses import adjoint_controller_states, sensitivities
-from tests.test_adjoint_held_beside_controllers import BOOM_PD, BOOM_PI
+from tests.test_adjoint_held_beside_controllers import BOOM_PD, BOOM_PI, _run as run
 from tests.test_sensitivities_adjoint import _disagreement
-
-
-def run(text: str, method: str = "forward", only: str | None = None, **parameters):
-    data = yaml.safe_load(text)
-    data["solve"]["sensitivity_method"] = method
-    data["parameters"].update(parameters)
-    if only is not None:
-        data["solve"]["sensitivities"] = [only]
-    return latdyn.run(latdyn.load_scene(data))
 
 
 @contextmanager

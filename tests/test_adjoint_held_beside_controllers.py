@@ -35,6 +35,7 @@ import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
 from tests.test_sensitivities_adjoint import _disagreement
+from tests.test_sensitivities_hinge_on_stop import BOOM
 from tests.test_sensitivities_sticks_beside import PI_ON_A_LOAD
 
 #: a flexible boom on a skew friction hinge at a fixed base under τ = A sin 6t and a PI on the hinge: stuck from t = 0
@@ -79,31 +80,20 @@ BOOM_PD = (BOOM_PI
 assert BOOM_PD.count("rate: 25") == 1 and "Ki" not in BOOM_PD
 
 
-#: a flexible boom deploying about a skew hinge at its root, driven by a PI of its angle aiming at 0.7 rad beyond its
-#: rigid stop at 0.6 (restitution 0) and against its spring and a torque −P t²: it lands at 0.945 s, rests on the stop
-#: and is pulled off at 0.98 s (measured)
-BOOM_REST = """
-title: a boom driven onto its rigid stop by a PI of its angle, resting there, pulled off by a torque growing as t squared
-parameters: {k: 2.0, c: 10.0, P: 2.0, m: 1.0, EI: 2.0e+4, rho: 0.5, zt: 1.0, Kp: 20.0, Ki: 2.0}
-sections: {s: {EA: 1.0e+6, EIy: "EI", EIz: "1.3*EI", GJ: "0.8*EI", rhoA: "rho", rhoIy: "0.01*rho", rhoIz: "0.01*rho"}}
-bodies:
-  base: {at: [0, 0, 0], fixed: true}
-  tip: {at: [1.0, 0.5, "zt"], mass: "m", inertia: [0.02, 0.03, 0.025]}
-beams:
-  boom: {from: base, to: tip, section: s, elements: 3,
-         start: {hinge: {axis: [1, -2, 0.5], stiffness: "k", damping: "c", rest_angle: 0.0, torque: "-P*t*t + ctl",
-                         limits: [-10, 0.6], restitution: 0.0}}}
-controllers:
-  ctl: {output: "-Kp*(angle - 0.7) - Ki*S", states: {S: "angle - 0.7"}}
-solve: {analysis: transient, sensitivity_method: adjoint, t_end: 1.1, dt: 0.01, tol: 1.0e-12,
-        sensitivities: [k, c, P, m, Kp, Ki]}
-output:
-  every: 0.01
-  probes:
-    angle: {hinge: boom.start, quantity: angle}
-    tip_z: {point: tip, quantity: position, component: z}
-    mid_y: {point: "boom.node[2]", quantity: displacement, component: y}
-"""
+#: the flexible boom of tests/test_sensitivities_hinge_on_stop.py (BOOM) deploying about a skew hinge at its root,
+#: driven by a PI of its angle aiming at 0.7 rad beyond its rigid stop at 0.6 (restitution 0) and against its spring
+#: and a torque −P t²: it lands at 0.945 s, rests on the stop and is pulled off at 0.98 s (measured)
+BOOM_REST = (BOOM.replace(
+    "a boom deploying about a skew hinge at its root onto its rigid stop, restitution 0, held there by its spring",
+    "a boom driven onto its rigid stop by a PI of its angle, resting there, pulled off by a torque growing as t squared")
+    .replace("c: 2.0, P: 2.0, m: 1.0, EI: 2.0e+6, rho: 0.5, zt: 1.0}",
+             "c: 10.0, P: 2.0, m: 1.0, EI: 2.0e+4, rho: 0.5, zt: 1.0, Kp: 20.0, Ki: 2.0}")
+    .replace("EA: 1.0e+8", "EA: 1.0e+6").replace('rest_angle: 2.0, torque: "P"', 'rest_angle: 0.0, torque: "-P*t*t + ctl"')
+    .replace("solve: {analysis: transient, t_end: 1.5, dt: 0.01, tol: 1.0e-12, sensitivities: [k, c, P, m, rho, zt]}",
+             'controllers:\n  ctl: {output: "-Kp*(angle - 0.7) - Ki*S", states: {S: "angle - 0.7"}}\n'
+             "solve: {analysis: transient, sensitivity_method: adjoint, t_end: 1.1, dt: 0.01, tol: 1.0e-12,\n"
+             "        sensitivities: [k, c, P, m, Kp, Ki]}"))
+assert "ctl: {output" in BOOM_REST and "EA: 1.0e+6" in BOOM_REST and 'torque: "-P*t*t + ctl"' in BOOM_REST
 
 
 def _run(text: str, method: str = "forward", only: str | None = None, **parameters):

@@ -18,43 +18,14 @@ import yaml
 import latdyn
 from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
+from tests.test_sensitivities_rigid_links import GIMBAL
 
 #: the gimbal of tests/test_sensitivities_rigid_links.py as typed, the inner ring's hinge between rigid stops at
 #: −0.1 and 1.0 rad with restitution 0: it lands on −0.1, rests, and is released before the run's end
-REST = """
-title: a gimbal of two rigid links on skew hinges carrying a flexible boom, the inner ring resting on its stop
-parameters: {k1: 6.0, k2: 4.0, c2: 0.05, m: 0.3, P: 0.4, EI: 20.0, rest: 0.6, rho: 0.8}
-sections:
-  ring: {EA: 1.0e6, EIy: 1.0e3, EIz: 1.0e3, GJ: 1.0e3, rhoA: "rho", rhoIy: "0.001*rho", rhoIz: 0.001}
-  boom: {EA: 1.0e5, EIy: "EI", EIz: "1.2*EI", GJ: "0.7*EI", rhoA: 0.4, rhoIy: 0.0004, rhoIz: 0.0005}
-bodies:
-  base: {at: [0, 0, 0], fixed: true}
-  outer: {at: [0.3, 0.1, 0.2], mass: "m", inertia: [0.002, 0.003, 0.0025]}
-  inner: {at: [0.45, -0.05, 0.35], mass: 0.2, inertia: [0.001, 0.0012, 0.0015]}
-  tip: {at: [1.0, 0.25, 0.55], mass: 0.1, inertia: [0.0002, 0.0002, 0.0002]}
-beams:
-  gim1: {from: base, to: outer, section: ring, rigid: true,
-         start: {hinge: {axis: [0.2, 0.3, 1.0], stiffness: "k1", rest_angle: "rest"}}}
-  gim2: {from: outer, to: inner, section: ring, rigid: true,
-         start: {hinge: {axis: [1.0, -0.4, 0.3], stiffness: "k2", damping: "c2", limits: [-0.1, 1.0],
-                         restitution: 0.0}}}
-  boom: {from: inner, to: tip, section: boom, elements: 3}
-loads:
-  - {at: tip, force: [0, "P", "-0.5*P"]}
-initial_velocity: {angular: [0.5, -0.3, 2.0]}
-solve: {analysis: transient, dt: 0.01, t_end: 0.45, sensitivities: [k1, m, EI]}
-output:
-  every: 0.05
-  probes:
-    tip_x: {point: tip, quantity: position, component: x}
-    tip_z: {point: tip, quantity: displacement, component: z}
-    outer_y: {point: outer, quantity: position, component: y}
-    a1: {hinge: gim1.start, quantity: angle}
-    a2: {hinge: gim2.start, quantity: angle}
-    r2: {hinge: gim2.start, quantity: rate}
-    vo: {point: outer, quantity: velocity, component: y}
-    vi: {point: gim1.end, quantity: velocity, component: z}
-"""
+REST = (GIMBAL.replace("carrying a flexible boom\n", "carrying a flexible boom, the inner ring resting on its stop\n")
+        .replace('damping: "c2"}}}', 'damping: "c2", limits: [-0.1, 1.0],\n                         restitution: 0.0}}}')
+        .replace("t_end: 0.3, sensitivities: [k1, m, P, EI, rho]", "t_end: 0.45, sensitivities: [k1, m, EI]"))
+assert "resting on its stop" in REST and "restitution: 0.0}}}" in REST and "t_end: 0.45" in REST
 
 #: fuzz_lifted seed 1 case 5: the inner ring of a skew gimbal lands on its stop at −0.1359 rad (t = 0.1066 s) and
 #: leaves it, lands again at 0.1494 s, rests and is released at the step's end at 0.16 s

@@ -14,26 +14,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.test_sensitivities_friction import _run
+from tests.test_sensitivities_friction import STUCK_3D, _run
 from tests.test_sensitivities_sticks_beside import _richardson
 
-#: a panel on a skew hinge at the tip of a flexible 3D arm under gravity, a hinge spring k and a sinusoidal hinge
-#: torque; point forces and moments (amplitude P) on the panel and on the arm's middle node, varying in time;
-#: friction on the hinge: stuck from t = 0, released at 0.03, stuck again at 0.27, released at 0.30
-STICK = """
-title: a braked panel at the tip of a flexible 3D arm, loads doing work on the moving panel and arm
-parameters: {Fc: 0.2, Fs: 0.305, A: 1.0, EI: 50.0, m: 1.0, k: 0.5, P: 0.8}
-gravity: [0, 0, -9.81]
-sections: {s: {EA: 1.0e5, EIy: "EI", EIz: "1.3*EI", GJ: "0.8*EI", rhoA: 0.5, rhoIy: 0.01, rhoIz: 0.013}}
-bodies:
-  base: {at: [0, 0, 0], fixed: true}
-  panel: {at: [0.6666666666666666, 0.3333333333333333, 0.6666666666666666], mass: "m", com: [0.1, 0.05, 0],
-          inertia: [0.3, 0.35, 0.4]}
-beams:
-  arm: {from: base, to: panel, section: s, elements: 2,
-        end: {hinge: {axis: [1, -2, 0], stiffness: "k*theta", torque: "0.4*A*sin(20*t)",
-                      friction: {coulomb: "Fc", static: "Fs"}}}}
-loads:
+#: the panel of tests/test_sensitivities_friction.py (STUCK_3D) on a skew hinge at the tip of a flexible 3D arm under
+#: gravity, a hinge spring k and a sinusoidal hinge torque; point forces and moments (amplitude P) on the panel and on
+#: the arm's middle node, varying in time; friction on the hinge: stuck from t = 0, released at 0.03, stuck again at 0.27, released at 0.30
+STICK = (STUCK_3D.split("solve:")[0].replace(
+    "a panel on a skew hinge at the tip of a flexible arm, sticking and slipping by friction",
+    "a braked panel at the tip of a flexible 3D arm, loads doing work on the moving panel and arm").replace(
+    "m: 1.0}", "m: 1.0, k: 0.5, P: 0.8}").replace(
+    'torque: "A*t", friction: {coulomb: "Fc", static: "Fs"}}}}',
+    'stiffness: "k*theta", torque: "0.4*A*sin(20*t)",\n                      friction: {coulomb: "Fc", static: "Fs"}}}}')
+    + """loads:
   - {at: panel, force: ["P*sin(15*t)", "0.5*P", "-P*cos(10*t)"], moment: ["0.3*P", "-0.2*P*sin(12*t)", 0.1]}
   - {at: "arm.node[1]", force: [0, "P*cos(9*t)", "0.4*P"], moment: [0, 0, "0.05*P*sin(11*t)"]}
 solve: {analysis: transient, t_end: 0.32, dt: 0.01, tol: 1.0e-11, sensitivities: [Fc]}
@@ -45,7 +38,8 @@ output:
     kinetic: {energy: kinetic}
     strain: {energy: strain}
     potential: {energy: potential}
-"""
+""")
+assert "k: 0.5, P: 0.8}" in STICK and 'stiffness: "k*theta"' in STICK
 
 #: the same arm without friction, under constant loads (the events' derivatives refuse loads in t beside the work),
 #: its hinge between rigid stops with restitution 0: it lands on the lower one at t = 0.138 and rests there
@@ -103,3 +97,4 @@ def test_the_external_work_through_a_renumbering_event_agrees_with_richardson_di
     errors = _richardson(result, text, name, relative)
     assert errors["work"] <= (1e-6 if label == "drive" else 1e-8), errors
     assert max(errors.values()) <= 1e-6, errors
+
