@@ -13,8 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import yaml
 
+import latdyn
+from latdyn.errors import SceneError
 from tests.test_sensitivities_friction import STUCK_3D, _run
+from tests.test_sensitivities_guides import GUIDE_3D
 from tests.test_sensitivities_sticks_beside import _richardson
 
 #: the panel of tests/test_sensitivities_friction.py (STUCK_3D) on a skew hinge at the tip of a flexible 3D arm under
@@ -98,3 +102,56 @@ def test_the_external_work_through_a_renumbering_event_agrees_with_richardson_di
     assert errors["work"] <= (1e-6 if label == "drive" else 1e-8), errors
     assert max(errors.values()) <= 1e-6, errors
 
+
+#: the arm's root hinge turned by a prescribed angle 0.3 sin 8t about z (DRIVE's) beside REST's panel: resting on its
+#: rigid stop (lands at t = 0.1106), or latching at −0.02 rad in its place (at t = 0.0459)
+ROOT_DRIVEN = ("  arm: {from: base, to: panel, section: s, elements: 2,\n",
+               "  arm: {from: base, to: panel, section: s, elements: 2,\n"
+               "        start: {hinge: {axis: [0, 0, 1], angle: \"0.3*sin(8*t)\"}},\n")
+REST_DRIVEN = REST.replace(*ROOT_DRIVEN)
+LATCH_DRIVEN = REST_DRIVEN.replace("limits: [-0.1, 1.0], restitution: 0}", "lock_at: -0.02}")
+assert 'angle: "0.3*sin(8*t)"' in LATCH_DRIVEN and "lock_at: -0.02}" in LATCH_DRIVEN
+
+
+@pytest.mark.parametrize("text", [REST_DRIVEN, LATCH_DRIVEN], ids=["rest", "latch"])
+def test_the_external_work_through_a_landed_event_beside_a_prescribed_motion_stays_refused(text):
+    """A guard: a step landed on an event (a latch, a stop) ends at a time that moves with the parameters, and so does
+    the prescribed coordinate's increment over it, Δq_d = q_d(t_{n+1}) − q_d(t_n); the drive's work ½ (r_n + r_{n+1})
+    Δq_d then moves by ½ (r_n + r_{n+1}) δΔq_d, δΔq_d = q̇_d(t_{n+1}) δt_{n+1} − q̇_d(t_n) δt_n, which
+    ``external_work_step`` does not take (Δq_d "the prescribed law's, no parameter's"): refused, naming the prescribed
+    angle. Measured with the refusal lifted, the work by P off Richardson-extrapolated central differences of whole
+    runs (h = 1e-4 p; the latch's 1e-5 p alike) by 2.3e-2 (latch) and 0.28 (rest) of its largest, the other probes
+    ≤ 1.3e-7; with that term added (an experiment, not in the package) 2.9e-6 and 2.3e-4: the term is most of what is
+    missing, not all of it.
+    Without a landed event nothing moves Δq_d (a stick is found at a step's end, δh = 0; cables beside the external
+    work are refused: tests/test_sensitivities_refusals_lifted2.py)."""
+    with pytest.raises(SceneError) as info:
+        latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
+    assert info.value.key == "solve.sensitivities", info.value
+    assert "events of arm.end (lock_at, limits) with the prescribed angle of arm.start" in str(info.value)
+
+
+#: tests/test_sensitivities_guides.py's mass on a guide at the tip of a flexible 3D arm, the guide horizontal
+#: (1, −2, 0) against friction, the arm's root hinge turned by DRIVE's prescribed angle, a constant load on the mass:
+#: it slips from the start toward its spring's rest and sticks at t = 0.095
+GUIDE_STICK_DRIVEN = (GUIDE_3D[:GUIDE_3D.index("  probes:\n")]
+                      .replace("rest: 0.02, EI: 30.0}", "rest: 0.012, EI: 30.0, Fc: 0.3, Fs: 0.4, P: 0.5}")
+                      .replace('axis: [1, -2, 2], stiffness: "k", damping: "c", rest: "rest"}}',
+                               'axis: [1, -2, 0], stiffness: "k", damping: "c", rest: "rest",\n'
+                               '                   friction: {coulomb: "Fc", static: "Fs"}}}')
+                      .replace("  arm: {from: base, to: tip, section: s, elements: 3}\n",
+                               "  arm: {from: base, to: tip, section: s, elements: 2,\n"
+                               "        start: {hinge: {axis: [0, 0, 1], angle: \"0.3*sin(8*t)\"}}}\n")
+                      .replace("t_end: 0.4, sensitivities: [k, m, EI, rest]}",
+                               't_end: 0.4, tol: 1.0e-11, sensitivities: [Fc]}\nloads:\n  - {at: slider, force: [0, 0, "-P"]}')
+                      + "  probes:\n    s_rate: {guide: slider, quantity: rate}\n    work: {energy: external_work}\n")
+assert 'angle: "0.3*sin(8*t)"' in GUIDE_STICK_DRIVEN and "coulomb" in GUIDE_STICK_DRIVEN and "[Fc]" in GUIDE_STICK_DRIVEN
+
+
+def test_a_guides_stick_beside_a_prescribed_motion_and_the_external_work_stays_refused():
+    """A guard: a guide's slide held by friction is refused in any model with guides (its terms through the guide's
+    reduction are not carried: TransientSensitivities._refuse_sticking), so beside a prescribed motion and the
+    external work too; refused at the stick, naming the guide's friction."""
+    with pytest.raises(SceneError, match=r"bodies\.slider\.guide\.friction: at t = 0\.095 the joint sticks in a model "
+                                         r"with rigid links beside guides"):
+        latdyn.run(latdyn.load_scene(yaml.safe_load(GUIDE_STICK_DRIVEN)))
