@@ -564,6 +564,7 @@ def main(argv=None) -> int:
     parser.add_argument("--show", type=int)
     parser.add_argument("--worker", nargs=2)
     parser.add_argument("--tally", type=Path)
+    parser.add_argument("--family", choices=sorted(GENERATORS), help="run only the cases of this family")
     args = parser.parse_args(argv)
     if args.worker:
         scene, case = Path(args.worker[0]), Path(args.worker[1])
@@ -586,9 +587,11 @@ def main(argv=None) -> int:
                OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
     for n in range(args.first, args.first + args.runs):
         case = args.keep / f"s{args.seed}-{n}"
-        case.mkdir(parents=True, exist_ok=True)
         start = time.time()
         data, event, kinds, rng = scene_for(args.seed, n)
+        if args.family is not None and kinds[0] != args.family:
+            continue
+        case.mkdir(parents=True, exist_ok=True)
         try:
             data = placed(data, event, rng)
         except Exception as e:   # noqa: BLE001 -- the pilot run's own failure: a case of its own

@@ -55,7 +55,8 @@ d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges 
 by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
 + C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
 per-step path; through latches and rigid stops, the impulse weight's (∂K/∂p) w with ∂P/∂p's move along w (the inertia
-forces' d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`), beside friction slipping, compliant stops and
+forces' and the elements' weight's d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`; the static ∂r/∂p
+it differences holds neither, :meth:`ReferenceGeometry.add`), beside friction slipping, compliant stops and
 controllers of joints' angles and rates and points' positions (a sensed point's d carried by K d through the
 controller's coupling, not again by ∂f/∂s: latdyn/analyses/sensitivities.py ``ControllerTerms._shift_sensed``);
 refused beside other controllers and probes whose explicit part does not hold the shift (:func:`_turning_refusal`). A rigid link's length or direction is taken where the body at its end (and all it
