@@ -520,7 +520,9 @@ class NativeModel:
         the static tangent's −λ ∂Q/∂q (csrc/evaluate.c reads g per element from ``gravity_rows``, zeroed here and put
         back after) —, the joint bodies' weight kept (they read the model's g): the static residual whose tangent is an
         impulse weight's K, which holds the elements' gravity tangent in the inertia tangent, not in K
-        (latdyn/analyses/geometry_sensitivities.py ``ReferenceGeometry.add`` at ``weight_factor`` 0)."""
+        (latdyn/analyses/geometry_sensitivities.py ``ReferenceGeometry.add`` at ``weight_factor`` 0). For static
+        evaluations: the inertia tangent at a load factor other than 1 writes the rows anew (csrc/evaluate.c
+        ``inertia_tangent``)."""
         rows = self.buffers["gravity_rows"]
         held = rows.copy()
         rows[:] = 0.0
