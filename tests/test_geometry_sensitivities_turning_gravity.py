@@ -1,24 +1,34 @@
-"""A shift on a part that turns carrying flexible elements with mass under gravity, beside a latch or a rigid stop:
-refused (issue 34; latdyn/analyses/geometry_sensitivities.py ``_turning_refusal``, ``_heavy_elements_carried``).
+"""A shift on a part that turns carrying flexible elements with mass under gravity, beside a latch or a rigid stop
+(issue 34; latdyn/analyses/geometry_sensitivities.py ``ReferenceGeometry.add``, ``_add_shifts``;
+latdyn/analyses/transient_sensitivities.py ``_shifts_turned``).
 
 benchmarks/fuzz_lifted.py (seed 2 case 1, seed 1 case 6) found the forward method 5.5e-6 … 1.3e-5 off
-Richardson-extrapolated central differences of whole runs after the latch (h = 1e-4 and 1e-3 of X alike, the two
-differences within 1e-9 of each other) on a gimbal whose inner hinge point on the outer ring moves by X with the
-inner ring and the boom, latching under gravity; the event time was right. The impulse weight's (∂K/∂X) w was 1.9e-6
-off at a random state (tests/test_geometry_sensitivities_turning_events.py's check), 5.3e-10 with the boom massless
-or without gravity, the rigid rings' mass making no difference: a part of the flexible elements' weight's move is
-missing there (their gravity tangent sits in the inertia tangent, csrc/evaluate.c). Until it is found, refused."""
+Richardson-extrapolated central differences of whole runs after the latch on a gimbal whose inner hinge point on the
+outer ring moves by X with the inner ring and the boom, latching under gravity, and the impulse weight's (∂K/∂X) w
+1.9e-6 off; refused since (49e0f6c, ``_heavy_elements_carried``). The cause: an event's (∂K/∂X) w differences along w
+the static ∂r/∂X without the elements' gravity load (W's K holds the elements' gravity tangent in the inertia tangent,
+csrc/evaluate.c, not in K), but the turning shift's part of it, K d + d × F_S, came from the static evaluation with the
+elements' weight in both (K's −λ ∂Q/∂q d, F_S's −λQ): its move along w, −λ ∂(∂Q/∂q d)/∂q w, is no part of W's K. Mended:
+that part leaves the elements' weight out (``NativeModel.without_element_gravity``), and ``_shifts_turned``'s moment
+turned takes it with the inertia forces. The (∂K/∂X) w below is 5.2e-10 off with gravity as without (1.96e-9 with the
+first mend alone); this scene's whole runs 5.3e-10 (tip_z), 3.0e-9 (a2), the adjoint 7.3e-13 off the forward method.
+"""
 from __future__ import annotations
 
+import json
+
+import numpy as np
 import pytest
 import yaml
 
 import latdyn
-from latdyn.errors import SceneError
 from tests.cli_runs import latdyn_run
+from tests.test_adjoint_events import _disagreement
+from tests.test_adjoint_geometry_linked import _adjoint
+from tests.test_geometry_sensitivities_turning_events import _weight_stiffness_by_x
 
 #: fuzz_lifted's seed 2 case 1 reduced: the inner ring's hinge point on the outer ring, the inner ring and the boom
-#: moved along d by X; under gravity the inner hinge latches at 0.5627 rad (t = 0.3000 s)
+#: moved along d by X; under gravity the inner hinge latches at 0.5627 rad (t = 0.2362 s)
 SHIFT_LATCH = """
 title: a gimbal whose inner hinge point moves with the boom, latching under gravity
 parameters: {X: 0.1}
@@ -52,28 +62,53 @@ output:
 """
 
 
-def test_the_shift_carrying_a_heavy_boom_through_a_latch_under_gravity_is_refused(tmp_path):
-    """Named (the link whose point moves, the boom, gravity, the latch), through the API (SceneError on
-    solve.sensitivities) and the CLI (exit 2, no traceback). Taken on 7fbef8b: this scene's tip_z 3.3e-6 off Richardson
-    differences after the latch (t = 0.2362 s; h = 1e-4 X against h/2 within 5.8e-11), the latch's time exact."""
-    with pytest.raises(SceneError) as refused:
-        latdyn.run(latdyn.load_scene(yaml.safe_load(SHIFT_LATCH)))
-    assert refused.value.key == "solve.sensitivities"
-    assert "rigid link 'gim2''s start point on 'outer'" in str(refused.value)
-    assert "beam 'boom' (flexible, with mass) under gravity, beside latches or rigid stops" in str(refused.value)
-    run, _ = latdyn_run(tmp_path, SHIFT_LATCH)
-    assert run.returncode == 2 and "solve.sensitivities" in run.stderr and "Traceback" not in run.stderr
+#: Richardson-extrapolated central differences of whole runs by X (h = 1e-4 X and h/2; with 2h and h the same to
+#: 1.5e-10 of tip_z's largest, 2.1e-9 of a2's; runs with solve.sensitivities, as tests/reference_runs.py takes
+#: them beside events): tip_z/X at the rows after the latch, a2/X just before it, the latch time's dt/dX
+TIP_Z_AFTER_LATCH = {24: -0.7772765802699828, 30: -0.9249576020021557, 35: -1.0172034881017187,
+                     40: -0.9844445035311437}
+A2_BEFORE_LATCH = {23: -0.0852796510612356}
+LATCH_TIME_BY_X = 0.03451985724767237
 
 
-@pytest.mark.parametrize("change", [("gravity: [0, 0, -9.81]", "gravity: [0, 0, 0]"),
-                                    ("rhoA: 0.4,", "rhoA: 0.0,"),
-                                    ("damping: 0.04, lock_at: 0.5627}", "damping: 0.04}")],
-                         ids=["without-gravity", "massless-boom", "without-the-latch"])
-def test_without_gravity_mass_or_the_latch_it_is_taken(change):
-    """Guard: each of the three conditions lifted, the scene is taken (0.02 s of it run). On fuzz_lifted's scene (with
-    its PD) whole runs agreed with Richardson within 1.2e-8 without gravity, 7.8e-9 with the boom massless (neither
-    then reaches the latch), 9.6e-9 without the latch; the weight's (∂K/∂X) w 5.3e-10 without gravity or boom mass."""
-    data = yaml.safe_load(SHIFT_LATCH.replace(*change))
-    data["solve"]["t_end"] = 0.02
-    result = latdyn.run(latdyn.load_scene(data))
-    assert ("tip_z", "X") in result.sensitivities
+@pytest.fixture(scope="module")
+def forward():
+    return latdyn.run(latdyn.load_scene(yaml.safe_load(SHIFT_LATCH)))
+
+
+def test_the_shift_carrying_a_heavy_boom_through_a_latch_under_gravity_agrees_with_richardson(forward):
+    """tip_z/X after the latch and a2/X before it within 3e-8 of the stored references (measured 5.3e-10 of tip_z's
+    largest, 3.0e-9 of a2's over every row), the latch time's within 1e-9 (measured 8.2e-11). Refused on the base
+    (bd00230b); with the refusal lifted there, tip_z was 3.3e-6 off after the latch."""
+    assert [(e["joint"], e["kind"]) for e in forward.summary["events"]] == [("gim2.start", "latch")]
+    for probe, rows in (("tip_z", TIP_Z_AFTER_LATCH), ("a2", A2_BEFORE_LATCH)):
+        computed = forward.sensitivities[(probe, "X")]
+        for row, expected in rows.items():
+            assert computed[row] == pytest.approx(expected, abs=3e-8), (probe, row)
+    assert forward.summary["event_sensitivities"][0]["dt"]["X"] == pytest.approx(LATCH_TIME_BY_X, abs=1e-9)
+
+
+def test_the_adjoint_and_the_cli_give_the_forward_methods_derivatives(forward, tmp_path):
+    """The adjoint's probe and event derivatives the forward method's within 1e-9 of each output's largest (measured
+    7.3e-13), and ``latdyn run`` of the text as typed the API's to the bit (summary.json, sensitivities.csv)."""
+    adjoint = latdyn.run(latdyn.load_scene(yaml.safe_load(_adjoint(SHIFT_LATCH))))
+    assert _disagreement(forward.summary, adjoint.summary) <= 1e-9
+    run, out = latdyn_run(tmp_path, SHIFT_LATCH)
+    assert run.returncode == 0, run.stderr
+    assert json.loads((out / "summary.json").read_text())["probe_sensitivities"] == \
+        forward.summary["probe_sensitivities"]
+    rows = [line.split(",") for line in (out / "sensitivities.csv").read_text().splitlines()]
+    at = rows[0].index("tip_z/X")
+    assert np.array_equal([float(row[at]) for row in rows[1:]], forward.sensitivities[("tip_z", "X")])
+
+
+@pytest.mark.parametrize("change", [None, ("gravity: [0, 0, -9.81]", "gravity: [0, 0, 0]"),
+                                    ("rhoA: 0.4,", "rhoA: 0.0,")],
+                         ids=["as-typed", "without-gravity", "massless-boom"])
+def test_the_impulse_weights_stiffness_derivative_holds_the_elements_weight(change):
+    """(∂K/∂X) w at a random state (test_geometry_sensitivities_turning_events.py's helper) against Richardson
+    differences of the evaluation's K w by X, relative to its largest: within 1e-8 (measured 5.2e-10 in all three). On
+    the base as typed 1.9e-6; without gravity and with the boom massless (guards) 5.2e-10 there too."""
+    text = SHIFT_LATCH if change is None else SHIFT_LATCH.replace(*change)
+    computed, reference = _weight_stiffness_by_x(text)
+    assert np.max(np.abs(computed - reference)) <= 1e-8 * np.max(np.abs(reference))

@@ -55,7 +55,8 @@ d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges 
 by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
 + C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
 per-step path; through latches and rigid stops, the impulse weight's (∂K/∂p) w with ∂P/∂p's move along w (the inertia
-forces' d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`), beside friction slipping, compliant stops and
+forces' and the elements' weight's d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`; the static ∂r/∂p
+it differences holds neither, :meth:`ReferenceGeometry.add`), beside friction slipping, compliant stops and
 controllers of joints' angles and rates and points' positions (a sensed point's d carried by K d through the
 controller's coupling, not again by ∂f/∂s: latdyn/analyses/sensitivities.py ``ControllerTerms._shift_sensed``);
 refused beside other controllers and probes whose explicit part does not hold the shift (:func:`_turning_refusal`). A rigid link's length or direction is taken where the body at its end (and all it
@@ -216,7 +217,7 @@ def _linked_refusal(scene, name: str) -> str | None:
                 "which is not differentiated yet")
     closing = {beam.end.body for beam in rigid if beam.end.body is not None and
                scene.bodies[beam.end.body].guide is not None}
-    turning = []   # (what, the body it carries) of the edges whose own point o moves on a part that turns
+    turning = []   # the edges whose own point o moves on a part that turns (ReferenceGeometry.turning)
     for beam in rigid:
         start, end = moves["point"][(beam.name, "from")], moves["point"][(beam.name, "to")]
         what = None
@@ -224,9 +225,9 @@ def _linked_refusal(scene, name: str) -> str | None:
         sides = () if beam.end.body not in closing else ("from", "to")
         if not sides and np.any(moves["offset"].get((beam.name, "from"), unmoved) != 0.0) and \
                 not _never_turns(scene, beam.start.body, closing):
-            turning.append((f"rigid link {beam.name!r}'s start point on {beam.start.body!r}", beam.end.body))
+            turning.append(f"rigid link {beam.name!r}'s start point on {beam.start.body!r}")
         if not sides and np.any(moves["offset"].get((beam.name, "to"), unmoved) != 0.0):
-            turning.append((f"rigid link {beam.name!r}'s end point on {beam.end.body!r}", beam.end.body))
+            turning.append(f"rigid link {beam.name!r}'s end point on {beam.end.body!r}")
         own = any(np.any(moves["offset"].get((beam.name, side), unmoved) != 0.0) for side in ("from", "to")) or \
             np.any(moves["y"].get(beam.name, unmoved) != 0.0) or \
             any(np.any(moves["axis"].get((beam.name, end), unmoved) != 0.0) for end in ("start", "end"))
@@ -234,7 +235,7 @@ def _linked_refusal(scene, name: str) -> str | None:
                 beam.end.body is not None:
             # its length or direction: its end edge's o (the link's vector) moves with all the link carries, fixed
             # in the link's axes (ReferenceGeometry._origin_move), and its inertia block with it (_add_link_inertia)
-            turning.append((f"rigid link {beam.name!r}'s length or direction", beam.end.body))
+            turning.append(f"rigid link {beam.name!r}'s length or direction")
         elif np.any(end != start):
             what = ("its length or direction (its end points moved apart) together with its own offsets, y_axis or "
                     "hinge axes, from a free end point or closing a slider-crank loop")
@@ -258,17 +259,17 @@ def _linked_refusal(scene, name: str) -> str | None:
         # its origin may move (but a closing slider's): the guided body and what it carries translate
         if np.any(moved != parent) and body.name not in closing and body.guide.on is not None and \
                 not _never_turns(scene, body.guide.on, closing):
-            turning.append((f"the guide of {body.name!r} on {body.guide.on!r}", body.name))
+            turning.append(f"the guide of {body.name!r} on {body.guide.on!r}")
         if body.name in closing and np.any(moved != 0.0):
             on = repr(body.guide.on) if body.guide.on is not None else "the ground"
             return (f"it moves the guide of {body.name!r} relative to {on} (the guide's origin): geometry "
                     "sensitivities that move the geometry of rigid links or guides (the reduction's ∂J/∂X) are not "
                     "computed yet; taken: a parameter that moves each guided body with the part it slides on, or a "
                     "guide's origin (but a slider's a rigid rod closes a loop onto)")
-    return next((why for why in (_turning_refusal(scene, *shift) for shift in turning) if why), None)
+    return _turning_refusal(scene, turning[0]) if turning else None
 
 
-def _turning_refusal(scene, what: str, carried: str) -> str | None:
+def _turning_refusal(scene, what: str) -> str | None:
     """Why a parameter that moves ``what`` (a hinge point or guide origin on a part that turns, a rigid link's length or
     direction: its subtree shifted in the part's axes, :meth:`ReferenceGeometry._add_shifts`) is not exact here, or
     None. Taken in transient runs and static paths with point (in global axes), hinge and guide probes, through latches
@@ -278,18 +279,9 @@ def _turning_refusal(scene, what: str, carried: str) -> str | None:
     latdyn/analyses/transient_sensitivities.py ``_refuse_what_a_held_angle_moves``), beside controllers whose sensors
     :func:`_sensor_taken_shifted` takes, inputs and other controllers. Not beside controllers reading anything else
     (joints' forces, velocities: not checked with the shift), or other probes (sections', bodies' axes, energies: their
-    explicit parts do not hold it). Not through latches and rigid stops where the shifted subtree (what ``carried``
-    carries) holds flexible elements with mass under gravity: the impulse weight's (∂K/∂X) w misses part of their
-    weight's move (the elements' gravity tangent sits in the inertia tangent, csrc/evaluate.c; the term is not
-    isolated). Let through, a gimbal whose inner hinge point on the outer ring moves with the boom, latching under
-    gravity, was 5.5e-6 … 1.3e-5 off Richardson differences of whole runs after the latch (benchmarks/fuzz_lifted.py
-    seeds 1-6, 2-1), its (∂K/∂X) w 1.9e-6 off at a random state — 5.3e-10 with the boom massless or without gravity."""
-    heavy = _heavy_elements_carried(scene, carried)
-    if heavy is not None:
-        return (f"it moves {what}, a part that turns, and with it beam {heavy!r} (flexible, with mass) under gravity, "
-                "beside latches or rigid stops: the impulse weight's derivative there misses part of those elements' "
-                "weight; taken without gravity, with the shifted elements massless, or without latches and rigid "
-                "stops")
+    explicit parts do not hold it). Through latches and rigid stops under gravity too: the shifted elements' weight
+    is in the impulse weight's (∂K/∂X) w with the inertia forces (``ReferenceGeometry.add`` at ``weight_factor`` 0,
+    latdyn/analyses/transient_sensitivities.py ``_shifts_turned``; refused before that, 49e0f6c)."""
     probes = {p.name: p for p in scene.output.probes}
     for controller in scene.controllers.values():
         sensor = next((probes[read] for read in controller.reads if read in probes and not _sensor_taken_shifted(
@@ -305,25 +297,6 @@ def _turning_refusal(scene, what: str, carried: str) -> str | None:
         return (f"it moves {what}, a part that turns, beside the probe {other!r}: only points' (in global axes), "
                 "hinges' and guides' probes are differentiated with that shift yet")
     return None
-
-
-def _heavy_elements_carried(scene, carried: str) -> str | None:
-    """The first flexible beam with mass that a shift carrying body ``carried`` moves (down the beams and guides from
-    it), where gravity acts and a joint has a latch or a rigid stop in a transient run (:func:`_turning_refusal`);
-    else None."""
-    joints = [end.hinge for beam in scene.beams.values() for end in (beam.start, beam.end) if end.hinge is not None]
-    joints += [body.guide for body in scene.bodies.values() if body.guide is not None]
-    events = any(joint.lock_at is not None or (joint.limits is not None and joint.contact is None) for joint in joints)
-    if scene.solve.analysis != "transient" or not events or not np.any(np.asarray(scene.gravity, float) != 0.0):
-        return None
-    below, grown = {carried}, True
-    while grown:
-        reached = {beam.end.body for beam in scene.beams.values() if beam.start.body in below and beam.end.body}
-        reached |= {body.name for body in scene.bodies.values() if body.guide is not None and body.guide.on in below}
-        grown = not reached <= below
-        below |= reached
-    return next((beam.name for beam in scene.beams.values()
-                 if not beam.rigid and beam.start.body in below and beam.section.rhoA != 0.0), None)
 
 
 def _sensor_taken_shifted(probe) -> bool:
@@ -812,10 +785,20 @@ class ReferenceGeometry:
         """Add ∂r/∂p of the geometry parameters at ``state`` into ``total`` (all coordinates, k columns): the
         generated derivatives of F and, with inertia or gravity, of M a + g − Q along each element's variation;
         the elements' gravity at ``weight_factor`` (the load factor unless given: 0 leaves the static −λQ out,
-        ParameterDerivatives.residual_derivatives ``element_gravity``), the loads' arms at ``load_factor``."""
+        ParameterDerivatives.residual_derivatives ``element_gravity``), the loads' arms at ``load_factor``. At
+        ``weight_factor`` 0 the :attr:`turning` shifts' part leaves the elements' weight out too (their K d without
+        −λ ∂Q/∂q d, their F_S without −λQ: ``NativeModel.without_element_gravity``): that static ∂r/∂p, differenced
+        along w, is an impulse weight's (∂K/∂p) w, whose K does not hold the elements' gravity tangent
+        (latdyn/analyses/transient_sensitivities.py ``_stiffness_derivative``; the weight's moment turned is in
+        ``_shifts_turned``). With it there, a gimbal's inner hinge point moving its heavy boom under gravity was 1.9e-6
+        off Richardson differences of (∂K/∂X) w and 3.3e-6 … 1.3e-5 after a latch
+        (tests/test_geometry_sensitivities_turning_gravity.py)."""
         if weight_factor is None:
             weight_factor = load_factor
-        if self.turning:
+        if self.turning and weight_factor == 0.0 and load_factor != 0.0:
+            with self.owner.assembler.native(True).without_element_gravity():
+                self._add_shifts(state, total, load_factor, inertia)
+        elif self.turning:
             self._add_shifts(state, total, load_factor, inertia)
         if self.link_moves:
             self._add_link_inertia(state, total, load_factor, inertia)

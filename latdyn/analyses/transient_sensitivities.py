@@ -1342,20 +1342,24 @@ class TransientSensitivities(ParameterDerivatives):
         return out + self._geometric_products(state, inertial, w)
 
     def _shifts_turned(self, state, w: np.ndarray) -> np.ndarray:
-        """(n, k): Pᵀ of ``ReferenceGeometry.moments_turned`` along P w at the state's inertia forces (r_all with them
-        less without): the move along w of ∂P/∂p's term d × F_S of the reduction's geometric term (module docstring
-        of latdyn/analyses/geometry_sensitivities.py); zeros without such a shift."""
+        """(n, k): Pᵀ of ``ReferenceGeometry.moments_turned`` along P w at the state's inertia forces and the elements'
+        weight (r_all with the inertia forces less the static r_all without the elements' gravity load): the move along
+        w of ∂P/∂p's term d × F_S of the reduction's geometric term (module docstring of
+        latdyn/analyses/geometry_sensitivities.py) of the forces that the static ∂r/∂p :meth:`_stiffness_derivative`
+        differences leaves out (the elements' weight with the inertia forces: ``ReferenceGeometry.add`` at
+        ``weight_factor`` 0); zeros without such a shift."""
         model, assembler = self.model, self.assembler
         if self.geometry is None or not self.geometry.turning:
             return np.zeros((model.n_dofs, len(self.names)))
         assembler.complete_links(state)
         along = np.zeros(model.n_total + 1)
         along[:model.n_assembled] = np.asarray(assembler.evaluate(state, matrices=True).projection @ w).reshape(-1)
-        inertia_forces = np.zeros(model.n_total + 1)
-        inertia_forces[:model.n_assembled] = (np.asarray(assembler.evaluate_assembled(state, False, 1.0, True).residual)
-                                              - np.asarray(assembler.evaluate_assembled(state, False, 1.0,
-                                                                                        False).residual))
-        return self._on_free_coordinates(state, self.geometry.moments_turned(state, along, inertia_forces))
+        forces = np.zeros(model.n_total + 1)
+        with_inertia = np.asarray(assembler.evaluate_assembled(state, False, 1.0, True).residual)
+        with assembler.native().without_element_gravity():
+            weightless = np.asarray(assembler.evaluate_assembled(state, False, 1.0, False).residual)
+        forces[:model.n_assembled] = with_inertia - weightless
+        return self._on_free_coordinates(state, self.geometry.moments_turned(state, along, forces))
 
     def _geometric_rate_in_time(self, state, w: np.ndarray) -> np.ndarray:
         """(n, k): at an event moved in time (``time_shift`` δt_e) on a model with rigid links or guides and

@@ -16,6 +16,7 @@ and steps on the same structs.
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 
 import numpy as np
@@ -512,6 +513,23 @@ class NativeModel:
         self.library.latdyn_evaluate(self.model_ref, self.work_ref, ctypes.byref(self.configuration(state)),
                                      ctypes.byref(control))
         return self.buffers["total"].copy(), float(control.power)
+
+    @contextlib.contextmanager
+    def without_element_gravity(self):
+        """Within the block this model's evaluations leave the elements' gravity load out — their residual's −λQ and
+        the static tangent's −λ ∂Q/∂q (csrc/evaluate.c reads g per element from ``gravity_rows``, zeroed here and put
+        back after) —, the joint bodies' weight kept (they read the model's g): the static residual whose tangent is an
+        impulse weight's K, which holds the elements' gravity tangent in the inertia tangent, not in K
+        (latdyn/analyses/geometry_sensitivities.py ``ReferenceGeometry.add`` at ``weight_factor`` 0). For static
+        evaluations: the inertia tangent at a load factor other than 1 writes the rows anew (csrc/evaluate.c
+        ``inertia_tangent``)."""
+        rows = self.buffers["gravity_rows"]
+        held = rows.copy()
+        rows[:] = 0.0
+        try:
+            yield
+        finally:
+            rows[:] = held
 
     def hinge_crossings(self, old, new) -> np.ndarray:
         """Per hinge, the events of the step ``old`` → ``new`` as flags (latdyn.timeloop.events: lock_at reached
