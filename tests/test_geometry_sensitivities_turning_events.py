@@ -165,6 +165,7 @@ def test_the_shifts_matrices_from_one_native_scatter_are_the_evaluations_blocks(
     (latdyn/assembly/linked.py ``evaluate_before_reduction``, which the static path and the events' weights take) to
     the bit. A guard (turncost: the scatter replaced the blocks' assembly on the steps' path)."""
     from latdyn.assembly.linked import evaluate_before_reduction
+    from latdyn.numerics.csr import CSR
 
     prepared = prepare(latdyn.load_scene(yaml.safe_load(RING_LATCH)))
     assembler, model = prepared.assembler, prepared.model
@@ -174,9 +175,11 @@ def test_the_shifts_matrices_from_one_native_scatter_are_the_evaluations_blocks(
     unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
     unpack_free(model, ACCELERATION * rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
     owner = TransientSensitivities(prepared)
-    residual, matrices = owner.geometry._assembled_exact(state, 1.0, True)
+    residual, (indptr, pattern, values) = owner.geometry._assembled_exact(state, 1.0, True)
+    n_asm = model.n_assembled
+    matrices = [CSR((n_asm, n_asm), indptr, pattern, part).toarray() for part in values]   # M, C, K
     blocks, _ = evaluate_before_reduction(assembler, state, True, 1.0, True, inertia_tangent=True)
     assert np.array_equal(residual, blocks.residual)
-    for matrix, coefficients in zip(matrices, ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))):
+    for matrix, coefficients in zip(matrices, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))):
         assert np.array_equal(matrix, blocks.combined(*coefficients, dense=True))
     assert np.any(matrices[0] != 0.0) and np.any(matrices[2] != 0.0)

@@ -84,6 +84,7 @@ too (tests/test_adjoint_geometry_linked.py).
 """
 from __future__ import annotations
 
+import ctypes
 import re
 
 import numpy as np
@@ -836,26 +837,54 @@ class ReferenceGeometry:
         """(d, δv, δa), (n_nodes, 3, k) each: the moves at ``state`` of the nodes below the edges of :attr:`turning`
         (an edge's own point o moved by δo on a parent A that turns): the subtree translates by d = T_A δo, fixed in
         A's axes, so its coordinate velocities move by ω_A × d and its accelerations by α_A × d + ω_A × (ω_A × d)
-        (A's rigid field); zero for every other node."""
-        from latdyn.numerics.so3 import cross
+        (A's rigid field); zero for every other node. csrc/turning_shifts.c ``latdyn_turning_shifts``, the one
+        implementation (the loop of steps calls it too)."""
+        return self._shifted(state)[1:]
 
-        links, n_nodes = self.model.links, len(self.model.nodes)
+    def _shifted(self, state) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(each edge's d = T_A δo (len(turning), 3), then :meth:`shifts`' d, δv, δa) at ``state``, held for the
+        anchors' motion last asked (the probes of one row, its step)."""
         anchors = sorted({anchor for _, _, _, anchor in self.turning})
         key = b"".join(state.T[a].tobytes() + state.w[a].tobytes() + state.alpha[a].tobytes() for a in anchors)
         held = self.__dict__.get("_shifts_held")
-        if held is not None and held[0] == key:   # the same anchors' motion: the probes of one row, its step
+        if held is not None and held[0] == key:
             return held[1]
-        d, dv, da = (np.zeros((n_nodes, 3, self.k)) for _ in range(3))
-        for index, column, moved, anchor in self.turning:
-            shift = state.T[anchor] @ moved
-            w, alpha = state.w[anchor], state.alpha[anchor]
-            below = self._below(index)
-            spun = cross(w, shift)
-            d[below, :, column] += shift
-            dv[below, :, column] += spun
-            da[below, :, column] += cross(alpha, shift) + cross(w, spun)
-        self._shifts_held = (key, (d, dv, da))
-        return d, dv, da
+        data, arrays, library = self.shift_layout()
+        motion = _motion(state)
+        library.latdyn_turning_shifts(ctypes.addressof(data), self.k, *(a.ctypes.data for a in motion))
+        moves = arrays["moves"]
+        shifted = (arrays["shift"].copy(), moves[0].copy(), moves[1].copy(), moves[2].copy())
+        self._shifts_held = (key, shifted)
+        return shifted
+
+    def shift_layout(self) -> tuple:
+        """(csrc/turning_shifts.c's TurningShifts for :attr:`turning`, the arrays it points into, the library), made
+        per numbering (a latch's renumbers the coordinates): each edge's anchor A, column, δo and subtree
+        (:meth:`_below`), the nodes' coordinates, and the buffers of the shifts; the loop of steps adds its part
+        (latdyn/analyses/sensitivities_in_loop.py)."""
+        model, k, turning = self.model, self.k, self.turning
+        numbering = (model.n_assembled, model.node_dofs.tobytes())
+        held = self.__dict__.get("_shift_layout_held")
+        if held is not None and held[0] == numbering:
+            return held[1]
+        from latdyn.assembly.library import TurningShiftsData, native_library
+
+        belows = [self._below(index) for index, _, _, _ in turning]
+        n_nodes = len(model.nodes)
+        arrays = {
+            "anchor": np.array([anchor for _, _, _, anchor in turning], np.int64),
+            "column": np.array([column for _, column, _, _ in turning], np.int64),
+            "moved": np.ascontiguousarray([moved for _, _, moved, _ in turning], np.float64),
+            "below_from": np.cumsum([0] + [len(below) for below in belows]).astype(np.int64),
+            "below": np.ascontiguousarray(np.concatenate(belows), np.int64),
+            "node_dofs": np.ascontiguousarray(model.node_dofs, np.int64),
+            "shift": np.zeros((len(turning), 3)), "moves": np.zeros((3, n_nodes, 3, k)),
+            "assembled": np.zeros((3, model.n_assembled, k))}
+        data = TurningShiftsData(n=len(turning), n_nodes=n_nodes, n_assembled=model.n_assembled)
+        for name in ("anchor", "column", "moved", "below_from", "below", "node_dofs", "shift", "moves", "assembled"):
+            setattr(data, name, arrays[name].ctypes.data)
+        self._shift_layout_held = (numbering, (data, arrays, native_library()))
+        return self._shift_layout_held[1]
 
     def _below(self, index: int) -> np.ndarray:
         """The nodes of edge ``index``'s subtree (its child and every node whose path passes the edge)."""
@@ -873,48 +902,40 @@ class ReferenceGeometry:
         d × F_S on the anchor A's rotational rows (F_S the assembled residual's force rows of S summed): the columns
         of J that reach A (its root's turn, the hinges above it) move S's points by (g × d) per unit rate, whose work
         on S's forces is g·(d × F_S); the columns below A move S as a whole and stay."""
-        from latdyn.numerics.so3 import cross
-
-        model, dependent = self.model, self.model.links.dependent
-        n_asm = model.n_assembled
-        # r_all and K, C, M on the assembled coordinates (the dependent nodes completed): what the reduction starts from
-        forces, (K, C, M) = self._assembled_exact(state, load_factor, inertia)
-        d, dv, da = self.shifts(state)
-        moved = np.zeros((3, n_asm, self.k))
-        rows = model.node_dofs[dependent][:, 0:3]   # the dependent nodes' translations (n_dep, 3)
-        moved[0][rows], moved[1][rows], moved[2][rows] = d[dependent], dv[dependent], da[dependent]
-        change = K @ moved[0]
-        if inertia:
-            change += C @ moved[1]
-            change += M @ moved[2]
-        total[:n_asm] += change
-        for index, column, moment_arm, anchor in self.turning:
-            shift = state.T[anchor] @ moment_arm
-            below = self._below(index)
-            force = forces[model.node_dofs[below][:, 0:3]].sum(axis=0)
-            total[model.node_dofs[anchor][3:6], column] += cross(shift, force)
+        residual, (indptr, pattern, values) = self._assembled_exact(state, load_factor, inertia)
+        data, _, library = self.shift_layout()
+        into = total if total.flags.c_contiguous and total.dtype == np.float64 else np.ascontiguousarray(total, float)
+        motion, residual = _motion(state), np.ascontiguousarray(residual, np.float64)
+        library.latdyn_turning_shift_forces(ctypes.addressof(data), self.k, int(inertia),
+                                            *(a.ctypes.data for a in motion), indptr.ctypes.data, pattern.ctypes.data,
+                                            pattern.size, values.ctypes.data, residual.ctypes.data, into.ctypes.data)
+        if into is not total:
+            total[...] = into
 
     def _assembled_exact(self, state, load_factor: float, inertia: bool) -> tuple[np.ndarray, tuple]:
-        """(r_all (n_assembled,), (K, C, M) dense on the assembled coordinates) at ``state``: the exact K (the inertia
-        tangent, the joint bodies' inertia stiffness) before the reduction, and C and M with the inertia (else None). At
-        the steps' load factor 1 with the inertia one native evaluation and one native scatter of the three
-        (``Assembler.assembled_exact_values``), else the evaluation's blocks assembled
-        (latdyn/assembly/linked.py ``evaluate_before_reduction``): the same values to the bit."""
+        """(r_all (n_assembled,), (indptr, column indices, M, C and the exact K as values (3, nnz) of that CSR pattern on
+        the assembled coordinates)) at ``state``: the exact K (the inertia tangent, the joint bodies' inertia stiffness)
+        before the reduction, and C and M with the inertia (else zeros). At the steps' load factor 1 with the inertia
+        one native evaluation and one native scatter of the three onto the assembler's pattern
+        (``Assembler.assembled_exact_values``, as the loop of steps scatters them), else the evaluation's blocks
+        assembled (latdyn/assembly/linked.py ``evaluate_before_reduction``) on the full dense pattern."""
         from latdyn.assembly.linked import evaluate_before_reduction
-        from latdyn.numerics.csr import CSR
 
         assembler, n_asm = self.owner.assembler, self.model.n_assembled
         if load_factor == 1.0 and inertia:
             residual, values = assembler.assembled_exact_values(state)
-            indptr, indices = assembler.pattern()
-            M, C, K = (CSR((n_asm, n_asm), indptr, indices, part).toarray() for part in values)
-            return residual, (K, C, M)
+            pattern = assembler.pattern()
+            held = self.__dict__.get("_pattern_held")
+            if held is None or held[0] is not pattern[1]:   # per numbering
+                held = self._pattern_held = (pattern[1], *(np.ascontiguousarray(a, np.int64) for a in pattern))
+            return residual, (*held[1:], values)
         ev, _ = evaluate_before_reduction(assembler, state, True, load_factor, inertia, inertia_tangent=True)
-        K = np.asarray(ev.combined(0.0, 0.0, 1.0, dense=True))
-        if not inertia:
-            return np.asarray(ev.residual), (K, None, None)
-        return np.asarray(ev.residual), (K, np.asarray(ev.combined(0.0, 1.0, 0.0, dense=True)),
-                                         np.asarray(ev.combined(1.0, 0.0, 0.0, dense=True)))
+        zero = np.zeros((n_asm, n_asm))
+        parts = [np.asarray(ev.combined(*part, dense=True)) if inertia or part == (0.0, 0.0, 1.0) else zero
+                 for part in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))]
+        indptr = np.arange(0, n_asm * n_asm + 1, n_asm, dtype=np.int64)
+        pattern = np.ascontiguousarray(np.tile(np.arange(n_asm, dtype=np.int64), n_asm))
+        return np.asarray(ev.residual), (indptr, pattern, np.ascontiguousarray([p.reshape(-1) for p in parts]))
 
     def moments_turned(self, state, along: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(n_total + 1, k): the move of the :attr:`turning` shifts' moments d × F_S (:meth:`_add_shifts`) when the
@@ -929,8 +950,8 @@ class ReferenceGeometry:
 
         model = self.model
         out = np.zeros((model.n_total + 1, self.k))
-        for index, column, moment_arm, anchor in self.turning:
-            shift = state.T[anchor] @ moment_arm
+        shifts = self._shifted(state)[0]
+        for (index, column, _, anchor), shift in zip(self.turning, shifts):
             turn = along[model.node_dofs[anchor][3:6]]
             force = forces[model.node_dofs[self._below(index)][:, 0:3]].sum(axis=0)
             out[model.node_dofs[anchor][3:6], column] += cross(cross(turn, shift), force)
@@ -1104,6 +1125,12 @@ class ReferenceGeometry:
         """The node whose frame load ``index`` turns with, −1 for a global load."""
         load = self.scene.loads[index]
         return -1 if load.frame == "global" else int(self.model.body_node[load.frame])
+
+
+def _motion(state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``state``'s frames, angular velocities and accelerations (n_nodes × 9, × 3, × 3) as csrc/turning_shifts.c reads
+    them (contiguous: held by the caller over the call)."""
+    return tuple(np.ascontiguousarray(a, np.float64) for a in (state.T, state.w, state.alpha))
 
 
 def _turned_parts(end: int) -> tuple[slice, slice, slice]:

@@ -243,8 +243,8 @@ def _geometry_refusal(owner) -> str | None:
     point_load_D_offset with the load's values tabulated per grid point, ReferenceGeometry._load_arms)."""
     if any(owner.kernels.address(name) is None for name in GEOMETRY_KERNELS):
         return "geometry kernels without C libraries"
-    if owner.geometry.turning:   # ReferenceGeometry._add_shifts: formed from the evaluation's matrices in Python
-        return "a geometry parameter moves a hinge point or a guide's origin on a part that turns"
+    if owner.geometry.turning and owner.scene.controllers:   # ControllerTerms._shift_sensed: the per-step path's
+        return "a geometry parameter moves a hinge point or a guide's origin on a part that turns, beside controllers"
     if owner.geometry.link_moves:   # ReferenceGeometry._add_link_inertia: the links' blocks moved, in Python
         return "a geometry parameter moves a rigid link's length or direction"
     return None
@@ -955,7 +955,9 @@ class SensitivityLoop:
 
         owner, d = self.owner, self.data
         geometry = owner.geometry
-        d.geometry = None
+        d.geometry = d.shifts = None
+        if geometry is not None and geometry.turning:
+            self._shifts()
         if geometry is None or not len(geometry.elements):
             return
         g = self._geometry_data = GeometryForcesData()
@@ -980,6 +982,24 @@ class SensitivityLoop:
             g.arm_kernel = owner.kernels.address("point_load_D_offset")
             g.arm_scratch = self._pointer(np.zeros(30 * k))
         d.geometry = ctypes.addressof(g)
+
+    def _shifts(self) -> None:
+        """The turning shifts' part (csrc/turning_shifts.c, ReferenceGeometry.shift_layout, the Python path's struct):
+        M, C and the exact K before the reduction scattered onto the assembler's pattern as
+        Assembler.assembled_exact_values scatters them (its segments, the bodies' inertia stiffness copied in from the
+        loop's), the pattern and the values' buffer."""
+        owner, d = self.owner, self.data
+        assembler = owner.assembler
+        data, arrays, _ = owner.geometry.shift_layout()
+        self._keep.append((data, arrays))   # (the geometry's own per numbering: this numbering's, alive with the layout)
+        (data.n_segments, data.counts, data.first, data.second, data.indices,
+         data.positions), stiffness = assembler.exact_segments(assembler.native(True))
+        self._keep.append((assembler._exact_held, assembler._positions3, stiffness))   # noqa: SLF001 - what they point into
+        data.stiffness, data.n_stiffness = stiffness.ctypes.data, stiffness.size if len(owner.model.body_nodes) else 0
+        indptr, pattern = (np.ascontiguousarray(a, np.int64) for a in assembler.pattern())
+        data.indptr, data.pattern, data.nnz = self._pointer(indptr), self._pointer(pattern), pattern.size
+        data.mck = self._pointer(np.zeros(3 * pattern.size))
+        d.shifts = ctypes.addressof(data)
 
     def _controllers(self) -> None:
         """The continuous controllers' parameter uses (ControllerTerms.add), in its order: each use's controller (its
