@@ -876,13 +876,23 @@ class ReferenceGeometry:
             "column": np.array([column for _, column, _, _ in turning], np.int64),
             "moved": np.ascontiguousarray([moved for _, _, moved, _ in turning], np.float64),
             "below_from": np.cumsum([0] + [len(below) for below in belows]).astype(np.int64),
-            "below": np.ascontiguousarray(np.concatenate(belows), np.int64),
+            "below": np.ascontiguousarray(np.concatenate(belows) if belows else [], np.int64),
             "node_dofs": np.ascontiguousarray(model.node_dofs, np.int64),
             "shift": np.zeros((len(turning), 3)), "moves": np.zeros((3, n_nodes, 3, k)),
             "assembled": np.zeros((3, model.n_assembled, k))}
-        data = TurningShiftsData(n=len(turning), n_nodes=n_nodes, n_assembled=model.n_assembled)
-        for name in ("anchor", "column", "moved", "below_from", "below", "node_dofs", "shift", "moves", "assembled"):
-            setattr(data, name, arrays[name].ctypes.data)
+        links = self._link_blocks()
+        arrays.update({
+            "link_node": np.array([node for _, node, _, _ in self.link_moves], np.int64),
+            "link_column": np.array([column for _, _, column, _ in self.link_moves], np.int64),
+            "link_moved_block": np.ascontiguousarray([moved for moved, _, _ in links], np.float64).reshape(-1, 13),
+            "link_block": np.ascontiguousarray([block for _, block, _ in links], np.float64).reshape(-1, 13),
+            "link_com_move": np.ascontiguousarray([dc for _, _, dc in links], np.float64).reshape(-1, 3),
+            "gravity": np.ascontiguousarray(self.owner.assembler.gravity, np.float64)})
+        data = TurningShiftsData(n=len(turning), n_nodes=n_nodes, n_assembled=model.n_assembled,
+                                 n_links=len(self.link_moves), body_kernel=self.kernels.address("joint_body"),
+                                 com_kernel=self.kernels.address("joint_body_D_com"))
+        for name, array in arrays.items():
+            setattr(data, name, array.ctypes.data if array.size else None)
         self._shift_layout_held = (numbering, (data, arrays, native_library()))
         return self._shift_layout_held[1]
 
@@ -963,18 +973,16 @@ class ReferenceGeometry:
         block (m, c, I) moved by (δm, δc, δI) (:func:`link_inertia_moved`): linear in (m, I)
         at a fixed c, so ``joint_body`` with the block (δm, c, δI), and by c the generated ``joint_body_D_com`` (of
         degree two in c) along δc; static (at rest) its λ-gravity alone."""
-        model = self.model
         gravity = load_factor * np.asarray(self.owner.assembler.gravity, float)
         if not inertia and not np.any(gravity):
             return
-        for (link, node, column, moved), (moved_block, block, dc) in zip(self.link_moves, self._link_blocks()):
-            frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
-            motion = np.zeros((1, 9))
-            if inertia:
-                motion[0] = np.concatenate([state.w[node], state.a[node], state.alpha[node]])
-            force = np.asarray(self.kernels.joint_body(frame, motion, moved_block, gravity[None])[0]).reshape(6)
-            by_com = np.asarray(self.kernels.joint_body_D_com(frame, motion, block, gravity[None])[0]).reshape(6, 3)
-            total[model.node_dofs[node], column] += force + by_com @ dc
+        data, _, library = self.shift_layout()
+        into = total if total.flags.c_contiguous and total.dtype == np.float64 else np.ascontiguousarray(total, float)
+        motion = tuple(np.ascontiguousarray(a, np.float64) for a in (state.T, state.w, state.a, state.alpha))
+        library.latdyn_link_inertia_forces(ctypes.addressof(data), self.k, int(inertia), gravity.ctypes.data,
+                                           *(a.ctypes.data for a in motion), into.ctypes.data)
+        if into is not total:
+            total[...] = into
 
     def _link_blocks(self) -> list:
         """(the block (δm, c, δI), the block (m, c, I), δc) of each of :attr:`link_moves` (1 × 13 blocks as the generated

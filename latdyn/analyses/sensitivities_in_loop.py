@@ -243,10 +243,10 @@ def _geometry_refusal(owner) -> str | None:
     point_load_D_offset with the load's values tabulated per grid point, ReferenceGeometry._load_arms)."""
     if any(owner.kernels.address(name) is None for name in GEOMETRY_KERNELS):
         return "geometry kernels without C libraries"
-    if owner.geometry.turning and owner.scene.controllers:   # ControllerTerms._shift_sensed: the per-step path's
-        return "a geometry parameter moves a hinge point or a guide's origin on a part that turns, beside controllers"
-    if owner.geometry.link_moves:   # ReferenceGeometry._add_link_inertia: the links' blocks moved, in Python
-        return "a geometry parameter moves a rigid link's length or direction"
+    if (owner.geometry.turning or owner.geometry.link_moves) and owner.scene.controllers:
+        # (ControllerTerms._shift_sensed: the per-step path's)
+        return "a geometry parameter moves a hinge point, a guide's origin or a rigid link on a part that turns, " \
+               "beside controllers"
     return None
 
 
@@ -956,7 +956,7 @@ class SensitivityLoop:
         owner, d = self.owner, self.data
         geometry = owner.geometry
         d.geometry = d.shifts = None
-        if geometry is not None and geometry.turning:
+        if geometry is not None and (geometry.turning or geometry.link_moves):
             self._shifts()
         if geometry is None or not len(geometry.elements):
             return

@@ -334,7 +334,9 @@ class TurningShiftsData(ctypes.Structure):
                 ("n_nodes", I64), ("node_dofs", P), ("n_assembled", I64), ("shift", P), ("moves", P),
                 ("assembled", P), ("n_segments", I64), ("counts", P), ("first", P), ("second", P), ("indices", P),
                 ("positions", P), ("stiffness", P), ("n_stiffness", I64), ("indptr", P), ("pattern", P),
-                ("nnz", I64), ("mck", P)]
+                ("nnz", I64), ("mck", P), ("n_links", I64), ("link_node", P), ("link_column", P),
+                ("link_moved_block", P), ("link_block", P), ("link_com_move", P), ("body_kernel", P),
+                ("com_kernel", P), ("gravity", P)]
 
 
 class CableForcesData(ctypes.Structure):
@@ -499,6 +501,8 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_turning_shifts.argtypes = [P, I64, P, P, P]
         library.latdyn_turning_shift_forces.restype = None
         library.latdyn_turning_shift_forces.argtypes = [P, I64, I64, P, P, P, P, P, I64, P, P, P]
+        library.latdyn_link_inertia_forces.restype = None
+        library.latdyn_link_inertia_forces.argtypes = [P, I64, I64, P, P, P, P, P, P]
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None
         library.latdyn_section_parameter_forces.argtypes = [model, work, configuration, P, P, I64, P, I64, P, I64, P,

@@ -7,7 +7,10 @@
  * rotational rows, d × F_S (F_S the assembled residual's force rows of S summed: the columns of J that reach A move
  * S's points by g × d per unit rate).
  *
- * The one implementation of these lines: ReferenceGeometry.shifts, _add_shifts and moments_turned call
+ * A rigid link's vector v = B − A moved (its length or direction: a gimbal's ring offset) is such a shift with A the
+ * link node L, and its joint body's block (m, c, I) moves with v: latdyn_link_inertia_forces.
+ *
+ * The one implementation of these lines: ReferenceGeometry.shifts, _add_shifts, _add_link_inertia and moments_turned call
  * latdyn_turning_shifts and latdyn_turning_shift_forces from Python (the per-step path, events, probes), and the loop
  * of steps calls latdyn_turning_shift_forces in its ∂r/∂p (sensitivity_loop.c parameter_columns) on M, C and the
  * exact K scattered onto the assembler's pattern from the evaluation latdyn_linked_exact_values left in Work
@@ -43,6 +46,17 @@ typedef struct TurningShifts {
     const int64_t *indptr, *pattern; /* the assembler's pattern (CSR, n_assembled rows) */
     int64_t nnz;
     double *mck;
+    /* the rigid links whose vector v = B − A moves (ReferenceGeometry.link_moves): their joint body's row at the link
+     * node L's frame and motion by its block moved (the generated joint_body at (δm, c, δI), joint_body_D_com along
+     * δc); n_links 0: none */
+    int64_t n_links;
+    const int64_t *link_node, *link_column;   /* n_links each */
+    const double *link_moved_block;           /* n_links × 13: (δm, c, δI) */
+    const double *link_block;                 /* n_links × 13: (m, c, I) */
+    const double *link_com_move;              /* n_links × 3: δc */
+    kernel_joint_body body_kernel;            /* the generated joint_body */
+    kernel_body_stiffness com_kernel;         /* the generated joint_body_D_com */
+    const double *gravity;                    /* 3: g (the loop of steps' load factor 1) */
 } TurningShifts;
 
 static void cross3(const double *a, const double *b, double *out)
@@ -117,6 +131,32 @@ void latdyn_turning_shift_forces(const TurningShifts *t, int64_t k, int64_t iner
     }
 }
 
+/* Adds into total ((n_total + 1) × k) ∂r/∂p of the rigid links whose vector moves (ReferenceGeometry._add_link_inertia):
+ * each link's joint body row (Eqs. 2, 59) at its node's frame T and motion (ω, a, α; zero where not `inertia`) under
+ * `gravity` (λ g), by its block moved: linear in (m, I) at a fixed c, so joint_body at (δm, c, δI), and by c
+ * joint_body_D_com (of degree two in c) times δc. */
+void latdyn_link_inertia_forces(const TurningShifts *t, int64_t k, int64_t inertia, const double *gravity,
+                                const double *T, const double *w, const double *a, const double *alpha, double *total)
+{
+    for (int64_t l = 0; l < t->n_links; ++l) {
+        const int64_t node = t->link_node[l];
+        double motion[9] = {0.0}, force[6], blocks[108], by_com[18];
+        if (inertia) {
+            memcpy(motion, w + 3 * node, 3 * sizeof(double));
+            memcpy(motion + 3, a + 3 * node, 3 * sizeof(double));
+            memcpy(motion + 6, alpha + 3 * node, 3 * sizeof(double));
+        }
+        t->body_kernel(1, T + 9 * node, motion, t->link_moved_block + 13 * l, gravity, force, blocks, blocks + 36,
+                       blocks + 72);
+        t->com_kernel(1, T + 9 * node, motion, t->link_block + 13 * l, gravity, by_com);
+        const double *dc = t->link_com_move + 3 * l;
+        const int64_t *dofs = t->node_dofs + 6 * node;
+        for (int j = 0; j < 6; ++j)
+            total[dofs[j] * k + t->link_column[l]] += force[j] + (by_com[3 * j] * dc[0] + by_com[3 * j + 1] * dc[1]
+                                                                  + by_com[3 * j + 2] * dc[2]);
+    }
+}
+
 /* The loop of steps' ∂r/∂p of the turning shifts (sensitivity_loop.c parameter_columns, before the reduction) at c,
  * with Work holding the evaluation at c with the inertia tangent and body_D the joint bodies' inertia stiffness there
  * (latdyn_linked_exact_values): M, C and the exact K scattered onto the assembler's pattern, then
@@ -124,8 +164,13 @@ void latdyn_turning_shift_forces(const TurningShifts *t, int64_t k, int64_t iner
 static void turning_shift_columns(const Configuration *c, Work *w, const TurningShifts *t, const double *body_D,
                                   int64_t k, double *total)
 {
+    if (t->n == 0) {
+        latdyn_link_inertia_forces(t, k, 1, t->gravity, c->T, c->w, c->a, c->alpha, total);
+        return;
+    }
     if (t->n_stiffness) memcpy(t->stiffness, body_D, sizeof(double) * (size_t)t->n_stiffness);
     latdyn_exact_matrix_values(t->n_segments, t->counts, t->first, t->second, t->indices, t->positions, 3 * t->nnz,
                                t->mck);
     latdyn_turning_shift_forces(t, k, 1, c->T, c->w, c->alpha, t->indptr, t->pattern, t->nnz, t->mck, w->total, total);
+    latdyn_link_inertia_forces(t, k, 1, t->gravity, c->T, c->w, c->a, c->alpha, total);   /* ReferenceGeometry.add's order */
 }
