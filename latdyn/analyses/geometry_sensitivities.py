@@ -54,7 +54,7 @@ moves at a fixed state by d = T_A δo, its coordinate velocities by ω_A × d, i
 d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges above A: g × (x − o) of S's points moves
 by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
 + C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
-per-step path; through latches and rigid stops, the impulse weight's (∂K/∂p) w with ∂P/∂p's move along w (the inertia
+per-step path and in the loop of steps alike (csrc/turning_shifts.c); through latches and rigid stops, the impulse weight's (∂K/∂p) w with ∂P/∂p's move along w (the inertia
 forces' d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`), beside friction slipping, compliant stops and
 controllers of joints' angles and rates and points' positions (a sensed point's d carried by K d through the
 controller's coupling, not again by ∂f/∂s: latdyn/analyses/sensitivities.py ``ControllerTerms._shift_sensed``);
@@ -66,8 +66,10 @@ latdyn/model/model.py ``rigid_link_inertia``) moves by (δm, δc, δI) (:func:`l
 ``rigid_link_inertia_D_ends``): its row moves by the
 generated ``joint_body`` at (δm, c, δI) (linear in m and I at a fixed c) and ``joint_body_D_com`` along δc (degree two
 in c) at L's fixed frame and motion (:meth:`ReferenceGeometry._add_link_inertia`), and its end point's offset by δv;
-taken and refused beside events, controllers and other probes as a shift on a part that turns, and refused by the loop
-of steps.
+taken and refused beside events, controllers and other probes as a shift on a part that turns. The shifts' lines
+(d = T_A δo, its rigid field, K d + C δv + M δa, d × F_S and the links' rows) are csrc/turning_shifts.c, which this
+module calls and the loop of steps calls too (latdyn/analyses/sensitivities_in_loop.py: these runs' smooth steps in C,
+not beside controllers).
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and

@@ -31,7 +31,10 @@ laws and its compliant stops' and friction's values (the hinge laws they are, on
 geometry parameters (the held variations of ReferenceGeometry taken to the state by the generated
 ``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
 ``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
-tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), of a cable's EA,
+tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``; a shift of a subtree on a
+part that turns and a rigid link's length or direction moved — ReferenceGeometry.turning and link_moves — by
+csrc/turning_shifts.c, the C the Python path calls too, on M, C and the exact K scattered from the step's evaluation
+before the reduction, not beside controllers), of a cable's EA,
 damping, rest length and ρA whose derivative laws are values of t alone (the generated ``cable_force`` with the
 derivative in EA's or c's place, ``cable_force_D_rest_length``, and ``joint_body`` for its lumped masses, at each
 element held taut, csrc/cable_forces.c, the laws tabulated alike: ``_cable_refusal``; a step that crosses a cable's
