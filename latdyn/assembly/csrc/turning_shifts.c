@@ -160,17 +160,16 @@ void latdyn_link_inertia_forces(const TurningShifts *t, int64_t k, int64_t inert
 /* The loop of steps' ∂r/∂p of the turning shifts (sensitivity_loop.c parameter_columns, before the reduction) at c,
  * with Work holding the evaluation at c with the inertia tangent and body_D the joint bodies' inertia stiffness there
  * (latdyn_linked_exact_values): M, C and the exact K scattered onto the assembler's pattern, then
- * latdyn_turning_shift_forces on them and the evaluation's r_all. */
+ * latdyn_turning_shift_forces on them and the evaluation's r_all; then the moved links' rows. */
 static void turning_shift_columns(const Configuration *c, Work *w, const TurningShifts *t, const double *body_D,
                                   int64_t k, double *total)
 {
-    if (t->n == 0) {
-        latdyn_link_inertia_forces(t, k, 1, t->gravity, c->T, c->w, c->a, c->alpha, total);
-        return;
+    if (t->n > 0) {   /* (a link's vector moved on a link node that never turns: its rows alone) */
+        if (t->n_stiffness) memcpy(t->stiffness, body_D, sizeof(double) * (size_t)t->n_stiffness);
+        latdyn_exact_matrix_values(t->n_segments, t->counts, t->first, t->second, t->indices, t->positions,
+                                   3 * t->nnz, t->mck);
+        latdyn_turning_shift_forces(t, k, 1, c->T, c->w, c->alpha, t->indptr, t->pattern, t->nnz, t->mck, w->total,
+                                    total);
     }
-    if (t->n_stiffness) memcpy(t->stiffness, body_D, sizeof(double) * (size_t)t->n_stiffness);
-    latdyn_exact_matrix_values(t->n_segments, t->counts, t->first, t->second, t->indices, t->positions, 3 * t->nnz,
-                               t->mck);
-    latdyn_turning_shift_forces(t, k, 1, c->T, c->w, c->alpha, t->indptr, t->pattern, t->nnz, t->mck, w->total, total);
     latdyn_link_inertia_forces(t, k, 1, t->gravity, c->T, c->w, c->a, c->alpha, total);   /* ReferenceGeometry.add's order */
 }
