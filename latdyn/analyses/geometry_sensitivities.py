@@ -890,9 +890,12 @@ class ReferenceGeometry:
             "link_block": np.ascontiguousarray([block for _, block, _ in links], np.float64).reshape(-1, 13),
             "link_com_move": np.ascontiguousarray([dc for _, _, dc in links], np.float64).reshape(-1, 3),
             "gravity": np.ascontiguousarray(self.owner.assembler.gravity, np.float64)})
+        body_kernel, com_kernel = (self.kernels.address(name) for name in ("joint_body", "joint_body_D_com"))
+        if self.link_moves and (body_kernel is None or com_kernel is None):   # (a model with links evaluates in C)
+            raise RuntimeError(f"kernel variant {self.kernels.variant!r}: joint_body and joint_body_D_com without C "
+                               "libraries (a rigid link's length or direction moved)")
         data = TurningShiftsData(n=len(turning), n_nodes=n_nodes, n_assembled=model.n_assembled,
-                                 n_links=len(self.link_moves), body_kernel=self.kernels.address("joint_body"),
-                                 com_kernel=self.kernels.address("joint_body_D_com"))
+                                 n_links=len(self.link_moves), body_kernel=body_kernel, com_kernel=com_kernel)
         for name, array in arrays.items():
             setattr(data, name, array.ctypes.data if array.size else None)
         self._shift_layout_held = (numbering, (data, arrays, native_library()))
