@@ -69,7 +69,7 @@ in c) at L's fixed frame and motion (:meth:`ReferenceGeometry._add_link_inertia`
 taken and refused beside events, controllers and other probes as a shift on a part that turns. The shifts' lines
 (d = T_A δo, its rigid field, K d + C δv + M δa, d × F_S and the links' rows) are csrc/turning_shifts.c, which this
 module calls and the loop of steps calls too (latdyn/analyses/sensitivities_in_loop.py: these runs' smooth steps in C,
-not beside controllers).
+not beside controllers that read other than joints' angles and rates).
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and

@@ -34,7 +34,7 @@ geometry parameters (the held variations of ReferenceGeometry taken to the state
 tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``; a shift of a subtree on a
 part that turns and a rigid link's length or direction moved — ReferenceGeometry.turning and link_moves — by
 csrc/turning_shifts.c, the C the Python path calls too, on M, C and the exact K scattered from the step's evaluation
-before the reduction, not beside controllers), of a cable's EA,
+before the reduction, not beside controllers that read other than joints' angles and rates), of a cable's EA,
 damping, rest length and ρA whose derivative laws are values of t alone (the generated ``cable_force`` with the
 derivative in EA's or c's place, ``cable_force_D_rest_length``, and ``joint_body`` for its lumped masses, at each
 element held taut, csrc/cable_forces.c, the laws tabulated alike: ``_cable_refusal``; a step that crosses a cable's
@@ -247,9 +247,13 @@ def _geometry_refusal(owner) -> str | None:
     if any(owner.kernels.address(name) is None for name in GEOMETRY_KERNELS):
         return "geometry kernels without C libraries"
     if (owner.geometry.turning or owner.geometry.link_moves) and owner.scene.controllers:
-        # (ControllerTerms._shift_sensed: the per-step path's)
-        return "a geometry parameter moves a hinge point, a guide's origin or a rigid link on a part that turns, " \
-               "beside controllers"
+        from latdyn.assembly.control import ANGLE, RATE
+
+        # a sensed point moved by the shift: ControllerTerms._shift_sensed, the per-step path's; joints' angles and
+        # rates hold no reference
+        if not {int(kind) for kind in owner.assembler.control.sensor_kind} <= {ANGLE, RATE}:
+            return ("a geometry parameter moves a hinge point, a guide's origin or a rigid link on a part that turns, "
+                    "beside controllers that read other than joints' angles and rates")
     return None
 
 
