@@ -254,6 +254,9 @@ def _geometry_refusal(owner) -> str | None:
         if not {int(kind) for kind in owner.assembler.control.sensor_kind} <= {ANGLE, RATE}:
             return ("a geometry parameter moves a hinge point, a guide's origin or a rigid link on a part that turns, "
                     "beside controllers that read other than joints' angles and rates")
+        if owner.controllers.sampled is not None:   # (not measured with the shift in the loop)
+            return ("a geometry parameter moves a hinge point, a guide's origin or a rigid link on a part that turns, "
+                    "beside sampled controllers")
     return None
 
 
