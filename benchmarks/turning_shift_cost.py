@@ -6,10 +6,12 @@ RING_LATCH: 41 steps) without sensitivities, by k1 alone (the loop of steps) and
 outer hinge, a part that turns: every forward step from Python), forward and with ``sensitivity_method: adjoint``: each
 run in process after one warm run of each, ``--rounds`` rounds alternating, medians of wall and CPU
 (``time.process_time``) and each one's ratio to the run without. ``--pieces``: the wall time per run of the pieces of
-the sensitivities by X and k1 (each call timed where it is not inside itself). Run it under ``chrt -f 10`` where the
-machine is loaded.
+the sensitivities by X and k1 (each call timed where it is not inside itself). ``--smooth``: the ring offset without
+the latch (tests/test_geometry_sensitivities_link_length.py RING: 30 steps, no event); ``--forward``: the forward
+cases alone; ``--raw``: each round's (wall, CPU) in seconds too, for medians across invocations. Run it under
+``chrt -f 10`` where the machine is loaded.
 
-    python benchmarks/turning_shift_cost.py [--rounds 5] [--pieces]
+    python benchmarks/turning_shift_cost.py [--rounds 5] [--pieces] [--smooth] [--forward] [--raw]
 """
 from __future__ import annotations
 
@@ -26,7 +28,11 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
 import latdyn  # noqa: E402
+from tests.test_geometry_sensitivities_link_length import RING  # noqa: E402
 from tests.test_geometry_sensitivities_turning_events import RING_LATCH  # noqa: E402
+
+#: the scene timed: RING_LATCH, or RING with --smooth
+SCENE = [RING_LATCH]
 
 #: (name, its parameters (None: no sensitivities), adjoint)
 CASES = [("without", None, False), ("k1", ["k1"], False), ("X, k1", ["X", "k1"], False),
@@ -47,7 +53,7 @@ PIECES = [("latdyn.analyses.transient_sensitivities", "TransientSensitivities", 
 
 
 def scene(parameters, adjoint: bool):
-    data = yaml.safe_load(RING_LATCH)
+    data = yaml.safe_load(SCENE[0])
     if parameters is None:
         del data["solve"]["sensitivities"]
     else:
@@ -64,14 +70,18 @@ def timed(parameters, adjoint: bool) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def costs(rounds: int) -> None:
-    for _, parameters, adjoint in CASES:
-        timed(parameters, adjoint)
-    taken = {i: [] for i in range(len(CASES))}
+def costs(rounds: int, forward: bool, raw: bool) -> None:
+    cases = [i for i, (_, _, adjoint) in enumerate(CASES) if not (forward and adjoint)]
+    for i in cases:
+        timed(*CASES[i][1:])
+    taken = {i: [] for i in cases}
     for _ in range(rounds):
-        for i, (_, parameters, adjoint) in enumerate(CASES):
-            taken[i].append(timed(parameters, adjoint))
-    for i, (name, _, adjoint) in enumerate(CASES):
+        for i in cases:
+            taken[i].append(timed(*CASES[i][1:]))
+    for i in cases:
+        name, _, adjoint = CASES[i]
+        if raw:
+            print(f"raw {'adjoint' if adjoint else 'forward'} {name}: {taken[i]}")
         without = np.median(taken[3 if adjoint else 0], axis=0)
         wall, cpu = np.median(taken[i], axis=0)
         print(f"{'adjoint' if adjoint else 'forward'} {name:8s} wall {1e3 * wall:7.1f} ms ({wall / without[0]:.2f} ×)  "
@@ -114,6 +124,14 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--pieces", action="store_true")
+    parser.add_argument("--smooth", action="store_true")
+    parser.add_argument("--forward", action="store_true")
+    parser.add_argument("--raw", action="store_true")
     arguments = parser.parse_args()
-    (pieces if arguments.pieces else costs)(arguments.rounds)
+    if arguments.smooth:
+        SCENE[0] = RING
+    if arguments.pieces:
+        pieces(arguments.rounds)
+    else:
+        costs(arguments.rounds, arguments.forward, arguments.raw)
     print(f"1-minute load {os.getloadavg()[0]:.1f}")

@@ -165,6 +165,7 @@ def test_the_shifts_matrices_from_one_native_scatter_are_the_evaluations_blocks(
     (latdyn/assembly/linked.py ``evaluate_before_reduction``, which the static path and the events' weights take) to
     the bit. A guard (turncost: the scatter replaced the blocks' assembly on the steps' path)."""
     from latdyn.assembly.linked import evaluate_before_reduction
+    from latdyn.numerics.csr import CSR
 
     prepared = prepare(latdyn.load_scene(yaml.safe_load(RING_LATCH)))
     assembler, model = prepared.assembler, prepared.model
@@ -174,9 +175,59 @@ def test_the_shifts_matrices_from_one_native_scatter_are_the_evaluations_blocks(
     unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
     unpack_free(model, ACCELERATION * rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
     owner = TransientSensitivities(prepared)
-    residual, matrices = owner.geometry._assembled_exact(state, 1.0, True)
+    residual, (indptr, pattern, values) = owner.geometry._assembled_exact(state, 1.0, True)
+    n_asm = model.n_assembled
+    matrices = [CSR((n_asm, n_asm), indptr, pattern, part).toarray() for part in values]   # M, C, K
     blocks, _ = evaluate_before_reduction(assembler, state, True, 1.0, True, inertia_tangent=True)
     assert np.array_equal(residual, blocks.residual)
-    for matrix, coefficients in zip(matrices, ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))):
+    for matrix, coefficients in zip(matrices, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))):
         assert np.array_equal(matrix, blocks.combined(*coefficients, dense=True))
     assert np.any(matrices[0] != 0.0) and np.any(matrices[2] != 0.0)
+
+
+@pytest.mark.parametrize("load_factor, inertia", [(1.0, True), (0.5, False)], ids=["steps", "static"])
+def test_the_shifts_columns_in_c_are_their_formula(load_factor, inertia):
+    """``ReferenceGeometry._add_shifts`` and ``_add_link_inertia`` (csrc/turning_shifts.c, which the loop of steps calls
+    too) at a moved state of the ring offset's gimbal (the rings shifted on the turning link node, the link's block
+    moved) are their formula written out here in NumPy: d = T_A δo, δv = ω_A × d, δa = α_A × d + ω_A × (ω_A × d) on the
+    subtree, K d + C δv + M δa with the dense exact matrices before the reduction, d × F_S on A's rotational rows, and
+    the link's row the generated joint_body at (δm, c, δI) plus joint_body_D_com along δc (NumPy kernels' calls). To
+    round-off. A guard (turnloop moved these lines from NumPy to C)."""
+    from latdyn.assembly.linked import evaluate_before_reduction
+    from latdyn.numerics.so3 import cross
+
+    prepared = prepare(latdyn.load_scene(yaml.safe_load(RING_LATCH)))
+    assembler, model = prepared.assembler, prepared.model
+    rng = np.random.default_rng(5)
+    n = model.n_dofs
+    state = assembler.advance(prepared.state, 0.05 * rng.normal(size=n))
+    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
+    unpack_free(model, ACCELERATION * rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
+    assembler.complete_links(state)
+    geometry = TransientSensitivities(prepared).geometry
+    assert geometry.turning and geometry.link_moves
+    computed = np.zeros((model.n_total + 1, geometry.k))
+    geometry._add_shifts(state, computed, load_factor, inertia)
+    geometry._add_link_inertia(state, computed, load_factor, inertia)
+
+    blocks, _ = evaluate_before_reduction(assembler, state, True, load_factor, inertia, inertia_tangent=True)
+    matrices = [np.asarray(blocks.combined(*c, dense=True)) for c in ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0), (1.0, 0.0, 0.0))]
+    expected = np.zeros_like(computed)
+    for index, column, moved, anchor in geometry.turning:
+        d = state.T[anchor] @ moved
+        w, alpha = state.w[anchor], state.alpha[anchor]
+        rows = model.node_dofs[geometry._below(index)][:, 0:3]
+        for matrix, move in zip(matrices[:3 if inertia else 1], (d, cross(w, d), cross(alpha, d) + cross(w, cross(w, d)))):
+            on = np.zeros(model.n_assembled)
+            on[rows] = move
+            expected[:model.n_assembled, column] += matrix @ on
+        expected[model.node_dofs[anchor][3:6], column] += cross(d, np.asarray(blocks.residual)[rows].sum(axis=0))
+    gravity = load_factor * np.asarray(assembler.gravity, float)[None]
+    for (_, node, column, _), (moved_block, block, dc) in zip(geometry.link_moves, geometry._link_blocks()):
+        frame = state.T[node].reshape(1, 9)
+        motion = np.concatenate([state.w[node], state.a[node], state.alpha[node]])[None] * float(inertia)
+        force = np.asarray(geometry.kernels.joint_body(frame, motion, moved_block, gravity)[0]).reshape(6)
+        by_com = np.asarray(geometry.kernels.joint_body_D_com(frame, motion, block, gravity)[0]).reshape(6, 3)
+        expected[model.node_dofs[node], column] += force + by_com @ dc
+    assert np.abs(expected).max() > 0.0
+    np.testing.assert_allclose(computed, expected, rtol=0.0, atol=1e-13 * np.abs(expected).max())

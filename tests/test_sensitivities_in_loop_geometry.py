@@ -3,7 +3,10 @@
 coordinates, a cantilever by its length, the 3D knee by its joint, offset, free end and hinge axis take every smooth
 step in the loop, and the sensitivities are the per-step Python path's (the private switch ``SENSITIVITIES_IN_LOOP``
 off) to the bit, through the API and through ``latdyn run``, loads at a moved offset among them; between events
-too."""
+too. Shifts on a part that turns (csrc/turning_shifts.c, which the Python path calls too): the gimbal's ring offset (a
+rigid link's length and direction, its joint body's block moved), a guide's origin on a turning arm's tip, and the
+inner ring's hinge point on the turning outer ring through its latch, the ring offset beside a PD and a PI of joints'
+angles and rates through its latch (refused by the loop on bd00230b: every step from Python)."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,6 +15,9 @@ import yaml
 
 import latdyn
 from tests.cli_runs import latdyn_run, summary_of, the_loop_off_writes_the_same
+from tests.test_geometry_sensitivities_link_geometry import GUIDE_ORIGIN
+from tests.test_geometry_sensitivities_link_length import RING
+from tests.test_geometry_sensitivities_turning_events import INNER_LATCH, PI_LATCH, RING_PD_LATCH
 from tests.test_sensitivities_geometry import (CONTACT_BY_PLACE, KNEE_3D, KNEE_SPINNING, LATCH_BY_LENGTH, PLANAR_SWING,
                                                 STOP_BY_PLACE, _hinge_axis_scene, _loaded_at_the_offset)
 
@@ -80,10 +86,12 @@ def _run(text: str, monkeypatch, in_loop: bool):
         return latdyn.run(latdyn.load_scene(yaml.safe_load(text)))
 
 
-@pytest.mark.parametrize("text", [LATTICE, CANTILEVER, KNEE_3D, KNEE_SPINNING, KNEE_AXIS, KNEE_LOADED, PLANAR_SWING],
+@pytest.mark.parametrize("text", [LATTICE, CANTILEVER, KNEE_3D, KNEE_SPINNING, KNEE_AXIS, KNEE_LOADED, PLANAR_SWING,
+                                  RING, GUIDE_ORIGIN],
                          ids=["3D lattice by a joint", "planar cantilever by its length",
                               "3D knee by its joint, offset and free end", "3D knee spinning", "3D hinge axis",
-                              "3D loads at a moved offset", "planar swing by its fixed base"])
+                              "3D loads at a moved offset", "planar swing by its fixed base",
+                              "gimbal's ring offset on a part that turns", "guide's origin on a turning tip"])
 def test_geometry_parameters_take_the_loop_and_are_the_python_paths(text, monkeypatch):
     """Every step in the loop of steps, the sensitivities the per-step Python path's to the bit (rows, extremes)."""
     native, python = _run(text, monkeypatch, True), _run(text, monkeypatch, False)
@@ -97,9 +105,11 @@ def test_geometry_parameters_take_the_loop_and_are_the_python_paths(text, monkey
     assert native.summary["probe_sensitivities"] == python.summary["probe_sensitivities"]
 
 
-@pytest.mark.parametrize("text", [LATCH_BY_LENGTH, STOP_BY_PLACE, CONTACT_BY_PLACE],
+@pytest.mark.parametrize("text", [LATCH_BY_LENGTH, STOP_BY_PLACE, CONTACT_BY_PLACE, INNER_LATCH, RING_PD_LATCH,
+                                  PI_LATCH],
                          ids=["planar latch by the tip's place", "3D stop with restitution by the wheel's place",
-                              "3D compliant stop by the wheel's place"])
+                              "3D compliant stop by the wheel's place", "hinge point on a turning ring, its latch",
+                              "ring offset beside a PD of joints, its latch", "ring offset beside a PI, its latch"])
 def test_geometry_parameters_between_events_are_the_python_paths(text, monkeypatch):
     """Through a latch, a rigid stop's bounce and a compliant stop's onset and release (their steps from Python), the
     smooth steps in the loop; the sensitivities and the events' time derivatives the Python path's to the bit."""

@@ -54,9 +54,10 @@ moves at a fixed state by d = T_A δo, its coordinate velocities by ω_A × d, i
 d) (A's rigid field), and J's columns that reach A (A's root's turn, the hinges above A: g × (x − o) of S's points moves
 by g × d) move Pᵀ r by d × F_S on A's rotational rows, F_S the residual's forces on S before the reduction: ∂r/∂X = K d
 + C δv + M δa + that moment with the exact K, C, M before the reduction (:meth:`ReferenceGeometry._add_shifts`), on the
-per-step path; through latches and rigid stops, the impulse weight's (∂K/∂p) w with ∂P/∂p's move along w (the inertia
-forces' and the elements' weight's d × F_S turned with A: :meth:`ReferenceGeometry.moments_turned`; the static ∂r/∂p
-it differences holds neither, :meth:`ReferenceGeometry.add`), beside friction slipping, compliant stops and
+per-step path and in the loop of steps alike (csrc/turning_shifts.c); through latches and rigid stops, the impulse weight's
+(∂K/∂p) w with ∂P/∂p's move along w (the inertia forces' and the elements' weight's d × F_S turned with A:
+:meth:`ReferenceGeometry.moments_turned`; the static ∂r/∂p it differences holds neither, :meth:`ReferenceGeometry.add`),
+beside friction slipping, compliant stops and
 controllers of joints' angles and rates and points' positions (a sensed point's d carried by K d through the
 controller's coupling, not again by ∂f/∂s: latdyn/analyses/sensitivities.py ``ControllerTerms._shift_sensed``);
 refused beside other controllers and probes whose explicit part does not hold the shift (:func:`_turning_refusal`). A rigid link's length or direction is taken where the body at its end (and all it
@@ -67,8 +68,10 @@ latdyn/model/model.py ``rigid_link_inertia``) moves by (δm, δc, δI) (:func:`l
 ``rigid_link_inertia_D_ends``): its row moves by the
 generated ``joint_body`` at (δm, c, δI) (linear in m and I at a fixed c) and ``joint_body_D_com`` along δc (degree two
 in c) at L's fixed frame and motion (:meth:`ReferenceGeometry._add_link_inertia`), and its end point's offset by δv;
-taken and refused beside events, controllers and other probes as a shift on a part that turns, and refused by the loop
-of steps.
+taken and refused beside events, controllers and other probes as a shift on a part that turns. The shifts' lines
+(d = T_A δo, its rigid field, K d + C δv + M δa, d × F_S and the links' rows) are csrc/turning_shifts.c, which this
+module calls and the loop of steps calls too (latdyn/analyses/sensitivities_in_loop.py: these runs' smooth steps in C,
+not beside controllers that read other than joints' angles and rates).
 
 Refused (:func:`geometry_refusal`, and :class:`ReferenceGeometry` where the model decides, which
 :func:`model_refusal` finds from the scene before anything is compiled): ``y_axis`` and
@@ -85,6 +88,7 @@ too (tests/test_adjoint_geometry_linked.py).
 """
 from __future__ import annotations
 
+import ctypes
 import re
 
 import numpy as np
@@ -819,26 +823,67 @@ class ReferenceGeometry:
         """(d, δv, δa), (n_nodes, 3, k) each: the moves at ``state`` of the nodes below the edges of :attr:`turning`
         (an edge's own point o moved by δo on a parent A that turns): the subtree translates by d = T_A δo, fixed in
         A's axes, so its coordinate velocities move by ω_A × d and its accelerations by α_A × d + ω_A × (ω_A × d)
-        (A's rigid field); zero for every other node."""
-        from latdyn.numerics.so3 import cross
+        (A's rigid field); zero for every other node. csrc/turning_shifts.c ``latdyn_turning_shifts``, the one
+        implementation (the loop of steps calls it too)."""
+        return self._shifted(state)[1:]
 
-        links, n_nodes = self.model.links, len(self.model.nodes)
+    def _shifted(self, state) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(each edge's d = T_A δo (len(turning), 3), then :meth:`shifts`' d, δv, δa) at ``state``, held for the
+        anchors' motion last asked (the probes of one row, its step)."""
         anchors = sorted({anchor for _, _, _, anchor in self.turning})
         key = b"".join(state.T[a].tobytes() + state.w[a].tobytes() + state.alpha[a].tobytes() for a in anchors)
         held = self.__dict__.get("_shifts_held")
-        if held is not None and held[0] == key:   # the same anchors' motion: the probes of one row, its step
+        if held is not None and held[0] == key:
             return held[1]
-        d, dv, da = (np.zeros((n_nodes, 3, self.k)) for _ in range(3))
-        for index, column, moved, anchor in self.turning:
-            shift = state.T[anchor] @ moved
-            w, alpha = state.w[anchor], state.alpha[anchor]
-            below = self._below(index)
-            spun = cross(w, shift)
-            d[below, :, column] += shift
-            dv[below, :, column] += spun
-            da[below, :, column] += cross(alpha, shift) + cross(w, spun)
-        self._shifts_held = (key, (d, dv, da))
-        return d, dv, da
+        data, arrays, library = self.shift_layout()
+        motion = _motion(state)
+        library.latdyn_turning_shifts(ctypes.addressof(data), self.k, *(a.ctypes.data for a in motion))
+        moves = arrays["moves"]
+        shifted = (arrays["shift"].copy(), moves[0].copy(), moves[1].copy(), moves[2].copy())
+        self._shifts_held = (key, shifted)
+        return shifted
+
+    def shift_layout(self) -> tuple:
+        """(csrc/turning_shifts.c's TurningShifts for :attr:`turning`, the arrays it points into, the library), made
+        per numbering (a latch's renumbers the coordinates): each edge's anchor A, column, δo and subtree
+        (:meth:`_below`), the nodes' coordinates, and the buffers of the shifts; the loop of steps adds its part
+        (latdyn/analyses/sensitivities_in_loop.py)."""
+        model, k, turning = self.model, self.k, self.turning
+        numbering = (model.n_assembled, model.node_dofs.tobytes())
+        held = self.__dict__.get("_shift_layout_held")
+        if held is not None and held[0] == numbering:
+            return held[1]
+        from latdyn.assembly.library import TurningShiftsData, native_library
+
+        belows = [self._below(index) for index, _, _, _ in turning]
+        n_nodes = len(model.nodes)
+        arrays = {
+            "anchor": np.array([anchor for _, _, _, anchor in turning], np.int64),
+            "column": np.array([column for _, column, _, _ in turning], np.int64),
+            "moved": np.ascontiguousarray([moved for _, _, moved, _ in turning], np.float64),
+            "below_from": np.cumsum([0] + [len(below) for below in belows]).astype(np.int64),
+            "below": np.ascontiguousarray(np.concatenate(belows) if belows else [], np.int64),
+            "node_dofs": np.ascontiguousarray(model.node_dofs, np.int64),
+            "shift": np.zeros((len(turning), 3)), "moves": np.zeros((3, n_nodes, 3, k)),
+            "assembled": np.zeros((3, model.n_assembled, k))}
+        links = self._link_blocks()
+        arrays.update({
+            "link_node": np.array([node for _, node, _, _ in self.link_moves], np.int64),
+            "link_column": np.array([column for _, _, column, _ in self.link_moves], np.int64),
+            "link_moved_block": np.ascontiguousarray([moved for moved, _, _ in links], np.float64).reshape(-1, 13),
+            "link_block": np.ascontiguousarray([block for _, block, _ in links], np.float64).reshape(-1, 13),
+            "link_com_move": np.ascontiguousarray([dc for _, _, dc in links], np.float64).reshape(-1, 3),
+            "gravity": np.ascontiguousarray(self.owner.assembler.gravity, np.float64)})
+        body_kernel, com_kernel = (self.kernels.address(name) for name in ("joint_body", "joint_body_D_com"))
+        if self.link_moves and (body_kernel is None or com_kernel is None):   # (a model with links evaluates in C)
+            raise RuntimeError(f"kernel variant {self.kernels.variant!r}: joint_body and joint_body_D_com without C "
+                               "libraries (a rigid link's length or direction moved)")
+        data = TurningShiftsData(n=len(turning), n_nodes=n_nodes, n_assembled=model.n_assembled,
+                                 n_links=len(self.link_moves), body_kernel=body_kernel, com_kernel=com_kernel)
+        for name, array in arrays.items():
+            setattr(data, name, array.ctypes.data if array.size else None)
+        self._shift_layout_held = (numbering, (data, arrays, native_library()))
+        return self._shift_layout_held[1]
 
     def _below(self, index: int) -> np.ndarray:
         """The nodes of edge ``index``'s subtree (its child and every node whose path passes the edge)."""
@@ -856,48 +901,40 @@ class ReferenceGeometry:
         d × F_S on the anchor A's rotational rows (F_S the assembled residual's force rows of S summed): the columns
         of J that reach A (its root's turn, the hinges above it) move S's points by (g × d) per unit rate, whose work
         on S's forces is g·(d × F_S); the columns below A move S as a whole and stay."""
-        from latdyn.numerics.so3 import cross
-
-        model, dependent = self.model, self.model.links.dependent
-        n_asm = model.n_assembled
-        # r_all and K, C, M on the assembled coordinates (the dependent nodes completed): what the reduction starts from
-        forces, (K, C, M) = self._assembled_exact(state, load_factor, inertia)
-        d, dv, da = self.shifts(state)
-        moved = np.zeros((3, n_asm, self.k))
-        rows = model.node_dofs[dependent][:, 0:3]   # the dependent nodes' translations (n_dep, 3)
-        moved[0][rows], moved[1][rows], moved[2][rows] = d[dependent], dv[dependent], da[dependent]
-        change = K @ moved[0]
-        if inertia:
-            change += C @ moved[1]
-            change += M @ moved[2]
-        total[:n_asm] += change
-        for index, column, moment_arm, anchor in self.turning:
-            shift = state.T[anchor] @ moment_arm
-            below = self._below(index)
-            force = forces[model.node_dofs[below][:, 0:3]].sum(axis=0)
-            total[model.node_dofs[anchor][3:6], column] += cross(shift, force)
+        residual, (indptr, pattern, values) = self._assembled_exact(state, load_factor, inertia)
+        data, _, library = self.shift_layout()
+        into = total if total.flags.c_contiguous and total.dtype == np.float64 else np.ascontiguousarray(total, float)
+        motion, residual = _motion(state), np.ascontiguousarray(residual, np.float64)
+        library.latdyn_turning_shift_forces(ctypes.addressof(data), self.k, int(inertia),
+                                            *(a.ctypes.data for a in motion), indptr.ctypes.data, pattern.ctypes.data,
+                                            pattern.size, values.ctypes.data, residual.ctypes.data, into.ctypes.data)
+        if into is not total:
+            total[...] = into
 
     def _assembled_exact(self, state, load_factor: float, inertia: bool) -> tuple[np.ndarray, tuple]:
-        """(r_all (n_assembled,), (K, C, M) dense on the assembled coordinates) at ``state``: the exact K (the inertia
-        tangent, the joint bodies' inertia stiffness) before the reduction, and C and M with the inertia (else None). At
-        the steps' load factor 1 with the inertia one native evaluation and one native scatter of the three
-        (``Assembler.assembled_exact_values``), else the evaluation's blocks assembled
-        (latdyn/assembly/linked.py ``evaluate_before_reduction``): the same values to the bit."""
+        """(r_all (n_assembled,), (indptr, column indices, M, C and the exact K as values (3, nnz) of that CSR pattern on
+        the assembled coordinates)) at ``state``: the exact K (the inertia tangent, the joint bodies' inertia stiffness)
+        before the reduction, and C and M with the inertia (else zeros). At the steps' load factor 1 with the inertia
+        one native evaluation and one native scatter of the three onto the assembler's pattern
+        (``Assembler.assembled_exact_values``, as the loop of steps scatters them), else the evaluation's blocks
+        assembled (latdyn/assembly/linked.py ``evaluate_before_reduction``) on the full dense pattern."""
         from latdyn.assembly.linked import evaluate_before_reduction
-        from latdyn.numerics.csr import CSR
 
         assembler, n_asm = self.owner.assembler, self.model.n_assembled
         if load_factor == 1.0 and inertia:
             residual, values = assembler.assembled_exact_values(state)
-            indptr, indices = assembler.pattern()
-            M, C, K = (CSR((n_asm, n_asm), indptr, indices, part).toarray() for part in values)
-            return residual, (K, C, M)
+            pattern = assembler.pattern()
+            held = self.__dict__.get("_pattern_held")
+            if held is None or held[0] is not pattern[1]:   # per numbering
+                held = self._pattern_held = (pattern[1], *(np.ascontiguousarray(a, np.int64) for a in pattern))
+            return residual, (*held[1:], values)
         ev, _ = evaluate_before_reduction(assembler, state, True, load_factor, inertia, inertia_tangent=True)
-        K = np.asarray(ev.combined(0.0, 0.0, 1.0, dense=True))
-        if not inertia:
-            return np.asarray(ev.residual), (K, None, None)
-        return np.asarray(ev.residual), (K, np.asarray(ev.combined(0.0, 1.0, 0.0, dense=True)),
-                                         np.asarray(ev.combined(1.0, 0.0, 0.0, dense=True)))
+        zero = np.zeros((n_asm, n_asm))
+        parts = [np.asarray(ev.combined(*part, dense=True)) if inertia or part == (0.0, 0.0, 1.0) else zero
+                 for part in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))]
+        indptr = np.arange(0, n_asm * n_asm + 1, n_asm, dtype=np.int64)
+        pattern = np.ascontiguousarray(np.tile(np.arange(n_asm, dtype=np.int64), n_asm))
+        return np.asarray(ev.residual), (indptr, pattern, np.ascontiguousarray([p.reshape(-1) for p in parts]))
 
     def moments_turned(self, state, along: np.ndarray, forces: np.ndarray) -> np.ndarray:
         """(n_total + 1, k): the move of the :attr:`turning` shifts' moments d × F_S (:meth:`_add_shifts`) when the
@@ -912,8 +949,8 @@ class ReferenceGeometry:
 
         model = self.model
         out = np.zeros((model.n_total + 1, self.k))
-        for index, column, moment_arm, anchor in self.turning:
-            shift = state.T[anchor] @ moment_arm
+        shifts = self._shifted(state)[0]
+        for (index, column, _, anchor), shift in zip(self.turning, shifts):
             turn = along[model.node_dofs[anchor][3:6]]
             force = forces[model.node_dofs[self._below(index)][:, 0:3]].sum(axis=0)
             out[model.node_dofs[anchor][3:6], column] += cross(cross(turn, shift), force)
@@ -925,18 +962,16 @@ class ReferenceGeometry:
         block (m, c, I) moved by (δm, δc, δI) (:func:`link_inertia_moved`): linear in (m, I)
         at a fixed c, so ``joint_body`` with the block (δm, c, δI), and by c the generated ``joint_body_D_com`` (of
         degree two in c) along δc; static (at rest) its λ-gravity alone."""
-        model = self.model
         gravity = load_factor * np.asarray(self.owner.assembler.gravity, float)
         if not inertia and not np.any(gravity):
             return
-        for (link, node, column, moved), (moved_block, block, dc) in zip(self.link_moves, self._link_blocks()):
-            frame = np.ascontiguousarray(state.T[node].reshape(1, 9))
-            motion = np.zeros((1, 9))
-            if inertia:
-                motion[0] = np.concatenate([state.w[node], state.a[node], state.alpha[node]])
-            force = np.asarray(self.kernels.joint_body(frame, motion, moved_block, gravity[None])[0]).reshape(6)
-            by_com = np.asarray(self.kernels.joint_body_D_com(frame, motion, block, gravity[None])[0]).reshape(6, 3)
-            total[model.node_dofs[node], column] += force + by_com @ dc
+        data, _, library = self.shift_layout()
+        into = total if total.flags.c_contiguous and total.dtype == np.float64 else np.ascontiguousarray(total, float)
+        motion = tuple(np.ascontiguousarray(a, np.float64) for a in (state.T, state.w, state.a, state.alpha))
+        library.latdyn_link_inertia_forces(ctypes.addressof(data), self.k, int(inertia), gravity.ctypes.data,
+                                           *(a.ctypes.data for a in motion), into.ctypes.data)
+        if into is not total:
+            total[...] = into
 
     def _link_blocks(self) -> list:
         """(the block (δm, c, δI), the block (m, c, I), δc) of each of :attr:`link_moves` (1 × 13 blocks as the generated
@@ -1087,6 +1122,12 @@ class ReferenceGeometry:
         """The node whose frame load ``index`` turns with, −1 for a global load."""
         load = self.scene.loads[index]
         return -1 if load.frame == "global" else int(self.model.body_node[load.frame])
+
+
+def _motion(state) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``state``'s frames, angular velocities and accelerations (n_nodes × 9, × 3, × 3) as csrc/turning_shifts.c reads
+    them (contiguous: held by the caller over the call)."""
+    return tuple(np.ascontiguousarray(a, np.float64) for a in (state.T, state.w, state.alpha))
 
 
 def _turned_parts(end: int) -> tuple[slice, slice, slice]:

@@ -31,7 +31,10 @@ laws and its compliant stops' and friction's values (the hinge laws they are, on
 geometry parameters (the held variations of ReferenceGeometry taken to the state by the generated
 ``reference_variation_at_state``, then the generated ``beam_internal_force_D_reference`` and
 ``beam_inertia_force_D_reference``, and for a load at a moved offset ``point_load_D_offset`` with the load's values
-tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``), of a cable's EA,
+tabulated alike, csrc/geometry_forces.c, with the Python path's rows: ``_geometry_refusal``; a shift of a subtree on a
+part that turns and a rigid link's length or direction moved — ReferenceGeometry.turning and link_moves — by
+csrc/turning_shifts.c, the C the Python path calls too, on M, C and the exact K scattered from the step's evaluation
+before the reduction, not beside controllers that read other than joints' angles and rates), of a cable's EA,
 damping, rest length and ρA whose derivative laws are values of t alone (the generated ``cable_force`` with the
 derivative in EA's or c's place, ``cable_force_D_rest_length``, and ``joint_body`` for its lumped masses, at each
 element held taut, csrc/cable_forces.c, the laws tabulated alike: ``_cable_refusal``; a step that crosses a cable's
@@ -243,10 +246,17 @@ def _geometry_refusal(owner) -> str | None:
     point_load_D_offset with the load's values tabulated per grid point, ReferenceGeometry._load_arms)."""
     if any(owner.kernels.address(name) is None for name in GEOMETRY_KERNELS):
         return "geometry kernels without C libraries"
-    if owner.geometry.turning:   # ReferenceGeometry._add_shifts: formed from the evaluation's matrices in Python
-        return "a geometry parameter moves a hinge point or a guide's origin on a part that turns"
-    if owner.geometry.link_moves:   # ReferenceGeometry._add_link_inertia: the links' blocks moved, in Python
-        return "a geometry parameter moves a rigid link's length or direction"
+    if (owner.geometry.turning or owner.geometry.link_moves) and owner.scene.controllers:
+        from latdyn.assembly.control import ANGLE, RATE
+
+        # a sensed point moved by the shift: ControllerTerms._shift_sensed, the per-step path's; joints' angles and
+        # rates hold no reference
+        if not {int(kind) for kind in owner.assembler.control.sensor_kind} <= {ANGLE, RATE}:
+            return ("a geometry parameter moves a hinge point, a guide's origin or a rigid link on a part that turns, "
+                    "beside controllers that read other than joints' angles and rates")
+        if owner.controllers.sampled is not None:   # (not measured with the shift in the loop)
+            return ("a geometry parameter moves a hinge point, a guide's origin or a rigid link on a part that turns, "
+                    "beside sampled controllers")
     return None
 
 
@@ -955,7 +965,9 @@ class SensitivityLoop:
 
         owner, d = self.owner, self.data
         geometry = owner.geometry
-        d.geometry = None
+        d.geometry = d.shifts = None
+        if geometry is not None and (geometry.turning or geometry.link_moves):
+            self._shifts()
         if geometry is None or not len(geometry.elements):
             return
         g = self._geometry_data = GeometryForcesData()
@@ -980,6 +992,24 @@ class SensitivityLoop:
             g.arm_kernel = owner.kernels.address("point_load_D_offset")
             g.arm_scratch = self._pointer(np.zeros(30 * k))
         d.geometry = ctypes.addressof(g)
+
+    def _shifts(self) -> None:
+        """The turning shifts' part (csrc/turning_shifts.c, ReferenceGeometry.shift_layout, the Python path's struct):
+        M, C and the exact K before the reduction scattered onto the assembler's pattern as
+        Assembler.assembled_exact_values scatters them (its segments, the bodies' inertia stiffness copied in from the
+        loop's), the pattern and the values' buffer."""
+        owner, d = self.owner, self.data
+        assembler = owner.assembler
+        data, arrays, _ = owner.geometry.shift_layout()
+        self._keep.append((data, arrays))   # (the geometry's own per numbering: this numbering's, alive with the layout)
+        (data.n_segments, data.counts, data.first, data.second, data.indices,
+         data.positions), stiffness = assembler.exact_segments(assembler.native(True))
+        self._keep.append((assembler._exact_held, assembler._positions3, stiffness))   # noqa: SLF001 - what they point into
+        data.stiffness, data.n_stiffness = stiffness.ctypes.data, stiffness.size if len(owner.model.body_nodes) else 0
+        indptr, pattern = (np.ascontiguousarray(a, np.int64) for a in assembler.pattern())
+        data.indptr, data.pattern, data.nnz = self._pointer(indptr), self._pointer(pattern), pattern.size
+        data.mck = self._pointer(np.zeros(3 * pattern.size))
+        d.shifts = ctypes.addressof(data)
 
     def _controllers(self) -> None:
         """The continuous controllers' parameter uses (ControllerTerms.add), in its order: each use's controller (its

@@ -269,7 +269,9 @@ class SensitivityLoopData(ctypes.Structure):
                 ("force_element", P), ("force_first", P), ("force_weights", P), ("section_forces_D_section", P),
                 # controllers reading a cable's tension whose laws a parameter moves: each read's cable's first
                 # element (−1: not a tension), cable_tension_slope
-                ("force_cable_element", P)]
+                ("force_cable_element", P),
+                # the geometry parameters' turning shifts (csrc/turning_shifts.c TurningShifts); NULL: none
+                ("shifts", P)]
 
 
 class ControllerStatesLoopData(ctypes.Structure):
@@ -321,6 +323,20 @@ class GeometryForcesData(ctypes.Structure):
                 ("internal_kernel", P), ("inertia_kernel", P), ("gravity", P), ("scratch", P), ("n_arms", I64),
                 ("arm_node", P), ("arm_frame", P), ("arm_moves", P), ("arm_values", P), ("values_from", I64),
                 ("arm_kernel", P), ("arm_scratch", P)]
+
+
+class TurningShiftsData(ctypes.Structure):
+    """``TurningShifts`` of csrc/turning_shifts.c: the geometry parameters' shifts of subtrees on parts that turn
+    (latdyn.analyses.geometry_sensitivities.ReferenceGeometry lays it out; the loop of steps' part,
+    latdyn.analyses.sensitivities_in_loop)."""
+
+    _fields_ = [("n", I64), ("anchor", P), ("column", P), ("moved", P), ("below_from", P), ("below", P),
+                ("n_nodes", I64), ("node_dofs", P), ("n_assembled", I64), ("shift", P), ("moves", P),
+                ("assembled", P), ("n_segments", I64), ("counts", P), ("first", P), ("second", P), ("indices", P),
+                ("positions", P), ("stiffness", P), ("n_stiffness", I64), ("indptr", P), ("pattern", P),
+                ("nnz", I64), ("mck", P), ("n_links", I64), ("link_node", P), ("link_column", P),
+                ("link_moved_block", P), ("link_block", P), ("link_com_move", P), ("body_kernel", P),
+                ("com_kernel", P), ("gravity", P)]
 
 
 class CableForcesData(ctypes.Structure):
@@ -481,6 +497,12 @@ def native_library() -> ctypes.CDLL:
         library.latdyn_linked_geometric_second.restype = None
         library.latdyn_linked_geometric_second.argtypes = [model, configuration, P, P, P, P, P, P, P]
         library.latdyn_exact_matrix_values.restype = None
+        library.latdyn_turning_shifts.restype = None
+        library.latdyn_turning_shifts.argtypes = [P, I64, P, P, P]
+        library.latdyn_turning_shift_forces.restype = None
+        library.latdyn_turning_shift_forces.argtypes = [P, I64, I64, P, P, P, P, P, I64, P, P, P]
+        library.latdyn_link_inertia_forces.restype = None
+        library.latdyn_link_inertia_forces.argtypes = [P, I64, I64, P, P, P, P, P, P]
         library.latdyn_exact_matrix_values.argtypes = [I64, P, P, P, P, P, I64, P]
         library.latdyn_section_parameter_forces.restype = None
         library.latdyn_section_parameter_forces.argtypes = [model, work, configuration, P, P, I64, P, I64, P, I64, P,

@@ -26,6 +26,7 @@
 #include "parameter_forces.c" /* ∂r/∂p of the section values that name a parameter, in one call */
 #include "geometry_forces.c" /* ∂r/∂p of the geometry parameters, in one call */
 #include "linked_matrices.c" /* rigid links: M, C, K and ∂r/∂p on the minimum coordinates for the sensitivities */
+#include "turning_shifts.c" /* geometry parameters: the shift of a subtree on a part that turns, its ∂r/∂p */
 #include "cable_forces.c" /* ∂r/∂p of the cables' parameters for the sensitivities */
 #include "drive_sensitivities.c" /* the prescribed motions' drive in the external work's sensitivity */
 #include "work_accounts.c" /* the work accounts' sensitivities carried through the steps */

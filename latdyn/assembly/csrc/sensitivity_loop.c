@@ -238,6 +238,9 @@ typedef struct SensitivityLoopTag {
      * cable's first element (−1: not a tension), whose ∂N/∂p cable_tension_slope (cable_forces.c) takes from the
      * cables' uses (the cables struct), as CableSensitivities and probe_derivatives._tension_by_parameters form it */
     const int64_t *force_cable_element;
+    /* ∂r/∂p of the geometry parameters' turning shifts (ReferenceGeometry._add_shifts, turning_shifts.c), before the
+     * reduction; NULL: none */
+    const TurningShifts *shifts;
 } SensitivityLoop;
 
 /* Row r of the rows recorded on the way: the carried δq, δv, δv̇ and δt as the step before it left them. */
@@ -627,6 +630,7 @@ static void parameter_columns(const Model *m, Work *w, SensitivityLoop *s, const
         latdyn_section_parameter_forces(m, w, c, s->internal_D_section, s->inertia_D_section, 1, s->gravity, s->n_on,
                                         s->on, s->n_uses, s->use, s->elements, s->columns, s->rows, k, s->total,
                                         s->section_scratch);
+    if (s->shifts != NULL) turning_shift_columns(c, w, s->shifts, s->linked_body_D, k, s->total);   /* ReferenceGeometry.add's order */
     if (s->geometry != NULL) latdyn_geometry_parameter_forces(m, w, c, s->geometry, k, grid, s->total);
     if (s->n_body_uses) body_parameter_forces(m, c, s, grid);
     if (s->n_law_uses) joint_law_parameter_forces(m, c, s, grid);
