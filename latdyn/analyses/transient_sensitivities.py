@@ -1707,8 +1707,8 @@ class TransientSensitivities(ParameterDerivatives):
         the hinge is released and settled again at one instant, its ``model.resting`` as before, and the run's
         accelerations are those of a third restart, on the locked model, weighed at the second's
         (``free_restarts`` 2, :meth:`_restart_before_settling`). Left out (the step's δv̇ kept), δθ̈ of the other
-        ring was 4.9 times Richardson's on tests/test_sensitivities_linked_rest.py's FUZZ_RELEASE (released and
-        settled again at 0.155 s), and every row after it off, 3.0e-3 … 4.6e-2.
+        ring was 4.9 times Richardson's on tests/test_sensitivities_linked_rest.py's FUZZ (released and settled
+        again at 0.155 s), and every row after it off, 3.0e-3 … 4.6e-2.
         """
         before, self._resting_before = self._resting_before, None
         releases, self._releases = self._releases, {}
@@ -1739,7 +1739,7 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _probes_unchecked_through_links(self) -> list:
         """The names of the probes whose terms of a held angle through the rigid links' reduction are not checked
-        (:meth:`_refuse_what_a_held_angle_moves`; a rest there is refused whatever the probes,
+        (:meth:`_refuse_what_a_held_angle_moves`; a rest there takes fewer,
         :meth:`_refuse_a_linked_rest`): all but points (in global axes; since heldcol in a body's axes too), joints'
         angles and rates, and since heldcol the kinetic, strain and total energies, momenta, elements' bending moments and joints' torques, a stuck one's
         reaction with its held angles' column (:func:`latdyn.analyses.joint_force_sensitivities.held_reaction_columns`)
