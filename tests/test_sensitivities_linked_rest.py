@@ -15,11 +15,12 @@ back on its stop by the projection at a step's end and released again.
 
 Against Richardson-extrapolated central differences of whole runs, stored in tests/linked_rest_richardson.json
 (benchmarks/linked_rest_references.py writes them: the perturbation 1e-4 and 5e-5 relative, the time step fixed, the
-perturbed runs with ``solve.sensitivities`` so their steps are the checked run's; ``solve.tol`` 1e-12), each probe's
-rows relative to its largest. Measured (linkrest): FUZZ ≤ 2.6e-8, PUT_BACK ≤ 1.3e-7 (its second landing grazes the
-stop at −6.4e-3 rad/s, where the landing's 1e-12 rad tolerance moves the landed time by 5e-6 of its derivative:
-2.5e-8 with the tolerance at 1e-14), REST ≤ 1.3e-8. Each test but the adjoint's guard fails on bd00230b (the rest
-refused); with that refusal lifted there and the mend absent FUZZ is 3.0e-3 … 4.6e-2 off."""
+perturbed runs with ``solve.sensitivities`` so their steps are the checked run's), each probe's rows relative to its
+largest. Measured (linkrest): REST by k1, m, EI 1.3e-8, 9.1e-9, 8.8e-9; FUZZ by m, k1 1.2e-9, 7.9e-10; PUT_BACK by m
+6.1e-9, its reference's runs landing to 1e-14 (its second landing grazes the stop at −6.4e-3 rad/s, where the
+package's 1e-12 rad moves the landed time by 5.2e-6 of its derivative: 4.6e-7 against a reference landed so). Each
+test but the adjoint's guard fails on bd00230b (the rest refused); with that refusal lifted there and the mend absent
+FUZZ is off by 3.0e-3 … 4.6e-2."""
 from __future__ import annotations
 
 import json
