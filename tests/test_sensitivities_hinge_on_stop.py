@@ -209,14 +209,14 @@ def test_the_adjoint_through_a_hinge_resting_on_its_stop_is_the_forward_methods(
 
 def test_a_guide_coming_to_rest_on_its_stop_is_refused_naming_its_limits(tmp_path):
     """A guided slider landing on its rigid stop with restitution 0 (at 0.240 s) comes to rest in a model with guides,
-    where a rest through the reduction is refused (found wrong on rigid links: fuzznew,
-    tests/test_sensitivities_linked_rest.py): ``latdyn run`` exits 2 naming the guide's ``limits`` and the file (exit 1, a SolverError naming neither, on 40bf44a)."""
+    whose reduction's restart is not differentiated there: ``latdyn run`` exits 2 naming the guide's ``limits`` and
+    the file (exit 1, a SolverError naming neither, on 40bf44a)."""
     text = GUIDE_STOP.replace("restitution: 0.5", "restitution: 0.0")
     assert text != GUIDE_STOP
     completed, _ = latdyn_run(tmp_path, text, quiet=True)
     assert completed.returncode == 2, completed.stderr
     assert "scene.yaml" in completed.stderr and "bodies.slider.guide.limits" in completed.stderr
-    assert "in a model with rigid links or guides" in completed.stderr and "Traceback" not in completed.stderr
+    assert "in a model with guides" in completed.stderr and "Traceback" not in completed.stderr
 
 
 def test_a_run_interrupted_while_the_hinge_rests_resumes_to_the_same_sensitivities(tmp_path, monkeypatch):

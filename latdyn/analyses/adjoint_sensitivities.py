@@ -139,6 +139,7 @@ from latdyn.errors import SolverError
 from latdyn.numerics.csr import CSR, Transpose, transposed
 from latdyn.numerics.linalg import issparse
 from latdyn.step.integrators import consistent_acceleration
+from latdyn.timeloop.events import stop_holds
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 
 __all__ = ["AdjointSensitivities"]
@@ -262,9 +263,12 @@ class AdjointSensitivities(TransientSensitivities):
             # ``landed or self._contact_onset(old, new)``)
             onset = self._contact_onset(old, new) if landed is None and cable is None and self.model.n_dofs else None
             timed = carried["timed"]   # δt_n may be non-zero: the step's ∂r/∂t δt_n (laws in t, adjoint_time.py)
+            # the resting hinges the step's end releases (the run's test, as the forward method's
+            # _release_candidates): one the run settles on its stop again at once keeps its ``resting``
+            released = [int(j) for j in np.flatnonzero(self.model.resting) if not stop_holds(self.prepared, new, int(j))]
             entry.update({"numbering": self._numbering(), "event": event, "cable": cable, "onset": onset,
                           "rule": self._size_rule(carried, h, lands, landed or onset, cable), "timed": timed,
-                          "resting": self.model.resting.copy()})
+                          "resting": self.model.resting.copy(), "released": released})
             if not self.model.n_dofs:   # nothing free (all latched): the forward method's δh, −δt_n onto the grid,
                 entry["rule"] = ("lands",) if lands and timed else None   # else 0 (TransientSensitivities.step)
                 carried["timed"], carried["dh_moves"] = timed and not lands, False
@@ -305,8 +309,9 @@ class AdjointSensitivities(TransientSensitivities):
         rest follows the landed impact with restitution 0 (or the projection) that ``entry`` already holds, its
         restart on the locked numbering (``numbering_end``, ``after``: :meth:`_restart_transposed`); a release
         (``rest`` = ("release", j)) restarts as after a stop with δt 0 (:meth:`_release_transposed`). Refused as the
-        forward method refuses them (:meth:`TransientSensitivities._settle_or_release`, :meth:`_refuse_resting`).
-        Beside controllers with states or sampled ones the held δS and δy of the restarts are transposed as at a stop
+        forward method refuses them (:meth:`TransientSensitivities._settle_or_release`, :meth:`_refuse_resting`), and
+        where the run releases a hinge and settles it on its stop again at one instant (``released``, ``resting``
+        unchanged: the forward method's three restarts there are not transposed). Beside controllers with states or sampled ones the held δS and δy of the restarts are transposed as at a stop
         (:meth:`_held_through_restart`); the projection back onto the stop the forward method refuses beside them
         (:meth:`TransientSensitivities._refuse_what_a_rest_moves`). Geometry parameters are taken: the released boom's
         end angle by the tip's z (tests/test_sensitivities_hinge_on_stop.py RELEASE), 4.3e-9 off the forward method's
@@ -318,15 +323,20 @@ class AdjointSensitivities(TransientSensitivities):
         if before is None:
             return
         changed = [int(j) for j in np.flatnonzero(before != self.model.resting)]
-        if not changed:
+        settled_again = [j for j in entry["released"] if self.model.resting[j] == before[j]]
+        if not changed and not settled_again:
             return
-        j = changed[0]
-        if len(changed) > 1:
+        j = (changed + settled_again)[0]
+        if len(changed) + len(settled_again) > 1:
             self._refuse_resting(new, j, "several hinges come to rest on their stops or leave them at one instant")
         if self.model.links is not None:
             self._refuse_resting(new, j, "a joint comes to rest on its stop or leaves it in a model with guides or "
-                                         "rigid links (the discrete adjoint does not transpose the reduction's two "
+                                         "rigid links (the discrete adjoint does not transpose the reduction's "
                                          "restarts there; the forward method differentiates it on rigid links)")
+        if settled_again:   # the forward method's three restarts (TransientSensitivities._settle_or_release)
+            self._refuse_resting(new, j, "a hinge is released from its stop and settled on it again at one instant "
+                                         "(the discrete adjoint does not transpose its restarts; the forward method "
+                                         "differentiates it)")
         event = entry.get("event")
         if self.model.resting[j]:
             if event is None or event[0] != j or event[1] not in ("stop", "rest"):

@@ -181,7 +181,7 @@ from latdyn.numerics.linalg import issparse
 from latdyn.scene.expressions import TimeFunction, _drop_deltas
 from latdyn.step.integrators import consistent_acceleration, start_without_scipy
 from latdyn.timeloop.events import (cable_crossings, cable_gaps, lock_events, may_stick, restart_accelerations,
-                                    sticking_hinges, stop_hits)
+                                    sticking_hinges, stop_holds, stop_hits)
 from latdyn.timeloop.impulse import hinge_directions, massless_element_stiffness
 from latdyn.timeloop.landing import LANDING_PASSES, first_event, land
 
@@ -835,7 +835,7 @@ class TransientSensitivities(ParameterDerivatives):
                                            "dq": self._on_nodes(self._projected(carried, new, hinge)),
                                            "dv": self._on_nodes(dv_plus),
                                            "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
-                                           "dvdot": self._on_nodes(carried["dvdot"]), "restarts": 1, "settles": False}}
+                                           "dvdot": self._on_nodes(carried["dvdot"]), "restarts": 1, "free_restarts": 0}}
         dt_event = carried["dt"]
         record = {"joint": model.hinges[hinge].name, "kind": kind, "t": float(new.t),
                   "dt": {name: float(dt_event[c]) for c, name in enumerate(self.names)}}
@@ -849,7 +849,7 @@ class TransientSensitivities(ParameterDerivatives):
                 "pending": {"kind": kind, "hinge": hinge, "dq": self._on_nodes(carried["dq"]),
                             "dv": self._on_nodes(dv_plus),
                             "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
-                            "dvdot": self._on_nodes(carried["dvdot"]), "restarts": 1, "settles": False}}
+                            "dvdot": self._on_nodes(carried["dvdot"]), "restarts": 1, "free_restarts": 0}}
 
     def _impulse(self, carried: dict, new, hinge: int, restitution: float) -> np.ndarray:
         """δv⁺ (n, k) through the impulse on ``hinge`` at ``new`` (before the jump; :meth:`_jump`'s formula)."""
@@ -1610,7 +1610,7 @@ class TransientSensitivities(ParameterDerivatives):
         held[j] = candidate["held"]
         self.held = held
         pending = {"kind": "stop", "dq": candidate["dq"], "dv": candidate["dv"], "vdot": candidate["vdot"],
-                   "dvdot": candidate["dvdot"], "restarts": 1, "settles": False}
+                   "dvdot": candidate["dvdot"], "restarts": 1, "free_restarts": 0}
         return {**carried, "held": held, "pending": pending}
 
     def _refuse_what_a_held_angle_moves(self, new, happens: str, joint: int, through_links: bool = False) -> None:
@@ -1676,13 +1676,17 @@ class TransientSensitivities(ParameterDerivatives):
     # ------------------------------------------------------------------ resting on a rigid stop
     def _release_candidates(self, carried: dict, new) -> None:
         """For each hinge resting on its rigid stop (``model.resting``: locked there, latdyn/timeloop/events.py
-        "resting on a stop"), what :meth:`after_events` needs if the step's end releases it (its reaction would pull
-        it off), on the nodes and hinges (the coordinates are renumbered then): δq with the hinge's δθ 0 (it landed
-        on the stop exactly, δθ_p + δθ_h δh = 0, and stayed there: a stop angle is no parameter), δv with its rate's
-        0 (a locked hinge's rate is 0), and the accelerations before the restart (:meth:`_restart`; the release's
-        time is the step's end, on the grid: δt 0, as a release by friction)."""
+        "resting on a stop") that the step's end releases (its reaction at ``new`` would pull it off: the run's own
+        test, ``stop_holds``, at the state ``release_from_stops`` reads), what :meth:`after_events` needs, on the
+        nodes and hinges (the coordinates are renumbered then): δq with the hinge's δθ 0 (it landed on the stop
+        exactly, δθ_p + δθ_h δh = 0, and stayed there: a stop angle is no parameter), δv with its rate's 0 (a locked
+        hinge's rate is 0), and the accelerations before the restart (:meth:`_restart`; the release's time is the
+        step's end, on the grid: δt 0, as a release by friction). Known here, not from the resting hinges after the
+        events: the run may settle the released hinge on its stop again at once (:meth:`_settle_or_release`)."""
         model = self.model
         for j in np.flatnonzero(model.resting):
+            if stop_holds(self.prepared, new, int(j)):
+                continue
             self._releases[int(j)] = {"dq": self._on_nodes(carried["dq"]), "dv": self._on_nodes(carried["dv"]),
                                       "vdot": self._on_nodes(free_acceleration(model, new)[:, None])[0],
                                       "dvdot": self._on_nodes(carried["dvdot"])}
@@ -1698,41 +1702,51 @@ class TransientSensitivities(ParameterDerivatives):
         the stop's (δθ = 0) and it is no coordinate, as a latched hinge. A release at a step's end restarts as a
         stop does, its δθ (0) and rate (0) back among the free coordinates (:meth:`_release_candidates`).
         Refused (:meth:`_refuse_resting`) where that is not what the run did: several at one instant, a release
-        beside another event; and on models with rigid links or guides (:meth:`_refuse_a_linked_rest`).
+        beside another event; and on models with rigid links beside what was not checked (:meth:`_refuse_a_linked_rest`).
         A release restarts twice (``restarts``, :meth:`_restart`): the run's release (``release_from_stops``) frees
         the hinge on its stop without rate, which ``hinge_stops`` then finds there (a hit: on the stop, its rate
         not away from it) and restarts the accelerations again, at those the release's restart left; with rigid
         links W reads them (its geometric term), so the second differs from the first (measured on the gimbal of
         tests/test_sensitivities_linked_rest.py: δθ̈ after the release 4.1e-3 off Richardson differences of the
         run's state with one restart differentiated, 1.8e-8 with both); without them it is the first again.
-        ``settle_on_stops``' trial on the locked model after it is undone (the reaction pulls off), its
-        accelerations with it.
+        ``settle_on_stops``' trial on the locked model after it is undone where the reaction pulls off, its
+        accelerations with it; where at the accelerations the two restarts left the stop holds it, the trial stays:
+        the hinge is released and settled again at one instant, its ``model.resting`` as before, and the run's
+        accelerations are those of a third restart, on the locked model, weighed at the second's
+        (``free_restarts`` 2, :meth:`_restart_before_settling`). Left out (the step's δv̇ kept), δθ̈ of the other
+        ring was 4.9 times Richardson's on tests/test_sensitivities_linked_rest.py's FUZZ (released and settled
+        again at 0.155 s), and every row after it off, 3.0e-3 … 4.6e-2.
         """
         before, self._resting_before = self._resting_before, None
+        releases, self._releases = self._releases, {}
         model = self.model
         if before is None or not len(self.names):
             return carried
         changed = [int(j) for j in np.flatnonzero(before != model.resting)]
-        if not changed:
+        # released at the step's end and settled on the same stop again at once: resting as before
+        settled_again = [j for j in releases if model.resting[j] == before[j]]
+        if not changed and not settled_again:
             return carried
-        j = changed[0]
-        if len(changed) > 1:
+        j = (changed + settled_again)[0]
+        if len(changed) + len(settled_again) > 1:
             self._refuse_resting(new, j, "several hinges come to rest on their stops or leave them at one instant")
         self._refuse_a_linked_rest(new, j)
         pending = carried.get("pending")
-        if model.resting[j]:   # settled after its impact with restitution 0: the restart on the locked model
-            if pending is None or pending.get("hinge") != j or pending["kind"] != "stop":
+        if model.resting[j] and j not in releases:   # settled after its impact with restitution 0: the restart on
+            if pending is None or pending.get("hinge") != j or pending["kind"] != "stop":   # the locked model
                 self._refuse_resting(new, j, "a hinge comes to rest on its stop without an impact landed on it")
-            return {**carried, "pending": {**pending, "settles": True}}
-        if pending is not None or j not in self._releases:
+            return {**carried, "pending": {**pending, "free_restarts": 1}}
+        if pending is not None or j not in releases:
             self._refuse_resting(new, j, "a hinge leaves its stop beside another event at one instant")
-        release = self._releases[j]
+        release = releases[j]
+        # released: the release's restart and the hit's on the free model; settled again: a third on the locked one
+        restarts = {"restarts": 1, "free_restarts": 2} if model.resting[j] else {"restarts": 2, "free_restarts": 0}
         return {**carried, "pending": {"kind": "stop", "hinge": j, "dq": release["dq"], "dv": release["dv"],
-                                       "vdot": release["vdot"], "dvdot": release["dvdot"], "restarts": 2, "settles": False}}
+                                       "vdot": release["vdot"], "dvdot": release["dvdot"], **restarts}}
 
     def _probes_unchecked_through_links(self) -> list:
         """The names of the probes whose terms of a held angle through the rigid links' reduction are not checked
-        (:meth:`_refuse_what_a_held_angle_moves`; a rest there is refused whatever the probes,
+        (:meth:`_refuse_what_a_held_angle_moves`; a rest there takes fewer,
         :meth:`_refuse_a_linked_rest`): all but points (in global axes; since heldcol in a body's axes too), joints'
         angles and rates, and since heldcol the kinetic, strain and total energies, momenta, elements' bending moments and joints' torques, a stuck one's
         reaction with its held angles' column (:func:`latdyn.analyses.joint_force_sensitivities.held_reaction_columns`)
@@ -1758,23 +1772,37 @@ class TransientSensitivities(ParameterDerivatives):
         return [p.name for p in self.probes if not checked(p)]
 
     def _refuse_a_linked_rest(self, new, j: int) -> None:
-        """A hinge resting on its rigid stop in a model with rigid links or guides: refused (:meth:`_refuse_resting`).
-        restlinks took it where no guide, latch, cable, controller or geometry parameter was in the model (checked on
-        the gimbal of tests/test_sensitivities_linked_rest.py); benchmarks/fuzz_lifted.py (seed 1 case 5, that file's
-        FUZZ_RELEASE) then found a gimbal resting three steps after its second landing 3.0e-3 of its tip's largest
-        derivative off Richardson differences from the second step of the rest on, 4.6e-2 (the ring's angle) after its
-        release; the cause is not found (fuzznew)."""
-        if self.model.links is not None:
-            self._refuse_resting(new, j, "a joint comes to rest on its stop or leaves it in a model with rigid links "
-                                         "or guides (the rest through the reduction was found wrong on a scene "
-                                         "beside the one checked: 3.0e-3 during the rest, 4.6e-2 after the release)")
+        """A hinge resting on its rigid stop in a model with rigid links is differentiated where no guide, latch,
+        cable, controller or geometry parameter is in the model and the probes are points in global axes and joints'
+        angles and rates (checked against Richardson differences on the gimbals of
+        tests/test_sensitivities_linked_rest.py and benchmarks/fuzz_lifted.py's rests); refused elsewhere
+        (:meth:`_refuse_resting`). fuzznew refused it whatever the model after fuzz_lifted's seed 1 case 5 was found
+        3.0e-3 … 4.6e-2 off: the run released its ring and settled it again at one instant, which
+        :meth:`_settle_or_release` did not follow (linkrest)."""
+        model = self.model
+        if model.links is None:
+            return
+        if any(h.end == "guide" for h in model.hinges):
+            self._refuse_resting(new, j, "a joint comes to rest on its stop or leaves it in a model with guides (their "
+                                         "reduction's restart is not differentiated there)")
+        events = model.cables is not None or any(h.lock_at is not None for h in model.hinges)
+        probes = [p.name for p in self.probes if not ((p.kind == "point" and p.frame == "global")
+                                                      or (p.kind == "hinge" and p.quantity in ("angle", "rate")))]
+        if events or probes or self.controllers is not None or self.geometry is not None:
+            what = ("latches or cables" if events
+                    else "controllers" if self.controllers is not None
+                    else "geometry parameters" if self.geometry is not None
+                    else f"probe {probes[0]!r} (not a point in global axes, a joint's angle or rate)")
+            self._refuse_resting(new, j, f"a joint comes to rest on its stop or leaves it in a model with rigid links "
+                                         f"beside {what} (their terms through the reduction's restart are not "
+                                         "checked)")
 
     def _refuse_resting(self, new, j: int, why: str) -> None:
         """SceneError (exit 2) naming the rigid stop (``limits``) of hinge j: ``why`` its coming to rest on the stop
         or its release is not differentiated here (docs/parameters.md, "Sensitivities through events")."""
         raise SceneError(self.scene.file, stop_key(self.model.hinges[j]),
                          f"at t = {float(new.t):.6g} {why}: solve.sensitivities differentiates a hinge that lands on "
-                         "its rigid stop with restitution 0 (without rigid links or guides), rests there and is released at a step's end, one at a "
+                         "its rigid stop with restitution 0 (without guides), rests there and is released at a step's end, one at a "
                          "time, not this; expected a run without it, or no solve.sensitivities (docs/parameters.md, "
                          "\"Sensitivities through events\")")
 
@@ -1799,7 +1827,7 @@ class TransientSensitivities(ParameterDerivatives):
             rhs = self.residual_derivatives(new, 1.0, inertia=True) + K @ dq + C @ dv
             dvdot = np.asarray(solve_linear(M, rhs)).reshape(n, k) * -1.0
             return {**out, "dvdot": dvdot, "da": dvdot.copy()}
-        if pending["settles"]:   # the impact's restart on the model with the hinge free came first
+        if pending["free_restarts"]:   # settled on its stop: the restarts on the model with the hinge free came first
             before, dvdot = self._restart_before_settling(new, pending)
         else:
             before = new.copy()
@@ -1812,12 +1840,14 @@ class TransientSensitivities(ParameterDerivatives):
 
     def _restart_before_settling(self, new, pending: dict) -> tuple:
         """(the state, δv̇ (n, k) on the locked numbering) the restart on the locked model starts from where the hinge
-        ``pending["hinge"]`` came to rest on its stop at ``new``: the run restarts the accelerations after the impact
-        (``hinge_stops``) with the hinge free, then ``settle_on_stops`` zeroes its θ̈, locks it and restarts again, at
-        the accelerations the first left (with rigid links W reads them: measured on the gimbal of
-        tests/test_sensitivities_linked_rest.py, δθ̈ after the landing 3.1e-5 off Richardson differences of the
-        run's state weighed at those before the impact). The first is differentiated on the numbering with the hinge
-        free (:meth:`_restart_once`), the model renumbered so for it and back, as ``settle_on_stops``' trial does."""
+        ``pending["hinge"]`` came to rest on its stop at ``new``: the run restarts the accelerations with the hinge
+        free ``pending["free_restarts"]`` times — once after the impact (``hinge_stops``); twice where it released
+        the hinge and found it on its stop again (``release_from_stops``, then ``hinge_stops``) — then
+        ``settle_on_stops`` zeroes its θ̈, locks it and restarts again, at the accelerations the last left (with
+        rigid links W reads them: measured on the gimbal of tests/test_sensitivities_linked_rest.py, δθ̈ after the
+        landing 3.1e-5 off Richardson differences of the run's state weighed at those before the impact). Those
+        are differentiated in turn on the numbering with the hinge free (:meth:`_restart_once`), the model
+        renumbered so for them and back, as ``settle_on_stops``' trial does."""
         model, j = self.model, pending["hinge"]
         side = model.resting[j]
         model.locked[j], model.resting[j] = False, 0
@@ -1829,8 +1859,11 @@ class TransientSensitivities(ParameterDerivatives):
                              for key in ("dq", "dv", "dvdot"))
             before = new.copy()
             unpack_free(model, pack(model, *pending["vdot"])[:n], before.a, before.alpha, before.theta_ddot)
-            after = self._restarted(before)
-            dvdot = self._on_nodes(self._restart_once(before, after, dq, dv, dvdot))
+            for _ in range(pending["free_restarts"]):
+                after = self._restarted(before)
+                dvdot = self._restart_once(before, after, dq, dv, dvdot)
+                before = after
+            dvdot = self._on_nodes(dvdot)
         finally:
             model.locked[j], model.resting[j] = True, side
             model.number_coordinates()

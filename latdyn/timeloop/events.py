@@ -440,7 +440,7 @@ def stops_left_at_rest(assembler, new: State, old: State, hits: tuple | None = N
             for k, stop, e in zip(hits, stops, restitution) if e == 0.0]
 
 
-def _holds(prepared: Prepared, state: State, k: int) -> bool:
+def stop_holds(prepared: Prepared, state: State, k: int) -> bool:
     """Whether the rigid stop that locked hinge k rests on holds it at ``state``: its reaction pushes the
     joint away from the stop (or is zero)."""
     return float(prepared.model.resting[k]) * holding_reaction(prepared, state, k) <= 0.0
@@ -461,7 +461,7 @@ def settle_on_stops(prepared: Prepared, integrator, candidates: list[tuple[int, 
         model.locked[k], model.resting[k] = True, side
         new.theta_dot[k] = new.theta_ddot[k] = 0.0
         _renumber(prepared, integrator, new)
-        if _holds(prepared, new, k):
+        if stop_holds(prepared, new, k):
             loss += before - kinetic_energy(assembler, new)
             settled = True
             continue
@@ -481,7 +481,7 @@ def release_from_stops(prepared: Prepared, integrator, new: State) -> bool:
     model = prepared.model
     released = False
     for k in np.flatnonzero(model.resting):
-        if not _holds(prepared, new, int(k)):
+        if not stop_holds(prepared, new, int(k)):
             model.locked[k], model.resting[k] = False, 0
             _renumber(prepared, integrator, new)
             released = True
