@@ -95,6 +95,18 @@ ACCELERATION = 100.0
 STEP = 1e-5
 
 
+def _moved_state(prepared, seed: int):
+    """(a state, the draw that made it): the scene's initial state turned and deformed by 0.05 times a normal draw of
+    ``np.random.default_rng(seed)``, random rates, and accelerations of :data:`ACCELERATION` times a normal draw."""
+    assembler, model = prepared.assembler, prepared.model
+    rng = np.random.default_rng(seed)
+    n = model.n_dofs
+    state = assembler.advance(prepared.state, 0.05 * rng.normal(size=n))
+    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
+    unpack_free(model, ACCELERATION * rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
+    return state, rng
+
+
 def _weight_stiffness_by_x(text: str):
     """(the package's (∂K/∂X) w, its Richardson reference) at the scene's initial state turned and deformed by 0.05
     times a normal draw, random rates, accelerations (:data:`ACCELERATION`) and w: K the impulse's (the evaluation's
@@ -104,11 +116,8 @@ def _weight_stiffness_by_x(text: str):
     data["solve"]["sensitivities"] = ["X"]
     prepared = prepare(latdyn.load_scene(data))
     assembler, model = prepared.assembler, prepared.model
-    rng = np.random.default_rng(7)
+    state, rng = _moved_state(prepared, 7)
     n = model.n_dofs
-    state = assembler.advance(prepared.state, 0.05 * rng.normal(size=n))
-    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
-    unpack_free(model, ACCELERATION * rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
     assembler.complete_links(state)
     owner = TransientSensitivities(prepared)
     w = rng.normal(size=n)
@@ -169,11 +178,7 @@ def test_the_shifts_matrices_from_one_native_scatter_are_the_evaluations_blocks(
 
     prepared = prepare(latdyn.load_scene(yaml.safe_load(RING_LATCH)))
     assembler, model = prepared.assembler, prepared.model
-    rng = np.random.default_rng(3)
-    n = model.n_dofs
-    state = assembler.advance(prepared.state, 0.05 * rng.normal(size=n))
-    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
-    unpack_free(model, ACCELERATION * rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
+    state, _ = _moved_state(prepared, 3)
     owner = TransientSensitivities(prepared)
     residual, (indptr, pattern, values) = owner.geometry._assembled_exact(state, 1.0, True)
     n_asm = model.n_assembled
@@ -198,11 +203,7 @@ def test_the_shifts_columns_in_c_are_their_formula(load_factor, inertia):
 
     prepared = prepare(latdyn.load_scene(yaml.safe_load(RING_LATCH)))
     assembler, model = prepared.assembler, prepared.model
-    rng = np.random.default_rng(5)
-    n = model.n_dofs
-    state = assembler.advance(prepared.state, 0.05 * rng.normal(size=n))
-    unpack_free(model, rng.normal(size=n), state.v, state.w, state.theta_dot)
-    unpack_free(model, ACCELERATION * rng.normal(size=n), state.a, state.alpha, state.theta_ddot)
+    state, _ = _moved_state(prepared, 5)
     assembler.complete_links(state)
     geometry = TransientSensitivities(prepared).geometry
     assert geometry.turning and geometry.link_moves
