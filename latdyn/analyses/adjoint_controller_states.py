@@ -226,15 +226,54 @@ class StatesTransposed:
         """(n, P): ∂(B δS)/∂q along ``w`` for the P unit columns of δS, the held part of the forward method's
         ``_terms_beside_stiffness_along`` (an event's weight derivative with δS held, ``ControllerStates.hold``):
         exact as the forward method's (latdyn/analyses/parameter_stiffness.py ``controller_parameter_along`` of the
-        unit columns), else (a controller whose second derivatives along q are not generated) the same central
-        difference (step WEIGHT_STEP ℓ/|w|_∞) of ``ControllerTerms.add`` with the unit columns held."""
+        unit columns; with rigid links or guides through the reduction, :meth:`_linked_held_stiffness_along`), else (a
+        controller whose second derivatives along q are not generated) the same central difference (step WEIGHT_STEP
+        ℓ/|w|_∞) of ``ControllerTerms.add`` with the unit columns held."""
         from latdyn.analyses.parameter_stiffness import controller_parameter_along
 
         if float(np.max(np.abs(w), initial=0.0)) > 0.0:
-            exact = controller_parameter_along(self.owner, state, w, self._unit_terms())
-            if exact is not None:
-                return self.owner._on_free_coordinates(state, exact)
+            if self.owner.model.links is not None:
+                exact = self._linked_held_stiffness_along(state, w)
+                if exact is not None:
+                    return exact
+            else:
+                exact = controller_parameter_along(self.owner, state, w, self._unit_terms())
+                if exact is not None:
+                    return self.owner._on_free_coordinates(state, exact)
         return _held_map_along(self.owner, self.held_map, self.P, state, w)
+
+    def _linked_held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray | None:
+        """(n, P) or None: :meth:`held_stiffness_along` on a model with rigid links or guides. B = Pᵀ B_all (B_all the
+        unit columns' ∂r_all/∂p on the assembled coordinates), so along w at the assembled rates held (the forward
+        method's K_red)
+
+            ∂(B δS)/∂q w = Pᵀ ∂B_all/∂q[P w] δS + ∂Pᵀ/∂q[w] B_all δS,
+
+        the forward method's path (``TransientSensitivities._linked_stiffness_along``: ``controller_parameter_along`` at
+        u = P w, the sensors' generated gradients by the assembled coordinates, a dependent node's too, projected, and
+        the reduction's geometric term, :func:`latdyn.analyses.weight_derivative.geometric_product`); None where
+        ``controller_parameter_along`` does not form it. Before (diffgen), ``controller_parameter_along`` with w on the
+        free coordinates alone and no geometric term: 0 at the latch of the chain of rigid bays under a PI of a
+        dependent node's place, where the block is 8.3 (its product with the impulse's adjoint was 4e-17 there:
+        tests/test_adjoint_states_linked.py)."""
+        from latdyn.analyses.parameter_stiffness import controller_parameter_along
+        from latdyn.analyses.weight_derivative import geometric_product
+
+        owner = self.owner
+        model = owner.model
+        terms = self._unit_terms()
+        full = owner._along_assembled(state, w)
+        along = controller_parameter_along(owner, state, full[:model.n_dofs], terms, full=full)
+        if along is None:
+            return None
+        out = owner._on_free_coordinates(state, along)
+        on_all = np.zeros((model.n_total + 1, self.P))   # B_all: the unit columns before the reduction
+        terms.add(state, on_all)
+        owner.assembler.complete_links(state)   # J of the state in the links' buffers
+        for c in range(self.P):
+            if np.any(on_all[:model.n_assembled, c]):
+                out[:, c] += geometric_product(owner.assembler, state, on_all[:model.n_assembled, c], w)
+        return out
 
     def held_transposed(self, state, w: np.ndarray, held_bar: np.ndarray) -> np.ndarray:
         """held̄ − Bᵀ w: the held part's use in the step's ∂r/∂p (z = S⁻¹(−(… + B held …))), transposed."""
