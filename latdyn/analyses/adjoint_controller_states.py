@@ -226,15 +226,54 @@ class StatesTransposed:
         """(n, P): ∂(B δS)/∂q along ``w`` for the P unit columns of δS, the held part of the forward method's
         ``_terms_beside_stiffness_along`` (an event's weight derivative with δS held, ``ControllerStates.hold``):
         exact as the forward method's (latdyn/analyses/parameter_stiffness.py ``controller_parameter_along`` of the
-        unit columns), else (a controller whose second derivatives along q are not generated) the same central
-        difference (step WEIGHT_STEP ℓ/|w|_∞) of ``ControllerTerms.add`` with the unit columns held."""
+        unit columns; with rigid links or guides through the reduction, :meth:`_linked_held_stiffness_along`), else (a
+        controller whose second derivatives along q are not generated) the same central difference (step WEIGHT_STEP
+        ℓ/|w|_∞) of ``ControllerTerms.add`` with the unit columns held."""
         from latdyn.analyses.parameter_stiffness import controller_parameter_along
 
         if float(np.max(np.abs(w), initial=0.0)) > 0.0:
-            exact = controller_parameter_along(self.owner, state, w, self._unit_terms())
-            if exact is not None:
-                return self.owner._on_free_coordinates(state, exact)
+            if self.owner.model.links is not None:
+                exact = self._linked_held_stiffness_along(state, w)
+                if exact is not None:
+                    return exact
+            else:
+                exact = controller_parameter_along(self.owner, state, w, self._unit_terms())
+                if exact is not None:
+                    return self.owner._on_free_coordinates(state, exact)
         return _held_map_along(self.owner, self.held_map, self.P, state, w)
+
+    def _linked_held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray | None:
+        """(n, P) or None: :meth:`held_stiffness_along` on a model with rigid links or guides. B = Pᵀ B_all (B_all the
+        unit columns' ∂r_all/∂p on the assembled coordinates), so along w at the assembled rates held (the forward
+        method's K_red)
+
+            ∂(B δS)/∂q w = Pᵀ ∂B_all/∂q[P w] δS + ∂Pᵀ/∂q[w] B_all δS,
+
+        the forward method's path (``TransientSensitivities._linked_stiffness_along``: ``controller_parameter_along`` at
+        u = P w, the sensors' generated gradients by the assembled coordinates, a dependent node's too, projected, and
+        the reduction's geometric term, :func:`latdyn.analyses.weight_derivative.geometric_product`); None where
+        ``controller_parameter_along`` does not form it. Before (diffgen), ``controller_parameter_along`` with w on the
+        free coordinates alone and no geometric term: 0 at the latch of the chain of rigid bays under a PI of a
+        dependent node's place, where the block is 8.3 (its product with the impulse's adjoint was 4e-17 there:
+        tests/test_adjoint_states_linked.py)."""
+        from latdyn.analyses.parameter_stiffness import controller_parameter_along
+        from latdyn.analyses.weight_derivative import geometric_product
+
+        owner = self.owner
+        model = owner.model
+        terms = self._unit_terms()
+        full = owner._along_assembled(state, w)
+        along = controller_parameter_along(owner, state, full[:model.n_dofs], terms, full=full)
+        if along is None:
+            return None
+        out = owner._on_free_coordinates(state, along)
+        on_all = np.zeros((model.n_total + 1, self.P))   # B_all: the unit columns before the reduction
+        terms.add(state, on_all)
+        owner.assembler.complete_links(state)   # J of the state in the links' buffers
+        for c in range(self.P):
+            if np.any(on_all[:model.n_assembled, c]):
+                out[:, c] += geometric_product(owner.assembler, state, on_all[:model.n_assembled, c], w)
+        return out
 
     def held_transposed(self, state, w: np.ndarray, held_bar: np.ndarray) -> np.ndarray:
         """held̄ − Bᵀ w: the held part's use in the step's ∂r/∂p (z = S⁻¹(−(… + B held …))), transposed."""
@@ -405,38 +444,71 @@ class SamplesTransposed:
         """(ȳ, S̄) zero."""
         return np.zeros((self.C, m)), np.zeros((self.P, m))
 
-    def held_map(self, state) -> np.ndarray:
-        """A_y (n, C): the forward method's ∂r/∂p of a held δy (``SampledTerms.add`` on the unit columns) on the free
-        coordinates."""
+    def _unit_held(self):
+        """The forward method's SampledTerms with ``held`` the C unit columns of δy (its ControllerTerms' ``k`` C)."""
         import copy
 
         one = copy.copy(self.sampled)
         one.terms = copy.copy(self.sampled.terms)
         one.terms.k = self.C
         one.held = np.eye(self.C)
+        return one
+
+    def _held_map_on_all(self, state, one) -> np.ndarray:
+        """A_y,all (n_total + 1, C): the forward method's ∂r/∂p of a held δy (``SampledTerms.add`` on the unit columns
+        ``one``) on every coordinate, before the reduction."""
         total = np.zeros((self.owner.model.n_total + 1, self.C))
         one.add(state, total)
-        return self.owner._on_free_coordinates(state, total)
+        return total
+
+    def held_map(self, state) -> np.ndarray:
+        """A_y (n, C): the forward method's ∂r/∂p of a held δy (``SampledTerms.add`` on the unit columns) on the free
+        coordinates."""
+        return self.owner._on_free_coordinates(state, self._held_map_on_all(state, self._unit_held()))
 
     def held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
         """(n, C): ∂(A_y δy)/∂q along ``w`` for the C unit columns of δy (an event's weights with the held δy in
         ∂r/∂p: the forward method's ``_terms_beside_stiffness_along``, its held outputs' part), exact as the forward
         method's (latdyn/analyses/parameter_stiffness.py ``sampled_held_along`` of the unit columns: a hinge's row
         −a δy does not move, a load's a δy turns with its node and frame, ``point_load_stiffness_D_q``); with rigid
-        links or guides the central difference (step WEIGHT_STEP ℓ/|w|_∞) of :meth:`held_map` along w, the path
-        before."""
-        import copy
-
+        links or guides through the reduction as the forward method's (:meth:`_linked_held_stiffness_along`)."""
         from latdyn.analyses.parameter_stiffness import sampled_held_along
 
         if float(np.max(np.abs(w), initial=0.0)) == 0.0:
             return np.zeros((self.owner.model.n_dofs, self.C))
-        if self.owner.model.links is not None:   # w moves the dependent nodes too (P w): the difference, as before
-            return _held_map_along(self.owner, self.held_map, self.C, state, w)
-        one = copy.copy(self.sampled)
-        one.held = np.eye(self.C)
-        total = sampled_held_along(self.owner, state, w, one, np.zeros((self.owner.model.n_total + 1, self.C)))
+        if self.owner.model.links is not None:   # w moves the dependent nodes too (P w)
+            return self._linked_held_stiffness_along(state, w)
+        total = sampled_held_along(self.owner, state, w, self._unit_held(),
+                                   np.zeros((self.owner.model.n_total + 1, self.C)))
         return self.owner._on_free_coordinates(state, total)
+
+    def _linked_held_stiffness_along(self, state, w: np.ndarray) -> np.ndarray:
+        """(n, C): :meth:`held_stiffness_along` on a model with rigid links or guides. The held map is A_y = Pᵀ A_y,all
+        (A_y,all the unit columns' ∂r_all/∂p on the assembled coordinates), so along w
+
+            ∂(A_y δy)/∂q w = Pᵀ ∂A_y,all/∂q[P w] δy + ∂Pᵀ/∂q[w] A_y,all δy,
+
+        the forward method's path for the held outputs' part (``TransientSensitivities._linked_stiffness_along``:
+        ``linked_controller_parameter_along``'s ``sampled_held_along`` at u = P w, projected, and the reduction's
+        geometric term of the static ∂r_all/∂p's columns, :func:`latdyn.analyses.weight_derivative.geometric_product`),
+        exact. Before (diffgen), a central difference of :meth:`held_map` along w (step WEIGHT_STEP ℓ/|w|_∞, two
+        evaluations at each weight met): 1.7e-11 off Richardson differences of the block at the latch of
+        tests/test_adjoint_sampled_linked.py."""
+        from latdyn.analyses.parameter_stiffness import sampled_held_along
+        from latdyn.analyses.weight_derivative import geometric_product
+
+        owner = self.owner
+        model = owner.model
+        one = self._unit_held()
+        along = sampled_held_along(owner, state, w, one, np.zeros((model.n_total + 1, self.C)),
+                                   full=owner._along_assembled(state, w))
+        out = owner._on_free_coordinates(state, along)
+        on_all = self._held_map_on_all(state, one)
+        owner.assembler.complete_links(state)   # J of the state in the links' buffers
+        for c in range(self.C):
+            if np.any(on_all[:model.n_assembled, c]):
+                out[:, c] += geometric_product(owner.assembler, state, on_all[:model.n_assembled, c], w)
+        return out
 
     def held_transposed(self, state, w: np.ndarray, y_bar: np.ndarray) -> np.ndarray:
         """ȳ − A_yᵀ w: the held δy's use in the step's ∂r/∂p, transposed."""

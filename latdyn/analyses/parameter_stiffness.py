@@ -115,7 +115,9 @@ in the geometric term, and an event's time shift where :func:`time_shift_generat
 since shiftone) (linkedparam; 0d1fc61 differenced the whole static ∂r/∂p there, tests/
 test_weight_derivative_linked_parameters.py, tests/test_weight_derivative_linked_held.py). Not generated, the whole static ∂r/∂p
 differenced along w by the caller (:func:`exact_parameters` False): a geometry parameter in a variant generated
-before ``beam_stiffness_D_reference`` or beside rigid links or guides, a hinge law that names an input or a
+before ``beam_stiffness_D_reference`` or, beside rigid links or guides, one that shifts a subtree on a part that turns
+or moves a rigid link's vector (:func:`_geometry_generated`; one that translates the linked subtrees rigidly is
+generated since diffgen), a hinge law that names an input or a
 controller (its value is the runtime's; a controller's output read at the moved states, ``TransientSensitivities._controller_outputs_at``),
 every parameter of a run whose state an event moved in time through a prescribed motion beside a continuous
 controller's coupling entry in a prescribed column, or a controller's output in t whose second derivatives along q are
@@ -155,7 +157,7 @@ def _generated_use(owner, key: str, laws: dict) -> bool:
     if CABLE_KEY.match(key) or joint_law(key) is not None:   # EA, damping, rest length, ρA; stops, friction
         return True
     if GEOMETRY_KEY.match(key):
-        return _geometry_generated(owner, key)
+        return _geometry_generated(owner, laws)
     load, hinge = owner._key_kinds(key)
     if load:
         return True
@@ -167,11 +169,24 @@ def _generated_use(owner, key: str, laws: dict) -> bool:
     return False
 
 
-def _geometry_generated(owner, key: str) -> bool:
-    """Whether a geometry use ``key`` has its (∂K/∂p) w generated (:func:`_geometry`): the variant holds
-    ``beam_stiffness_D_reference`` and the model has no rigid links or guides (a hinge axis's key too: its nodal
-    frame's turn T_j θ J(θa) δa moving with θ is in the kernel's second variation, measured against Richardson)."""
-    return "beam_stiffness_D_reference" in owner.kernels.info and owner.model.links is None
+def _geometry_generated(owner, laws: dict) -> bool:
+    """Whether a geometry use of the parameters ``laws`` (column → derivative law) has its (∂K/∂p) w generated
+    (:func:`_geometry`): the variant holds ``beam_stiffness_D_reference`` (a hinge axis's key too: its nodal frame's
+    turn T_j θ J(θa) δa moving with θ is in the kernel's second variation, measured against Richardson), and with
+    rigid links or guides none of its parameters shifts a subtree on a part that turns or moves a rigid link's vector
+    (``ReferenceGeometry.turning``, ``link_moves``). The parameters taken there translate each linked subtree rigidly
+    or not at all (geometry_sensitivities.py ``_linked_refusal``): their static ∂r_all/∂p is the elements' reference
+    forces and the loads' moved arms alone, whose move along u = P w is :func:`_geometry`'s, and the reduction's
+    geometric term of it is ``TransientSensitivities._linked_stiffness_along``'s; a turning shift's K d + C δv + M δa
+    + d × F_S and a link's moved joint body along w are not generated (the caller's difference)."""
+    if "beam_stiffness_D_reference" not in owner.kernels.info:
+        return False
+    if owner.model.links is None:
+        return True
+    geometry = owner.geometry
+    differenced = ({column for _, column, _, _ in geometry.turning}
+                   | {column for _, _, column, _ in geometry.link_moves})
+    return not differenced & set(laws)
 
 
 def _slopes_known(law) -> bool:
