@@ -55,6 +55,10 @@ C_FLAGS = ("-O2", "-std=c99", "-fPIC", "-shared", "-ffp-contract=off")
 
 #: The environment variable that chooses the instruction set of the element kernels (:func:`march`).
 MARCH_VARIABLE = "LATDYN_MARCH"
+#: The environment variable that compiles every element kernel at one -O level (:func:`kernel_optimisation`).
+OPTIMISATION_VARIABLE = "LATDYN_KERNEL_OPT"
+#: the -O levels :data:`OPTIMISATION_VARIABLE` may name
+OPTIMISATION_LEVELS = ("-O0", "-O1", "-O2", "-O3", "-Os", "-Og")
 #: the environment variable that names the kernel cache (:func:`cache_dir`)
 CACHE_VARIABLE = "LATDYN_CACHE_DIR"
 SUFFIX = ".dll" if sys.platform == "win32" else ".so"
@@ -195,6 +199,28 @@ def march() -> str:
     (AVX2, 4 lanes) and ``x86-64-v4`` (AVX-512, 8 lanes) are the usual others; any value the
     compiler takes is accepted, and :func:`vector_flags` refuses one this CPU cannot run."""
     return os.environ.get(MARCH_VARIABLE, "").strip() or "native"
+
+
+def kernel_optimisation() -> str | None:
+    """The -O level ``$LATDYN_KERNEL_OPT`` names for every element kernel unit, None when it is unset or empty: then
+    each unit gets its own (:func:`latdyn.model.kernels.optimisation`, by its size), as a user's runs do.
+
+    For the test suite (``tests/conftest.py`` sets ``-O0``): it compiles every kernel of every variant, and GCC
+    compiles the generated straight-line code 5-40x faster at -O0 than at -O1 (its register allocation is most of
+    an -O1 compile), while the results are the same (``-ffp-contract=off``, no fast-math: each operation rounded
+    as the source says; ``tests/test_instruction_sets.py`` compares the two builds). The kernels then run slower
+    (2.3x for the largest unit of ``default``, :data:`latdyn.model.kernels.OPT_LIMIT_OPS`). The level is in the
+    flags, hence in each library's cache digest: a run without the variable never loads a library built with it.
+    A value not in :data:`OPTIMISATION_LEVELS` raises :class:`latdyn.errors.SceneError` naming the variable."""
+    chosen = os.environ.get(OPTIMISATION_VARIABLE, "").strip()
+    if not chosen:
+        return None
+    if chosen not in OPTIMISATION_LEVELS:
+        from latdyn.errors import SceneError
+
+        raise SceneError("environment", OPTIMISATION_VARIABLE,
+                         f"an optimisation level ({', '.join(OPTIMISATION_LEVELS)}) or nothing, not {chosen!r}")
+    return chosen
 
 
 def _march_error(expected: str):

@@ -4,6 +4,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -70,17 +71,48 @@ def _variants():
         return ["default"]
 
 
+#: The variant whose C kernels are compared as a user gets them, each unit at its own -O level
+#: (latdyn.model.kernels.optimisation); the others at the level the suite compiles at (tests/conftest.py: -O0,
+#: 5-40x cheaper to compile, the same operations rounded alike), so that every kernel's C is compared here and
+#: the optimised build of one variant's every kernel too.
+USER_LEVEL_VARIANT = "default"
+
+
 @pytest.fixture(scope="module", params=_variants())
 def backends(request):
-    from latdyn.model.kernels import load_kernels
+    from latdyn import native
+    from latdyn.model import kernels
 
     variant = request.param
-    numpy_set = load_kernels("numpy", variant)
-    try:
-        c_set = load_kernels("c", variant)
-    except RuntimeError as error:
-        pytest.skip(f"C kernels unavailable: {error}")
+    numpy_set = kernels.load_kernels("numpy", variant)
+    with pytest.MonkeyPatch.context() as patch:
+        if variant == USER_LEVEL_VARIANT:
+            patch.setenv(native.OPTIMISATION_VARIABLE, "")
+            patch.setattr(kernels, "_LOADED", {})   # this process's other tests keep the suite's build
+        try:
+            c_set = kernels.load_kernels("c", variant)
+            for name in c_set.info:   # those compiled on first use (ON_DEMAND) too, at this level
+                getattr(c_set, name)
+        except RuntimeError as error:
+            pytest.skip(f"C kernels unavailable: {error}")
     return variant, numpy_set, c_set
+
+
+def _assert_the_build_a_user_gets(c_set):
+    """The C kernels of USER_LEVEL_VARIANT are the libraries a user's run loads (each unit at its own -O level), not
+    the suite's: each kernel compiled as a unit of its own has the library the kernel cache names for its source at
+    the user's flags (found there: the fixture built them), another than the suite's (the level is in the digest)."""
+    from latdyn import native
+    from latdyn.model import kernels
+
+    ops = {name: int(meta.get("op_count", 0)) for name, meta in c_set.info.items()}
+    alone = [name for name in c_set.info if name.startswith("beam_") and ops[name] > kernels.BUNDLE_OPS]
+    assert {"beam_inertia_matrices", "beam_stiffness_D_q"} <= set(alone)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv(native.OPTIMISATION_VARIABLE, "")
+        users = kernels._compile(f"beam_{c_set.variant}", alone, ops)
+    for name in alone:
+        assert Path(c_set.library(name)._name) == Path(users[name]), name
 
 
 _FUNCTIONS = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "asin": np.arcsin, "acos": np.arccos,
@@ -165,6 +197,8 @@ def test_numpy_c_and_sympy_agree(backends):
     from latdyn.model.kernels import PLANE_SUFFIXES
 
     variant, numpy_set, c_set = backends
+    if variant == USER_LEVEL_VARIANT:
+        _assert_the_build_a_user_gets(c_set)
     plane = next((p for p in PLANE_SUFFIXES.values() if variant.endswith(f"_{p}")), None)
     if plane not in SYMPY_PLANES:
         _numpy_and_c_agree(numpy_set, c_set, variant)

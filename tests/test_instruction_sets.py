@@ -241,6 +241,16 @@ def test_kernels_for_x86_64_v2_and_for_this_cpu_give_the_same_results(default_ru
     assert _largest_difference(default_runs, "default", OTHER) <= 1e-9  # measured: 0, bit for bit
 
 
+def test_kernels_as_a_user_gets_them_and_as_the_suite_compiles_them_give_the_same_results(default_runs):
+    """The suite compiles the element kernels at -O0 (tests/conftest.py, ``$LATDYN_KERNEL_OPT``: 5-40x cheaper to
+    compile); a user's run loads each unit at its own level (-O1 up to OPT_LIMIT_OPS operations,
+    latdyn.model.kernels.optimisation). Every unit is compiled with ``-ffp-contract=off`` and without fast-math, so
+    the optimiser keeps each operation and its rounding: the scenes' probes agree (measured: 0, bit for bit). With
+    the variable empty (the suite run at the user's levels) this compares a build with itself."""
+    _run_all(default_runs, "user_levels", **{native.OPTIMISATION_VARIABLE: ""})
+    assert _largest_difference(default_runs, "default", "user_levels") <= 1e-9  # measured: 0, bit for bit
+
+
 @pytest.mark.skipif(not _x86_64(), reason="OpenBLAS's x86-64 kernels")
 def test_openblas_kernels_of_another_cpu_give_the_same_results_to_round_off(default_runs):
     """The LU of Newton's matrix is LAPACK's from SciPy's OpenBLAS, whose kernels are chosen by the
@@ -277,6 +287,13 @@ def test_a_march_that_is_not_one_word_is_refused(value, monkeypatch):
     monkeypatch.setenv("LATDYN_MARCH", value)
     with pytest.raises(latdyn.SceneError, match="LATDYN_MARCH.*an instruction set"):
         native.vector_flags()
+
+
+@pytest.mark.parametrize("value", ["O0", "-O9", "-O0 -ffast-math"])
+def test_a_kernel_optimisation_level_not_known_is_refused(value, monkeypatch):
+    monkeypatch.setenv(native.OPTIMISATION_VARIABLE, value)
+    with pytest.raises(latdyn.SceneError, match="LATDYN_KERNEL_OPT.*an optimisation level"):
+        native.kernel_optimisation()
 
 
 def test_a_march_this_cpu_cannot_run_is_refused(monkeypatch):

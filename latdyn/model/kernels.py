@@ -407,8 +407,11 @@ OPT_LIMIT_OPS = 40_000
 
 
 def optimisation(ops: int) -> str:
-    """The -O level of a kernel unit of ``ops`` operations (see OPT_LIMIT_OPS)."""
-    return "-O1" if ops <= OPT_LIMIT_OPS else "-O0"
+    """The -O level of a kernel unit of ``ops`` operations (see OPT_LIMIT_OPS), or the one ``$LATDYN_KERNEL_OPT``
+    names for every unit (:func:`latdyn.native.kernel_optimisation`: the test suite's -O0)."""
+    from latdyn.native import kernel_optimisation
+
+    return kernel_optimisation() or ("-O1" if ops <= OPT_LIMIT_OPS else "-O0")
 
 
 #: C kernels compiled when first asked for, not with the rest of their variant: the elements' inertia
@@ -532,8 +535,8 @@ def _index(stem: str):
     """The path of the index of the generated unit ``stem`` in the kernel cache: its kernels'
     metadata and library files, under a digest of all that names them without reading the sources:
     the generated files' identity (path, size, modification time, inode of ``stem``.c and .py), this
-    module's and :mod:`latdyn.native`'s (the flags, the -O levels), the compiler's identity, the
-    instruction-set flags and the Python version (the index is a ``marshal`` dump). None without a
+    module's and :mod:`latdyn.native`'s (the flags, the -O levels), ``$LATDYN_KERNEL_OPT``, the compiler's
+    identity, the instruction-set flags and the Python version (the index is a ``marshal`` dump). None without a
     compiler or where the generated files are not plain files."""
     from latdyn import native
 
@@ -548,7 +551,7 @@ def _index(stem: str):
     except (RuntimeError, OSError, TypeError):
         return None
     digest = native.source_digest(stem, sys.version, using.identity(), *simd, *C_FLAGS, OPT_LIMIT_OPS, BUNDLE_OPS,
-                                 *identities)
+                                 native.kernel_optimisation() or "", *identities)
     return native.cache_dir() / f"index-{stem}-{digest}.marshal"
 
 
