@@ -505,6 +505,11 @@ class ReferenceGeometry:
 
     def __init__(self, owner):
         self.owner = owner
+        # what the methods below make once and keep (None: not made yet): the shifts at the anchors' last motion
+        # (:meth:`_shifted`), the C layout per numbering (:meth:`shift_layout`), the assembler's pattern as int64
+        # (:meth:`_assembled_exact`), the moved links' blocks (:meth:`_link_blocks`), the moved (column, element) pairs
+        self._shifts_held = self._shift_layout_held = self._pattern_held = None
+        self._link_blocks_held = self._moved_pairs = None
         self.scene, self.model, self.kernels = owner.scene, owner.model, owner.kernels
         model, k = self.model, len(owner.names)
         self.k = k
@@ -832,7 +837,7 @@ class ReferenceGeometry:
         anchors' motion last asked (the probes of one row, its step)."""
         anchors = sorted({anchor for _, _, _, anchor in self.turning})
         key = b"".join(state.T[a].tobytes() + state.w[a].tobytes() + state.alpha[a].tobytes() for a in anchors)
-        held = self.__dict__.get("_shifts_held")
+        held = self._shifts_held
         if held is not None and held[0] == key:
             return held[1]
         data, arrays, library = self.shift_layout()
@@ -850,7 +855,7 @@ class ReferenceGeometry:
         (latdyn/analyses/sensitivities_in_loop.py)."""
         model, k, turning = self.model, self.k, self.turning
         numbering = (model.n_assembled, model.node_dofs.tobytes())
-        held = self.__dict__.get("_shift_layout_held")
+        held = self._shift_layout_held
         if held is not None and held[0] == numbering:
             return held[1]
         from latdyn.assembly.library import TurningShiftsData, native_library
@@ -924,7 +929,7 @@ class ReferenceGeometry:
         if load_factor == 1.0 and inertia:
             residual, values = assembler.assembled_exact_values(state)
             pattern = assembler.pattern()
-            held = self.__dict__.get("_pattern_held")
+            held = self._pattern_held
             if held is None or held[0] is not pattern[1]:   # per numbering
                 held = self._pattern_held = (pattern[1], *(np.ascontiguousarray(a, np.int64) for a in pattern))
             return residual, (*held[1:], values)
@@ -976,7 +981,7 @@ class ReferenceGeometry:
     def _link_blocks(self) -> list:
         """(the block (δm, c, δI), the block (m, c, I), δc) of each of :attr:`link_moves` (1 × 13 blocks as the generated
         ``joint_body`` reads them), the same at every state: made once."""
-        held = self.__dict__.get("_link_blocks_held")
+        held = self._link_blocks_held
         if held is None:
             model, held = self.model, []
             for link, node, column, moved in self.link_moves:
@@ -1040,7 +1045,7 @@ class ReferenceGeometry:
     def moved_pairs(self) -> tuple[np.ndarray, np.ndarray]:
         """(elements, columns) (P,) each: the pairs whose held reference variation is not zero (ordered by column,
         then element), found once."""
-        held = self.__dict__.get("_moved_pairs")
+        held = self._moved_pairs
         if held is None:
             columns, elements = np.nonzero(np.any(self.variations != 0.0, axis=1).T)
             held = self._moved_pairs = (elements.astype(np.int64), columns.astype(np.int64))
