@@ -257,7 +257,6 @@ class StatesTransposed:
         dependent node's place, where the block is 8.3 (its product with the impulse's adjoint was 4e-17 there:
         tests/test_adjoint_states_linked.py)."""
         from latdyn.analyses.parameter_stiffness import controller_parameter_along
-        from latdyn.analyses.weight_derivative import geometric_product
 
         owner = self.owner
         model = owner.model
@@ -269,11 +268,7 @@ class StatesTransposed:
         out = owner._on_free_coordinates(state, along)
         on_all = np.zeros((model.n_total + 1, self.P))   # B_all: the unit columns before the reduction
         terms.add(state, on_all)
-        owner.assembler.complete_links(state)   # J of the state in the links' buffers
-        for c in range(self.P):
-            if np.any(on_all[:model.n_assembled, c]):
-                out[:, c] += geometric_product(owner.assembler, state, on_all[:model.n_assembled, c], w)
-        return out
+        return out + owner._geometric_products(state, on_all[:model.n_assembled], w)
 
     def held_transposed(self, state, w: np.ndarray, held_bar: np.ndarray) -> np.ndarray:
         """held̄ − Bᵀ w: the held part's use in the step's ∂r/∂p (z = S⁻¹(−(… + B held …))), transposed."""
@@ -495,7 +490,6 @@ class SamplesTransposed:
         evaluations at each weight met): 1.7e-11 off Richardson differences of the block at the latch of
         tests/test_adjoint_sampled_linked.py."""
         from latdyn.analyses.parameter_stiffness import sampled_held_along
-        from latdyn.analyses.weight_derivative import geometric_product
 
         owner = self.owner
         model = owner.model
@@ -504,11 +498,7 @@ class SamplesTransposed:
                                    full=owner._along_assembled(state, w))
         out = owner._on_free_coordinates(state, along)
         on_all = self._held_map_on_all(state, one)
-        owner.assembler.complete_links(state)   # J of the state in the links' buffers
-        for c in range(self.C):
-            if np.any(on_all[:model.n_assembled, c]):
-                out[:, c] += geometric_product(owner.assembler, state, on_all[:model.n_assembled, c], w)
-        return out
+        return out + owner._geometric_products(state, on_all[:model.n_assembled], w)
 
     def held_transposed(self, state, w: np.ndarray, y_bar: np.ndarray) -> np.ndarray:
         """ȳ − A_yᵀ w: the held δy's use in the step's ∂r/∂p, transposed."""

@@ -1201,11 +1201,11 @@ class TransientSensitivities(ParameterDerivatives):
         return full
 
     def _geometric_products(self, state, columns: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """(n, k): ∂(Pᵀ y)/∂q[w] at fixed y for each column y of ``columns`` (on the assembled coordinates), the
+        """(n, columns): ∂(Pᵀ y)/∂q[w] at fixed y for each column y of ``columns`` (on the assembled coordinates), the
         forward step's geometric term of y times w (:func:`latdyn.analyses.weight_derivative.geometric_product`)."""
-        out = np.zeros((self.model.n_dofs, len(self.names)))
+        out = np.zeros((self.model.n_dofs, columns.shape[1]))
         self.assembler.complete_links(state)   # J of the state in the links' buffers
-        for c in range(len(self.names)):
+        for c in range(columns.shape[1]):
             if np.any(columns[:, c]):
                 out[:, c] += geometric_product(self.assembler, state, columns[:, c], w)
         return out
