@@ -59,13 +59,6 @@ typedef struct TurningShifts {
     const double *gravity;                    /* 3: g (the loop of steps' load factor 1) */
 } TurningShifts;
 
-static void cross3(const double *a, const double *b, double *out)
-{
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
 /* t->shift and t->moves at the configuration (T: n_nodes × 9, w and alpha: n_nodes × 3) for k columns
  * (ReferenceGeometry.shifts): each edge's d = T_A δo and its subtree's (d, ω_A × d, α_A × d + ω_A × (ω_A × d)). */
 void latdyn_turning_shifts(const TurningShifts *t, int64_t k, const double *T, const double *w, const double *alpha)
@@ -76,10 +69,10 @@ void latdyn_turning_shifts(const TurningShifts *t, int64_t k, const double *T, c
         const int64_t A = t->anchor[e], col = t->column[e];
         const double *R = T + 9 * A, *o = t->moved + 3 * e, *wA = w + 3 * A, *aA = alpha + 3 * A;
         double *d = t->shift + 3 * e, spun[3], turned[3], whirled[3];
-        for (int i = 0; i < 3; ++i) d[i] = R[3 * i] * o[0] + R[3 * i + 1] * o[1] + R[3 * i + 2] * o[2];
-        cross3(wA, d, spun);
-        cross3(aA, d, turned);
-        cross3(wA, spun, whirled);
+        matvec3(R, o, d);   /* d = T_A δo (matvec3 and cross: evaluate.c's, in this translation unit) */
+        cross(wA, d, spun);
+        cross(aA, d, turned);
+        cross(wA, spun, whirled);
         for (int64_t b = t->below_from[e]; b < t->below_from[e + 1]; ++b) {
             const int64_t node = t->below[b];
             for (int i = 0; i < 3; ++i) {
@@ -125,7 +118,7 @@ void latdyn_turning_shift_forces(const TurningShifts *t, int64_t k, int64_t iner
         double force[3] = {0.0, 0.0, 0.0}, moment[3];
         for (int64_t b = t->below_from[e]; b < t->below_from[e + 1]; ++b)
             for (int i = 0; i < 3; ++i) force[i] += r_all[t->node_dofs[6 * t->below[b] + i]];
-        cross3(t->shift + 3 * e, force, moment);
+        cross(t->shift + 3 * e, force, moment);
         const int64_t *rotation = t->node_dofs + 6 * t->anchor[e] + 3;
         for (int i = 0; i < 3; ++i) total[rotation[i] * k + t->column[e]] += moment[i];
     }
