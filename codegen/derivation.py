@@ -850,17 +850,22 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
         tangent=reference_tangent("stiffness_along", "stiffness_along_D_reference", plane,
                                   "∂((∂F_i/∂q) v)/∂(reference data) along the variation given, (14, 1)"))
 
+    def section_forces_along() -> tuple:
+        """(a builder, (∂S/∂q) a in it): the section forces' derivative along a direction a (in the velocity block),
+        ∂S/∂ψ B a (Eqs. 22-43), the lowered product the two kernels below differentiate forward."""
+        b = Builder(kin.auxiliary + shear_definitions)
+        psi = b.vector("psi", kin.psi)
+        Bm = b.matrix("B", kin.B)
+        rename = dict(zip(psi_symbols, psi))
+        by_psi = b.matrix("dS_dpsi", [[sp.diff(f, p).xreplace(rename) for p in psi_symbols] for f in sections])
+        by_q = _matmul(by_psi, Bm)
+        return b, [sp.Add(*[by_q[k][c] * direction[c] for c in range(N)]) for k in range(len(sections))]
+
     # the section forces' derivative along a direction, (∂S/∂q) a (a in the velocity block), and its derivative by the
     # element's coordinates, ∂((∂S/∂q) a)/∂q under the configuration update at fixed a: the forward-mode program of the
     # lowered product seeded as ``beam_stiffness_D_q``'s, the second derivative of a section-force sensor an event's
     # impulse weight needs along δq (latdyn/analyses/weight_derivative.py ``_sensor_kinematics``, kind 12)
-    b = Builder(kin.auxiliary + shear_definitions)
-    psi = b.vector("psi", kin.psi)
-    Bm = b.matrix("B", kin.B)
-    rename = dict(zip(psi_symbols, psi))
-    by_psi = b.matrix("dS_dpsi", [[sp.diff(f, p).xreplace(rename) for p in psi_symbols] for f in sections])
-    by_q = _matmul(by_psi, Bm)
-    along = [sp.Add(*[by_q[k][c] * direction[c] for c in range(N)]) for k in range(len(sections))]
+    b, along = section_forces_along()
     add("beam_section_forces_D_q_D_q", "The section forces' derivative along a direction, (∂S/∂q) a (a in the "
         "velocity block), and its exact derivative by the element's coordinates at fixed a (forward mode of the "
         "lowered product, codegen/forward.py)", "Eqs. 22-43", [cv.GEOMETRY, cv.VELOCITY, cv.SECTION],
@@ -873,13 +878,7 @@ def build_kernels(variant: str = "default") -> list[KernelSpec]:
     # (section_tangent), the move along w of a section-force sensor's ∂S/∂p that an event's impulse weight needs for a
     # parameter in a section value, (∂²S/∂σ∂q) w δσ (latdyn/analyses/parameter_stiffness.py ``_section_force_along``);
     # exact whether or not S is linear in σ (a shear-flexible section's axial force reads EI through μ)
-    b = Builder(kin.auxiliary + shear_definitions)
-    psi = b.vector("psi", kin.psi)
-    Bm = b.matrix("B", kin.B)
-    rename = dict(zip(psi_symbols, psi))
-    by_psi = b.matrix("dS_dpsi", [[sp.diff(f, p).xreplace(rename) for p in psi_symbols] for f in sections])
-    by_q = _matmul(by_psi, Bm)
-    along = [sp.Add(*[by_q[k][c] * direction[c] for c in range(N)]) for k in range(len(sections))]
+    b, along = section_forces_along()
     add("beam_section_forces_D_q_D_section", "The section forces' derivative along a direction, (∂S/∂q) a (a in the "
         "velocity block), and its exact derivative by the section values EA … 1/GAz at fixed a and configuration "
         "(forward mode of the lowered product, codegen/forward.py)", "Eqs. 22-43", [cv.GEOMETRY, cv.VELOCITY, cv.SECTION],
